@@ -1,0 +1,116 @@
+//! Coulomb sliding friction averaged over a periodic plate motion (SPEC §1–3).
+//!
+//! Forces are dimensionless: `force / (mu m g)`. A part moving at constant velocity `v_p` on a
+//! plate whose surface velocity is `v(t)` receives the instantaneous force `mu m g sgn(v - v_p)`
+//! (3.2); its average over a period is `mean(sgn(v - v_p))` (3.3, 6.7). Everything here is exact:
+//! the time spent above and below `v_p` comes from the roots of `v(t) = v_p`, one per monotone
+//! piece of the waveform (see [`crate::waveform`]).
+
+use crate::error::{finite, Error, Result};
+use crate::waveform::{Harmonics, Waveform};
+
+/// Average friction force / (mu m g) on a part moving at `part_velocity` [m/s] (3.4, 6.7).
+pub fn mean_force(wave: &Waveform, part_velocity: f64) -> Result<f64> {
+    finite("part_velocity", part_velocity)?;
+    Ok(wave.pieces()?.mean_sign(part_velocity))
+}
+
+/// [`mean_force`] at many part velocities; the waveform is split into pieces once.
+pub fn mean_forces(wave: &Waveform, part_velocities: &[f64]) -> Result<Vec<f64>> {
+    for &v in part_velocities {
+        finite("part_velocity", v)?;
+    }
+    let pieces = wave.pieces()?;
+    Ok(part_velocities.iter().map(|&v| pieces.mean_sign(v)).collect())
+}
+
+/// The quasi-static feed rate [m/s]: the part velocity at which the average force vanishes,
+/// which is the median of `v(t)` over one period (SPEC §2). Exact to a few ulps of `max |v|`.
+pub fn feed_rate(wave: &Waveform) -> Result<f64> {
+    Ok(wave.pieces()?.median())
+}
+
+/// Checks the pair of harmonics of Theorem 1 / Lemmas 1–3: `1 <= n1 < n2`, `gcd(n1, n2) = 1`.
+pub fn check_pair(n1: i64, n2: i64) -> Result<()> {
+    if n1 < 1 {
+        return Err(Error::parameter("n1", format!("must be an integer >= 1; got {n1}")));
+    }
+    if n2 <= n1 {
+        return Err(Error::parameter("n2", format!("must be greater than n1 = {n1}; got {n2}")));
+    }
+    if n2 > 1_000_000 {
+        return Err(Error::parameter("n2", format!("must be at most 1000000; got {n2}")));
+    }
+    let g = gcd(n1, n2);
+    if g != 1 {
+        return Err(Error::parameter(
+            "n1, n2",
+            format!("must be coprime; gcd({n1}, {n2}) = {g} (divide both by it: same force)"),
+        ));
+    }
+    Ok(())
+}
+
+/// Greatest common divisor of non-negative integers.
+pub fn gcd(mut a: i64, mut b: i64) -> i64 {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a.abs()
+}
+
+/// Average force / (mu m g) at rest under `v(t) = cos(n1 t) - b cos(n2 (t - psi))`, computed
+/// exactly from the roots (the numerical side of Theorem 1, 6.12).
+pub fn two_sinusoid_force(n1: i64, n2: i64, psi: f64, b: f64) -> Result<f64> {
+    check_pair(n1, n2)?;
+    finite("psi", psi)?;
+    finite("b", b)?;
+    let (n1u, n2u) = (n1 as usize, n2 as usize);
+    let mut cos = vec![0.0; n2u];
+    let mut sin = vec![0.0; n2u];
+    // cos(n2 (t - psi)) = cos(n2 t) cos(n2 psi) + sin(n2 t) sin(n2 psi); reduce n2 psi first so
+    // large psi keeps full accuracy.
+    let (s, c) = (n2 as f64 * psi).rem_euclid(std::f64::consts::TAU).sin_cos();
+    cos[n1u - 1] = 1.0;
+    cos[n2u - 1] = -b * c;
+    sin[n2u - 1] = -b * s;
+    let wave: Waveform = Harmonics::new(cos, sin, 1.0 / std::f64::consts::TAU)?.into();
+    mean_force(&wave, 0.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::waveform::BangBang;
+
+    #[test]
+    fn bang_bang_known_answers() {
+        // SPEC §2.1 (checked; a_max = T = 1): z -> v_eq, and f/(mu m g) = z^2 at rest.
+        for (z, v) in [(0.1, 0.0025), (0.3, 0.0225), (0.5, 0.0625), (0.7, 0.0225), (0.9, 0.0025)] {
+            let w: Waveform = BangBang::new(z, 1.0, 1.0).unwrap().into();
+            let got = feed_rate(&w).unwrap();
+            assert!((got - v).abs() < 1e-13, "z={z}: {got} vs {v}");
+            assert!((mean_force(&w, 0.0).unwrap() - z * z).abs() < 1e-13);
+        }
+    }
+
+    #[test]
+    fn two_harmonic_known_answers() {
+        // SPEC §2.2 (checked): (b, phi) -> v_eq. Erratum E1: (1, pi/2) gives 0.25, not 1/3.
+        let h = std::f64::consts::FRAC_PI_2;
+        for (b, phi, v) in [(0.5, h, 0.5), (1.0, h, 0.25), (0.5, h / 2.0, 0.5f64.sqrt() / 2.0), (2.0, h, 0.125)] {
+            let w: Waveform = Harmonics::two_harmonic(b, phi, 1.0, 1.0).unwrap().into();
+            let got = feed_rate(&w).unwrap();
+            assert!((got - v).abs() < 1e-12, "({b}, {phi}): {got} vs {v}");
+        }
+    }
+
+    #[test]
+    fn pair_checks() {
+        assert!(check_pair(2, 4).is_err());
+        assert!(check_pair(3, 3).is_err());
+        assert!(check_pair(0, 3).is_err());
+        assert!(check_pair(2, 3).is_ok());
+        assert_eq!(gcd(12, 18), 6);
+    }
+}

@@ -1,0 +1,24 @@
+//! # upm-core
+//!
+//! Physics and numerics of vibratory planar manipulation: D. Reznik, *The Universal Planar
+//! Manipulator* (PhD thesis, UC Berkeley, 2000). Pure Rust, no Python: the `upm-py` crate binds it.
+//!
+//! SI units throughout (m, s, rad); forces are averages over one period divided by `mu m g`
+//! unless a name says otherwise. Equation numbers `(x.y)` refer to the thesis; `SPEC §n` to the
+//! project's clean restatement of it.
+//!
+//! * [`waveform`]: periodic 1-D plate velocities and their monotone pieces.
+//! * [`friction`]: exact average Coulomb forces and feed rates (root-based, no sampling).
+//! * [`theory`]: the closed forms of chapter 3 and Theorem 1 (section 6.4).
+//! * [`parallel`]: deterministic batches on rayon.
+#![deny(missing_docs)]
+
+pub mod error;
+pub mod friction;
+pub mod parallel;
+pub(crate) mod roots;
+pub mod theory;
+pub mod waveform;
+
+pub use error::{Error, Result};
+pub use waveform::{BangBang, Harmonics, Waveform};

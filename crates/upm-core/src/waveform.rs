@@ -1,0 +1,409 @@
+//! Periodic one-dimensional plate velocities `v(t)` [m/s] of period `T` [s].
+//!
+//! Internally every waveform is evaluated in the phase `x = 2 pi t / T` (radians), so root finding
+//! works on `[0, 2 pi)` whatever the physical frequency. A waveform is split once into
+//! [`Pieces`]: maximal intervals of phase on which `v` is monotone (or constant). Every exact
+//! average in [`crate::friction`] is computed from those pieces by solving `v(x) = level` once per
+//! piece, never by sampling.
+
+use std::f64::consts::{PI, TAU};
+
+use crate::error::{finite, positive, Error, Result};
+use crate::roots::{self, Isolation};
+
+/// Sub-intervals of phase narrower than this are not split further when isolating extrema.
+/// A tangential pair of extrema closer than this is ignored, which moves any measure by less.
+const H_MIN: f64 = 1e-11;
+
+/// A finite harmonic series `v(t) = sum_k cos[k-1] cos(k w t) + sin[k-1] sin(k w t)`,
+/// `w = 2 pi frequency` (SPEC §2.2, §3). It has zero mean over a period.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Harmonics {
+    frequency: f64,
+    cos: Vec<f64>,
+    sin: Vec<f64>,
+}
+
+impl Harmonics {
+    /// A harmonic series. `cos` and `sin` may differ in length (missing terms are zero); at
+    /// least one coefficient must be non-zero, since a plate at rest has no level crossings.
+    pub fn new(cos: Vec<f64>, sin: Vec<f64>, frequency: f64) -> Result<Self> {
+        positive("frequency", frequency)?;
+        for (name, c) in [("cos", &cos), ("sin", &sin)] {
+            if let Some(k) = c.iter().position(|x| !x.is_finite()) {
+                return Err(Error::parameter(
+                    format!("{name}[{k}]"),
+                    format!("must be finite; got {}", c[k]),
+                ));
+            }
+        }
+        let n = cos.len().max(sin.len());
+        let (mut cos, mut sin) = (cos, sin);
+        cos.resize(n, 0.0);
+        sin.resize(n, 0.0);
+        while cos.last() == Some(&0.0) && sin.last() == Some(&0.0) {
+            cos.pop();
+            sin.pop();
+        }
+        if cos.is_empty() {
+            return Err(Error::parameter(
+                "cos, sin",
+                "must contain a non-zero coefficient: the waveform is identically zero, so it \
+                 has no sign change and feeds nothing",
+            ));
+        }
+        Ok(Harmonics { frequency, cos, sin })
+    }
+
+    /// `v(t) = amplitude (sin(w t) + b sin(2 w t + phi))`, the two-harmonic drive of (3.13).
+    pub fn two_harmonic(b: f64, phi: f64, amplitude: f64, frequency: f64) -> Result<Self> {
+        finite("b", b)?;
+        finite("phi", phi)?;
+        finite("amplitude", amplitude)?;
+        if amplitude == 0.0 {
+            return Err(Error::parameter("amplitude", "must be non-zero; got 0"));
+        }
+        let (s, c) = phi.sin_cos();
+        Harmonics::new(vec![0.0, amplitude * b * s], vec![amplitude, amplitude * b * c], frequency)
+    }
+
+    /// Highest harmonic with a non-zero coefficient.
+    pub fn degree(&self) -> usize {
+        self.cos.len()
+    }
+
+    /// Base frequency [Hz].
+    pub fn frequency(&self) -> f64 {
+        self.frequency
+    }
+
+    /// `sum_k k^p |(cos_k, sin_k)|`: an upper bound of `|d^p v / dx^p|`.
+    fn bound(&self, p: i32) -> f64 {
+        self.cos
+            .iter()
+            .zip(&self.sin)
+            .enumerate()
+            .map(|(i, (a, b))| ((i + 1) as f64).powi(p) * a.hypot(*b))
+            .sum()
+    }
+
+    /// `(d^n v/dx^n, d^(n+1) v/dx^(n+1))` at phase `x`, for `n` in 0..=2.
+    #[inline]
+    fn derivs(&self, x: f64, n: u8) -> (f64, f64) {
+        let (s1, c1) = x.sin_cos();
+        let (mut s, mut c) = (s1, c1);
+        let (mut p, mut q) = (0.0, 0.0);
+        for (i, (a, b)) in self.cos.iter().zip(&self.sin).enumerate() {
+            let k = (i + 1) as f64;
+            let even = a * c + b * s; // the term itself
+            let odd = b * c - a * s; // its derivative / k
+            match n {
+                0 => {
+                    p += even;
+                    q += k * odd;
+                }
+                1 => {
+                    p += k * odd;
+                    q -= k * k * even;
+                }
+                _ => {
+                    p -= k * k * even;
+                    q -= k * k * k * odd;
+                }
+            }
+            // cos((k+1)x), sin((k+1)x) by the angle-addition recurrence.
+            let cn = c * c1 - s * s1;
+            s = s * c1 + c * s1;
+            c = cn;
+        }
+        (p, q)
+    }
+}
+
+/// Bang-bang acceleration (SPEC §2.1, 3.6–3.8): `+a_max` on `[0, t1)`, `0` on `[t1, t2)`,
+/// `-a_max` on `[t2, T)`, `t1 = (1 - z) T / 2`, `t2 = (1 + z) T / 2`, zero-mean velocity.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BangBang {
+    z: f64,
+    a_max: f64,
+    period: f64,
+}
+
+impl BangBang {
+    /// A bang-bang drive with dwell fraction `z` in `[0, 1)`, peak acceleration `a_max > 0`
+    /// [m/s^2] and period `period > 0` [s].
+    pub fn new(z: f64, a_max: f64, period: f64) -> Result<Self> {
+        if !(z.is_finite() && (0.0..1.0).contains(&z)) {
+            return Err(Error::parameter("z", format!("must lie in [0, 1); got {z}")));
+        }
+        positive("a_max", a_max)?;
+        positive("period", period)?;
+        Ok(BangBang { z, a_max, period })
+    }
+
+    /// `(v_min, v_max)` of the velocity (3.8).
+    pub fn velocity_range(&self) -> (f64, f64) {
+        let s = self.a_max * self.period / 4.0;
+        (s * (self.z * self.z - 1.0), s * (self.z - 1.0).powi(2))
+    }
+
+    /// Velocity and acceleration at time `t` in `[0, T)`.
+    fn at(&self, t: f64) -> (f64, f64) {
+        let (z, a, p) = (self.z, self.a_max, self.period);
+        let (t1, t2) = ((1.0 - z) * p / 2.0, (1.0 + z) * p / 2.0);
+        if t < t1 {
+            (a * (p / 4.0 * (z * z - 1.0) + t), a)
+        } else if t < t2 {
+            (a * p / 4.0 * (z - 1.0).powi(2), 0.0)
+        } else {
+            (a * (p / 4.0 * (z * z + 3.0) - t), -a)
+        }
+    }
+}
+
+/// A periodic plate velocity.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Waveform {
+    /// A finite harmonic series (includes the two-harmonic drive).
+    Harmonics(Harmonics),
+    /// Piecewise-constant acceleration.
+    BangBang(BangBang),
+}
+
+impl From<Harmonics> for Waveform {
+    fn from(h: Harmonics) -> Self {
+        Waveform::Harmonics(h)
+    }
+}
+
+impl From<BangBang> for Waveform {
+    fn from(b: BangBang) -> Self {
+        Waveform::BangBang(b)
+    }
+}
+
+impl Waveform {
+    /// Period [s].
+    pub fn period(&self) -> f64 {
+        match self {
+            Waveform::Harmonics(h) => 1.0 / h.frequency,
+            Waveform::BangBang(b) => b.period,
+        }
+    }
+
+    /// Velocity [m/s] at time `t` [s].
+    pub fn velocity(&self, t: f64) -> f64 {
+        match self {
+            Waveform::Harmonics(h) => h.derivs(TAU * h.frequency * t, 0).0,
+            Waveform::BangBang(b) => b.at(t.rem_euclid(b.period)).0,
+        }
+    }
+
+    /// Acceleration [m/s^2] at time `t` [s] (bang-bang: the one-sided value from the right).
+    pub fn acceleration(&self, t: f64) -> f64 {
+        match self {
+            Waveform::Harmonics(h) => {
+                let w = TAU * h.frequency;
+                w * h.derivs(w * t, 0).1
+            }
+            Waveform::BangBang(b) => b.at(t.rem_euclid(b.period)).1,
+        }
+    }
+
+    /// `(v, dv/dx)` at phase `x` (radians; any real `x`, the waveform is periodic).
+    #[inline]
+    pub(crate) fn at_phase(&self, x: f64) -> (f64, f64) {
+        match self {
+            Waveform::Harmonics(h) => h.derivs(x, 0),
+            Waveform::BangBang(b) => {
+                let (v, a) = b.at(x.rem_euclid(TAU) * b.period / TAU);
+                (v, a * b.period / TAU)
+            }
+        }
+    }
+
+    /// The waveform split into monotone pieces over one period.
+    pub fn pieces(&self) -> Result<Pieces<'_>> {
+        let breaks: Vec<f64> = match self {
+            Waveform::Harmonics(h) => {
+                // Extrema of v are the sign changes of v'; isolate them with bounds on v'' and v'''.
+                let iso = Isolation {
+                    n0: 4 * h.degree() + 4,
+                    lip_f: h.bound(2),
+                    lip_df: h.bound(3),
+                    h_min: H_MIN,
+                    periodic: true,
+                };
+                let c = roots::sign_changes(|x| h.derivs(x, 1), 0.0, TAU, iso);
+                if c.len() < 2 {
+                    return Err(Error::Convergence(format!(
+                        "found {} extrema of a non-constant periodic waveform; expected at least 2",
+                        c.len()
+                    )));
+                }
+                c
+            }
+            Waveform::BangBang(b) => {
+                let x1 = (1.0 - b.z) * PI;
+                let x2 = (1.0 + b.z) * PI;
+                if b.z > 0.0 {
+                    vec![0.0, x1, x2]
+                } else {
+                    vec![0.0, x1]
+                }
+            }
+        };
+        let mut pieces = Vec::with_capacity(breaks.len());
+        let values: Vec<f64> = match self {
+            // Bang-bang breakpoints are known exactly; evaluate the closed form at them.
+            Waveform::BangBang(b) => {
+                let (lo, hi) = b.velocity_range();
+                if b.z > 0.0 {
+                    vec![lo, hi, hi]
+                } else {
+                    vec![lo, hi]
+                }
+            }
+            Waveform::Harmonics(_) => breaks.iter().map(|&x| self.at_phase(x).0).collect(),
+        };
+        for i in 0..breaks.len() {
+            let j = (i + 1) % breaks.len();
+            let x1 = if j == 0 { breaks[0] + TAU } else { breaks[j] };
+            pieces.push(Piece { x0: breaks[i], x1, v0: values[i], v1: values[j] });
+        }
+        let vmin = values.iter().copied().fold(f64::INFINITY, f64::min);
+        let vmax = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        Ok(Pieces { wave: self, pieces, vmin, vmax })
+    }
+}
+
+/// An interval of phase `[x0, x1]` on which the waveform is monotone, with its end values.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Piece {
+    /// Start phase [rad].
+    pub x0: f64,
+    /// End phase [rad] (may exceed 2 pi for the piece that wraps around).
+    pub x1: f64,
+    /// Velocity at `x0`.
+    pub v0: f64,
+    /// Velocity at `x1`.
+    pub v1: f64,
+}
+
+/// A waveform's monotone pieces covering one period.
+#[derive(Debug, Clone)]
+pub struct Pieces<'a> {
+    wave: &'a Waveform,
+    pieces: Vec<Piece>,
+    vmin: f64,
+    vmax: f64,
+}
+
+impl Pieces<'_> {
+    /// The pieces, in order of phase.
+    pub fn pieces(&self) -> &[Piece] {
+        &self.pieces
+    }
+
+    /// `(min v, max v)` over a period (exact: the values at the extrema).
+    pub fn range(&self) -> (f64, f64) {
+        (self.vmin, self.vmax)
+    }
+
+    /// Fractions of the period with `v > level` and with `v < level`.
+    pub fn measure(&self, level: f64) -> (f64, f64) {
+        let (mut above, mut below) = (0.0, 0.0);
+        for p in &self.pieces {
+            let len = p.x1 - p.x0;
+            let (lo, hi) = if p.v0 <= p.v1 { (p.v0, p.v1) } else { (p.v1, p.v0) };
+            if lo == hi {
+                if level < lo {
+                    above += len;
+                } else if level > lo {
+                    below += len;
+                }
+            } else if level <= lo {
+                above += len;
+            } else if level >= hi {
+                below += len;
+            } else {
+                let g = |x: f64| {
+                    let (v, d) = self.wave.at_phase(x);
+                    (v - level, d)
+                };
+                let r = roots::solve_bracketed(&g, p.x0, p.v0 - level, p.x1, p.v1 - level);
+                if p.v1 > p.v0 {
+                    above += p.x1 - r;
+                    below += r - p.x0;
+                } else {
+                    above += r - p.x0;
+                    below += p.x1 - r;
+                }
+            }
+        }
+        (above / TAU, below / TAU)
+    }
+
+    /// Mean of `sgn(v - level)` over a period (zero where `v = level`).
+    pub fn mean_sign(&self, level: f64) -> f64 {
+        let (above, below) = self.measure(level);
+        above - below
+    }
+
+    /// The median of `v` over a period: the level above which `v` spends at most half the period
+    /// and below which it spends at most half.
+    pub fn median(&self) -> f64 {
+        let tol = 1e-15 * (self.vmax - self.vmin).max(f64::MIN_POSITIVE);
+        roots::brent(|m| self.mean_sign(m), self.vmin, self.vmax, tol)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn two_harmonic_matches_its_definition() {
+        let (b, phi, a, f) = (0.7, 0.4, 2.0, 3.0);
+        let w: Waveform = Harmonics::two_harmonic(b, phi, a, f).unwrap().into();
+        for &t in &[0.0, 0.01, 0.1234, 0.3] {
+            let wt = TAU * f * t;
+            let v = a * (wt.sin() + b * (2.0 * wt + phi).sin());
+            let acc = a * TAU * f * (wt.cos() + 2.0 * b * (2.0 * wt + phi).cos());
+            assert!((w.velocity(t) - v).abs() < 1e-13);
+            assert!((w.acceleration(t) - acc).abs() < 1e-11);
+        }
+    }
+
+    #[test]
+    fn pieces_cover_a_period_and_find_the_range() {
+        // sin t + cos(2t)/2 ranges over [-1.5, 0.75] (SPEC §2.2).
+        let w: Waveform = Harmonics::new(vec![0.0, 0.5], vec![1.0], 1.0).unwrap().into();
+        let p = w.pieces().unwrap();
+        let total: f64 = p.pieces().iter().map(|q| q.x1 - q.x0).sum();
+        assert!((total - TAU).abs() < 1e-12);
+        let (lo, hi) = p.range();
+        assert!((lo + 1.5).abs() < 1e-14 && (hi - 0.75).abs() < 1e-14, "{lo} {hi}");
+    }
+
+    #[test]
+    fn bang_bang_is_continuous_and_zero_mean() {
+        let b = BangBang::new(0.3, 2.0, 0.5).unwrap();
+        let w: Waveform = b.into();
+        let n = 100_000;
+        let mean: f64 = (0..n).map(|i| w.velocity(0.5 * (i as f64 + 0.5) / n as f64)).sum::<f64>() / n as f64;
+        assert!(mean.abs() < 1e-9, "{mean}");
+        let (t1, t2) = (0.35 * 0.5, 0.65 * 0.5);
+        for t in [t1, t2, 0.5] {
+            assert!((w.velocity(t - 1e-12) - w.velocity(t)).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn rejects_bad_parameters() {
+        assert!(matches!(BangBang::new(1.0, 1.0, 1.0), Err(Error::Parameter { ref name, .. }) if name == "z"));
+        assert!(matches!(Harmonics::new(vec![0.0], vec![0.0], 1.0), Err(Error::Parameter { .. })));
+        assert!(matches!(Harmonics::new(vec![f64::NAN], vec![], 1.0), Err(Error::Parameter { ref name, .. }) if name == "cos[0]"));
+        assert!(Harmonics::new(vec![1.0], vec![], 0.0).is_err());
+    }
+}
