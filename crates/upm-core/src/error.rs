@@ -29,16 +29,20 @@ pub type Result<T> = std::result::Result<T, Error>;
 impl Error {
     /// A [`Error::Parameter`] for `name`.
     pub fn parameter(name: impl Into<String>, message: impl Into<String>) -> Self {
-        Error::Parameter { name: name.into(), message: message.into() }
+        Error::Parameter {
+            name: name.into(),
+            message: message.into(),
+        }
     }
 
     /// The same error with `context` (e.g. the batch index) appended to its message.
     #[must_use]
     pub fn with_context(self, context: &str) -> Self {
         match self {
-            Error::Parameter { name, message } => {
-                Error::Parameter { name, message: format!("{message} ({context})") }
-            }
+            Error::Parameter { name, message } => Error::Parameter {
+                name,
+                message: format!("{message} ({context})"),
+            },
             Error::Shape(m) => Error::Shape(format!("{m} ({context})")),
             Error::Convergence(m) => Error::Convergence(format!("{m} ({context})")),
         }
@@ -59,7 +63,10 @@ pub fn positive(name: &str, x: f64) -> Result<f64> {
     if x.is_finite() && x > 0.0 {
         Ok(x)
     } else {
-        Err(Error::parameter(name, format!("must be finite and > 0; got {x}")))
+        Err(Error::parameter(
+            name,
+            format!("must be finite and > 0; got {x}"),
+        ))
     }
 }
 
@@ -71,7 +78,9 @@ mod tests {
     fn messages_name_the_parameter_and_value() {
         let e = positive("period", -1.0).unwrap_err();
         assert_eq!(e.to_string(), "period must be finite and > 0; got -1");
-        let e = finite("b", f64::NAN).unwrap_err().with_context("at index 3");
+        let e = finite("b", f64::NAN)
+            .unwrap_err()
+            .with_context("at index 3");
         assert_eq!(e.to_string(), "b must be finite; got NaN (at index 3)");
     }
 }

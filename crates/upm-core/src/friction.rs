@@ -12,7 +12,7 @@ use crate::waveform::{Harmonics, Waveform};
 /// Average friction force / (mu m g) on a part moving at `part_velocity` [m/s] (3.4, 6.7).
 pub fn mean_force(wave: &Waveform, part_velocity: f64) -> Result<f64> {
     finite("part_velocity", part_velocity)?;
-    Ok(wave.pieces()?.mean_sign(part_velocity))
+    wave.mean_sign(part_velocity)
 }
 
 /// [`mean_force`] at many part velocities; the waveform is split into pieces once.
@@ -21,7 +21,10 @@ pub fn mean_forces(wave: &Waveform, part_velocities: &[f64]) -> Result<Vec<f64>>
         finite("part_velocity", v)?;
     }
     let pieces = wave.pieces()?;
-    Ok(part_velocities.iter().map(|&v| pieces.mean_sign(v)).collect())
+    Ok(part_velocities
+        .iter()
+        .map(|&v| pieces.mean_sign(v))
+        .collect())
 }
 
 /// The quasi-static feed rate [m/s]: the part velocity at which the average force vanishes,
@@ -33,13 +36,22 @@ pub fn feed_rate(wave: &Waveform) -> Result<f64> {
 /// Checks the pair of harmonics of Theorem 1 / Lemmas 1–3: `1 <= n1 < n2`, `gcd(n1, n2) = 1`.
 pub fn check_pair(n1: i64, n2: i64) -> Result<()> {
     if n1 < 1 {
-        return Err(Error::parameter("n1", format!("must be an integer >= 1; got {n1}")));
+        return Err(Error::parameter(
+            "n1",
+            format!("must be an integer >= 1; got {n1}"),
+        ));
     }
     if n2 <= n1 {
-        return Err(Error::parameter("n2", format!("must be greater than n1 = {n1}; got {n2}")));
+        return Err(Error::parameter(
+            "n2",
+            format!("must be greater than n1 = {n1}; got {n2}"),
+        ));
     }
     if n2 > 1_000_000 {
-        return Err(Error::parameter("n2", format!("must be at most 1000000; got {n2}")));
+        return Err(Error::parameter(
+            "n2",
+            format!("must be at most 1000000; got {n2}"),
+        ));
     }
     let g = gcd(n1, n2);
     if g != 1 {
@@ -59,6 +71,18 @@ pub fn gcd(mut a: i64, mut b: i64) -> i64 {
     a.abs()
 }
 
+/// `n psi` reduced to `[0, 2 pi)`; an error naming `psi` if the product overflows.
+pub(crate) fn harmonic_phase(n: i64, psi: f64) -> Result<f64> {
+    let x = n as f64 * psi;
+    if !x.is_finite() {
+        return Err(Error::parameter(
+            "psi",
+            format!("is too large: {n} * psi overflows; got {psi:e}"),
+        ));
+    }
+    Ok(x.rem_euclid(std::f64::consts::TAU))
+}
+
 /// Average force / (mu m g) at rest under `v(t) = cos(n1 t) - b cos(n2 (t - psi))`, computed
 /// exactly from the roots (the numerical side of Theorem 1, 6.12).
 pub fn two_sinusoid_force(n1: i64, n2: i64, psi: f64, b: f64) -> Result<f64> {
@@ -68,9 +92,8 @@ pub fn two_sinusoid_force(n1: i64, n2: i64, psi: f64, b: f64) -> Result<f64> {
     let (n1u, n2u) = (n1 as usize, n2 as usize);
     let mut cos = vec![0.0; n2u];
     let mut sin = vec![0.0; n2u];
-    // cos(n2 (t - psi)) = cos(n2 t) cos(n2 psi) + sin(n2 t) sin(n2 psi); reduce n2 psi first so
-    // large psi keeps full accuracy.
-    let (s, c) = (n2 as f64 * psi).rem_euclid(std::f64::consts::TAU).sin_cos();
+    // cos(n2 (t - psi)) = cos(n2 t) cos(n2 psi) + sin(n2 t) sin(n2 psi).
+    let (s, c) = harmonic_phase(n2, psi)?.sin_cos();
     cos[n1u - 1] = 1.0;
     cos[n2u - 1] = -b * c;
     sin[n2u - 1] = -b * s;
@@ -86,7 +109,13 @@ mod tests {
     #[test]
     fn bang_bang_known_answers() {
         // SPEC §2.1 (checked; a_max = T = 1): z -> v_eq, and f/(mu m g) = z^2 at rest.
-        for (z, v) in [(0.1, 0.0025), (0.3, 0.0225), (0.5, 0.0625), (0.7, 0.0225), (0.9, 0.0025)] {
+        for (z, v) in [
+            (0.1, 0.0025),
+            (0.3, 0.0225),
+            (0.5, 0.0625),
+            (0.7, 0.0225),
+            (0.9, 0.0025),
+        ] {
             let w: Waveform = BangBang::new(z, 1.0, 1.0).unwrap().into();
             let got = feed_rate(&w).unwrap();
             assert!((got - v).abs() < 1e-13, "z={z}: {got} vs {v}");
@@ -98,7 +127,12 @@ mod tests {
     fn two_harmonic_known_answers() {
         // SPEC §2.2 (checked): (b, phi) -> v_eq. Erratum E1: (1, pi/2) gives 0.25, not 1/3.
         let h = std::f64::consts::FRAC_PI_2;
-        for (b, phi, v) in [(0.5, h, 0.5), (1.0, h, 0.25), (0.5, h / 2.0, 0.5f64.sqrt() / 2.0), (2.0, h, 0.125)] {
+        for (b, phi, v) in [
+            (0.5, h, 0.5),
+            (1.0, h, 0.25),
+            (0.5, h / 2.0, 0.5f64.sqrt() / 2.0),
+            (2.0, h, 0.125),
+        ] {
             let w: Waveform = Harmonics::two_harmonic(b, phi, 1.0, 1.0).unwrap().into();
             let got = feed_rate(&w).unwrap();
             assert!((got - v).abs() < 1e-12, "({b}, {phi}): {got} vs {v}");

@@ -39,7 +39,9 @@ where
     let mut start = 0;
     while start < n {
         let end = (start + CHUNK).min(n);
-        let chunk = try_map(start..end, |i| f(i).map_err(|e| e.with_context(&format!("at flat index {i}"))))?;
+        let chunk = try_map(start..end, |i| {
+            f(i).map_err(|e| e.with_context(&format!("at flat index {i}")))
+        })?;
         out.extend(chunk);
         between(end)?;
         start = end;
@@ -55,8 +57,14 @@ mod tests {
     #[test]
     fn identical_for_one_and_two_threads() {
         let f = |i: usize| Ok(((i as f64) * 0.37).sin().powi(3));
-        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-        let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let two = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
         let a: Vec<f64> = one.install(|| try_map(0..10_000, f)).unwrap();
         let b: Vec<f64> = two.install(|| try_map(0..10_000, f)).unwrap();
         assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
@@ -64,7 +72,13 @@ mod tests {
 
     #[test]
     fn reports_the_lowest_failing_index() {
-        let f = |i: usize| if i % 1000 == 999 { Err(Error::parameter("x", format!("bad {i}"))) } else { Ok(i) };
+        let f = |i: usize| {
+            if i % 1000 == 999 {
+                Err(Error::parameter("x", format!("bad {i}")))
+            } else {
+                Ok(i)
+            }
+        };
         let e = try_map_chunked(10_000, f, |_| Ok::<(), Error>(())).unwrap_err();
         assert_eq!(e.to_string(), "x bad 999 (at flat index 999)");
     }

@@ -9,7 +9,7 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 use crate::error::{finite, positive, Error, Result};
 use crate::friction::check_pair;
-use crate::waveform::{BangBang, Harmonics, Waveform};
+use crate::waveform::{velocity_scale, BangBang, Harmonics, Waveform};
 
 /// The unit triangle wave of period `2 pi`: `1 - 2|x|/pi` on `[-pi, pi]` (6.13).
 pub fn triangle(x: f64) -> f64 {
@@ -28,7 +28,7 @@ pub fn theorem1_force(n1: i64, n2: i64, psi: f64) -> Result<f64> {
     }
     let (a, b) = (n1 as f64, n2 as f64);
     // Reduce n1 n2 psi modulo 2 pi in two steps so large products keep their accuracy.
-    let x = (a * (b * psi).rem_euclid(TAU)).rem_euclid(TAU);
+    let x = (a * crate::friction::harmonic_phase(n2, psi)?).rem_euclid(TAU);
     Ok(triangle(x) / (b * b - a * a))
 }
 
@@ -50,7 +50,11 @@ pub fn bang_bang_force(z: f64, part_velocity: f64, a_max: f64, period: f64) -> R
         1.0
     } else if part_velocity >= v_max {
         // At exactly v_max the part rides the dwell (z > 0) and is pushed back elsewhere.
-        if part_velocity == v_max && z > 0.0 { -1.0 + z } else { -1.0 }
+        if part_velocity == v_max && z > 0.0 {
+            -1.0 + z
+        } else {
+            -1.0
+        }
     } else {
         z * z - 4.0 * part_velocity / (a_max * period)
     })
@@ -69,11 +73,19 @@ pub fn bang_bang_efficiency(z: f64) -> Result<(f64, f64)> {
     Ok((v_eq, v_eq / v_min.abs()))
 }
 
-/// Gain of the viscous model (3.12), `f = K (v_eq - v_p)`: `K / (mu m g) = 4 / (a_max T)` [s/m].
-pub fn viscous_gain(a_max: f64, period: f64) -> Result<f64> {
-    positive("a_max", a_max)?;
-    positive("period", period)?;
-    Ok(4.0 / (a_max * period))
+/// Gain of the viscous model (3.12), `f = K (v_eq - v_p)`: `K = 4 mu m g / (a_max T)` [N s/m]
+/// (with `mu_m_g = 1`, `K / (mu m g)` [s/m]).
+pub fn viscous_gain(a_max: f64, period: f64, mu_m_g: f64) -> Result<f64> {
+    velocity_scale(a_max, period)?;
+    positive("mu_m_g", mu_m_g)?;
+    let k = 4.0 * mu_m_g / (a_max * period);
+    if !k.is_finite() {
+        return Err(Error::parameter(
+            "mu_m_g",
+            format!("makes the gain overflow; got {mu_m_g:e}"),
+        ));
+    }
+    Ok(k)
 }
 
 /// Two-harmonic feed rate for `v = amplitude (sin t + b sin(2t + phi))` (3.16–3.17):
@@ -111,11 +123,14 @@ pub fn two_harmonic_force_at_rest(b: f64) -> Result<f64> {
         return Ok(0.0);
     }
     let a = b.abs();
-    let root = (1.0 + 8.0 * a * a).sqrt();
-    let c1 = ((1.0 - root) / (4.0 * a)).asin();
+    // With r = sqrt(1 + 8 a^2): (1 - r)/(4a) = -2 / (1/a + r/a) and (1 + r)/(4a) = (1/a + r/a) / 4,
+    // free of cancellation and of overflow for any finite a.
+    let inv = 1.0 / a;
+    let r_over_a = inv.hypot(8f64.sqrt());
+    let c1 = (-2.0 / (inv + r_over_a)).asin();
     let mut f = -2.0 * c1 / PI;
     if a > 1.0 {
-        let c2 = ((1.0 + root) / (4.0 * a)).asin();
+        let c2 = ((inv + r_over_a) / 4.0).min(1.0).asin();
         f += 2.0 * c2 / PI - 1.0;
     }
     Ok(f.copysign(b))
@@ -152,23 +167,30 @@ pub struct NormalizedDrive {
 /// `v_max = 3 a_max T/(8 pi gamma)`, `v_eq = a_max T/(4 pi gamma)`, `eta1 = 0.0452`, `eta2 = 1/3`.
 pub fn normalized_drive(b: f64, a_max: f64, period: f64) -> Result<NormalizedDrive> {
     if !(b.is_finite() && b >= 0.0) {
-        return Err(Error::parameter("b", format!("must be finite and >= 0; got {b}")));
+        return Err(Error::parameter(
+            "b",
+            format!("must be finite and >= 0; got {b}"),
+        ));
     }
-    positive("a_max", a_max)?;
-    positive("period", period)?;
+    velocity_scale(a_max, period)?;
     let g = gamma(b)?;
     let scale = a_max * period / (TAU * g);
-    // sin t + b cos 2t = b + s - 2 b s^2 with s = sin t in [-1, 1].
-    let top = if b >= 0.25 { b + 1.0 / (8.0 * b) } else { 1.0 - b };
-    let v_eq = scale * two_harmonic_feed_rate(b, FRAC_PI_2, 1.0)?;
-    let v_min = -scale * (1.0 + b);
+    // In units of `scale`: sin t + b cos 2t = b + s - 2 b s^2 with s = sin t in [-1, 1]. The
+    // efficiencies are ratios of these, so they never see an underflowing `scale`.
+    let top = if b >= 0.25 {
+        b + 1.0 / (8.0 * b)
+    } else {
+        1.0 - b
+    };
+    let bottom = 1.0 + b;
+    let feed = two_harmonic_feed_rate(b, FRAC_PI_2, 1.0)?;
     Ok(NormalizedDrive {
         gamma: g,
-        v_min,
+        v_min: -scale * bottom,
         v_max: scale * top,
-        v_eq,
-        eta1: v_eq / (a_max * period),
-        eta2: v_eq / v_min.abs(),
+        v_eq: scale * feed,
+        eta1: feed / (TAU * g),
+        eta2: feed / bottom,
     })
 }
 
@@ -188,7 +210,13 @@ mod tests {
     #[test]
     fn theorem1_peaks() {
         // SPEC §3 known answers: peak 1/(n2^2 - n1^2).
-        for (n1, n2, want) in [(1, 2, 1.0 / 3.0), (2, 3, 0.2), (1, 4, 1.0 / 15.0), (2, 5, 1.0 / 21.0), (3, 4, 1.0 / 7.0)] {
+        for (n1, n2, want) in [
+            (1, 2, 1.0 / 3.0),
+            (2, 3, 0.2),
+            (1, 4, 1.0 / 15.0),
+            (2, 5, 1.0 / 21.0),
+            (3, 4, 1.0 / 7.0),
+        ] {
             assert!((theorem1_force(n1, n2, 0.0).unwrap() - want).abs() < 1e-15);
         }
         assert_eq!(theorem1_force(1, 3, 0.4).unwrap(), 0.0);

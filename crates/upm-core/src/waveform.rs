@@ -20,6 +20,9 @@ const H_MIN: f64 = 1e-11;
 #[derive(Debug, Clone, PartialEq)]
 pub struct Harmonics {
     frequency: f64,
+    /// Largest coefficient magnitude; `cos` and `sin` are stored divided by it, so root finding
+    /// works on numbers of order one whatever the physical scale (1e-300 or 1e300 m/s alike).
+    scale: f64,
     cos: Vec<f64>,
     sin: Vec<f64>,
 }
@@ -52,7 +55,16 @@ impl Harmonics {
                  has no sign change and feeds nothing",
             ));
         }
-        Ok(Harmonics { frequency, cos, sin })
+        let scale = cos.iter().chain(&sin).fold(0.0f64, |m, c| m.max(c.abs()));
+        for c in cos.iter_mut().chain(sin.iter_mut()) {
+            *c /= scale;
+        }
+        Ok(Harmonics {
+            frequency,
+            scale,
+            cos,
+            sin,
+        })
     }
 
     /// `v(t) = amplitude (sin(w t) + b sin(2 w t + phi))`, the two-harmonic drive of (3.13).
@@ -64,7 +76,11 @@ impl Harmonics {
             return Err(Error::parameter("amplitude", "must be non-zero; got 0"));
         }
         let (s, c) = phi.sin_cos();
-        Harmonics::new(vec![0.0, amplitude * b * s], vec![amplitude, amplitude * b * c], frequency)
+        Harmonics::new(
+            vec![0.0, amplitude * b * s],
+            vec![amplitude, amplitude * b * c],
+            frequency,
+        )
     }
 
     /// Highest harmonic with a non-zero coefficient.
@@ -77,7 +93,7 @@ impl Harmonics {
         self.frequency
     }
 
-    /// `sum_k k^p |(cos_k, sin_k)|`: an upper bound of `|d^p v / dx^p|`.
+    /// `sum_k k^p |(cos_k, sin_k)|`: an upper bound of `|d^p v / dx^p|` (in units of `scale`).
     fn bound(&self, p: i32) -> f64 {
         self.cos
             .iter()
@@ -87,37 +103,43 @@ impl Harmonics {
             .sum()
     }
 
-    /// `(d^n v/dx^n, d^(n+1) v/dx^(n+1))` at phase `x`, for `n` in 0..=2.
+    /// `[v, v', v'', v''', v''''] / scale` (derivatives in the phase `x`) at phase `x`.
     #[inline]
-    fn derivs(&self, x: f64, n: u8) -> (f64, f64) {
+    fn derivs(&self, x: f64) -> [f64; 5] {
         let (s1, c1) = x.sin_cos();
         let (mut s, mut c) = (s1, c1);
-        let (mut p, mut q) = (0.0, 0.0);
+        let mut d = [0.0; 5];
         for (i, (a, b)) in self.cos.iter().zip(&self.sin).enumerate() {
             let k = (i + 1) as f64;
             let even = a * c + b * s; // the term itself
-            let odd = b * c - a * s; // its derivative / k
-            match n {
-                0 => {
-                    p += even;
-                    q += k * odd;
-                }
-                1 => {
-                    p += k * odd;
-                    q -= k * k * even;
-                }
-                _ => {
-                    p -= k * k * even;
-                    q -= k * k * k * odd;
-                }
-            }
+            let odd = k * (b * c - a * s); // its first derivative
+            let k2 = k * k;
+            d[0] += even;
+            d[1] += odd;
+            d[2] -= k2 * even;
+            d[3] -= k2 * odd;
+            d[4] += k2 * k2 * even;
             // cos((k+1)x), sin((k+1)x) by the angle-addition recurrence.
             let cn = c * c1 - s * s1;
             s = s * c1 + c * s1;
             c = cn;
         }
-        (p, q)
+        d
     }
+}
+
+/// `a_max * period` [m/s], checked to be a normal positive float (it scales every velocity).
+pub(crate) fn velocity_scale(a_max: f64, period: f64) -> Result<f64> {
+    positive("a_max", a_max)?;
+    positive("period", period)?;
+    let scale = a_max * period;
+    if !(scale.is_finite() && scale >= f64::MIN_POSITIVE) {
+        return Err(Error::parameter(
+            "a_max * period",
+            format!("must be a normal positive float (the velocity scale); got {scale:e}"),
+        ));
+    }
+    Ok(scale)
 }
 
 /// Bang-bang acceleration (SPEC §2.1, 3.6–3.8): `+a_max` on `[0, t1)`, `0` on `[t1, t2)`,
@@ -134,10 +156,12 @@ impl BangBang {
     /// [m/s^2] and period `period > 0` [s].
     pub fn new(z: f64, a_max: f64, period: f64) -> Result<Self> {
         if !(z.is_finite() && (0.0..1.0).contains(&z)) {
-            return Err(Error::parameter("z", format!("must lie in [0, 1); got {z}")));
+            return Err(Error::parameter(
+                "z",
+                format!("must lie in [0, 1); got {z}"),
+            ));
         }
-        positive("a_max", a_max)?;
-        positive("period", period)?;
+        velocity_scale(a_max, period)?;
         Ok(BangBang { z, a_max, period })
     }
 
@@ -145,6 +169,19 @@ impl BangBang {
     pub fn velocity_range(&self) -> (f64, f64) {
         let s = self.a_max * self.period / 4.0;
         (s * (self.z * self.z - 1.0), s * (self.z - 1.0).powi(2))
+    }
+
+    /// `(v, dv/dx) / (a_max T)` at phase `x` in `[0, 2 pi)`: the velocity in units of `a_max T`.
+    fn at_phase(&self, x: f64) -> (f64, f64) {
+        let (z, u) = (self.z, x / TAU);
+        let slope = 1.0 / TAU;
+        if u < (1.0 - z) / 2.0 {
+            ((z * z - 1.0) / 4.0 + u, slope)
+        } else if u < (1.0 + z) / 2.0 {
+            ((z - 1.0).powi(2) / 4.0, 0.0)
+        } else {
+            ((z * z + 3.0) / 4.0 - u, -slope)
+        }
     }
 
     /// Velocity and acceleration at time `t` in `[0, T)`.
@@ -194,7 +231,7 @@ impl Waveform {
     /// Velocity [m/s] at time `t` [s].
     pub fn velocity(&self, t: f64) -> f64 {
         match self {
-            Waveform::Harmonics(h) => h.derivs(TAU * h.frequency * t, 0).0,
+            Waveform::Harmonics(h) => h.scale * h.derivs(TAU * h.frequency * t)[0],
             Waveform::BangBang(b) => b.at(t.rem_euclid(b.period)).0,
         }
     }
@@ -204,37 +241,88 @@ impl Waveform {
         match self {
             Waveform::Harmonics(h) => {
                 let w = TAU * h.frequency;
-                w * h.derivs(w * t, 0).1
+                h.scale * w * h.derivs(w * t)[1]
             }
             Waveform::BangBang(b) => b.at(t.rem_euclid(b.period)).1,
         }
     }
 
-    /// `(v, dv/dx)` at phase `x` (radians; any real `x`, the waveform is periodic).
+    /// The velocity scale [m/s] that [`Waveform::at_phase`] divides by.
+    pub(crate) fn scale(&self) -> f64 {
+        match self {
+            Waveform::Harmonics(h) => h.scale,
+            Waveform::BangBang(b) => b.a_max * b.period,
+        }
+    }
+
+    /// `(v, dv/dx) / scale` at phase `x` (radians; any real `x`, the waveform is periodic).
     #[inline]
     pub(crate) fn at_phase(&self, x: f64) -> (f64, f64) {
         match self {
-            Waveform::Harmonics(h) => h.derivs(x, 0),
-            Waveform::BangBang(b) => {
-                let (v, a) = b.at(x.rem_euclid(TAU) * b.period / TAU);
-                (v, a * b.period / TAU)
+            Waveform::Harmonics(h) => {
+                let d = h.derivs(x);
+                (d[0], d[1])
             }
+            Waveform::BangBang(b) => b.at_phase(x.rem_euclid(TAU)),
         }
+    }
+
+    /// Mean of `sgn(v - level)` over a period, `level` in m/s. For a harmonic series this
+    /// isolates the sign changes of `v - level` directly (cheaper than [`Waveform::pieces`] when
+    /// only one level is wanted); the result is the same to rounding.
+    pub fn mean_sign(&self, level: f64) -> Result<f64> {
+        let Waveform::Harmonics(h) = self else {
+            return Ok(self.pieces()?.mean_sign(level));
+        };
+        let level = level / h.scale;
+        let iso = Isolation {
+            n0: 4 * h.degree() + 4,
+            lip: [h.bound(1), h.bound(2), h.bound(3)],
+            h_min: H_MIN,
+            periodic: true,
+        };
+        let f = |x: f64| {
+            let d = h.derivs(x);
+            [d[0] - level, d[1], d[2]]
+        };
+        let roots = roots::sign_changes(f, 0.0, TAU, iso)
+            .ok_or_else(|| Error::Convergence("could not isolate the level crossings".into()))?;
+        // Between consecutive sign changes the sign is constant; it starts as the sign at 0
+        // (zero counting as positive, as in the isolation) and flips at every root.
+        let mut positive = f(0.0)[0] >= 0.0;
+        let (mut sum, mut last) = (0.0, 0.0);
+        for &r in &roots {
+            sum += if positive { r - last } else { last - r };
+            positive = !positive;
+            last = r;
+        }
+        sum += if positive { TAU - last } else { last - TAU };
+        Ok((sum / TAU).clamp(-1.0, 1.0))
     }
 
     /// The waveform split into monotone pieces over one period.
     pub fn pieces(&self) -> Result<Pieces<'_>> {
         let breaks: Vec<f64> = match self {
             Waveform::Harmonics(h) => {
-                // Extrema of v are the sign changes of v'; isolate them with bounds on v'' and v'''.
+                // Extrema of v are the sign changes of v'; isolate them with bounds on v''..v''''.
                 let iso = Isolation {
                     n0: 4 * h.degree() + 4,
-                    lip_f: h.bound(2),
-                    lip_df: h.bound(3),
+                    lip: [h.bound(2), h.bound(3), h.bound(4)],
                     h_min: H_MIN,
                     periodic: true,
                 };
-                let c = roots::sign_changes(|x| h.derivs(x, 1), 0.0, TAU, iso);
+                let c = roots::sign_changes(
+                    |x| {
+                        let d = h.derivs(x);
+                        [d[1], d[2], d[3]]
+                    },
+                    0.0,
+                    TAU,
+                    iso,
+                )
+                .ok_or_else(|| {
+                    Error::Convergence("could not isolate the extrema of the waveform".into())
+                })?;
                 if c.len() < 2 {
                     return Err(Error::Convergence(format!(
                         "found {} extrema of a non-constant periodic waveform; expected at least 2",
@@ -257,7 +345,7 @@ impl Waveform {
         let values: Vec<f64> = match self {
             // Bang-bang breakpoints are known exactly; evaluate the closed form at them.
             Waveform::BangBang(b) => {
-                let (lo, hi) = b.velocity_range();
+                let (lo, hi) = ((b.z * b.z - 1.0) / 4.0, (b.z - 1.0).powi(2) / 4.0);
                 if b.z > 0.0 {
                     vec![lo, hi, hi]
                 } else {
@@ -269,11 +357,22 @@ impl Waveform {
         for i in 0..breaks.len() {
             let j = (i + 1) % breaks.len();
             let x1 = if j == 0 { breaks[0] + TAU } else { breaks[j] };
-            pieces.push(Piece { x0: breaks[i], x1, v0: values[i], v1: values[j] });
+            pieces.push(Piece {
+                x0: breaks[i],
+                x1,
+                v0: values[i],
+                v1: values[j],
+            });
         }
         let vmin = values.iter().copied().fold(f64::INFINITY, f64::min);
         let vmax = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        Ok(Pieces { wave: self, pieces, vmin, vmax })
+        Ok(Pieces {
+            wave: self,
+            scale: self.scale(),
+            pieces,
+            vmin,
+            vmax,
+        })
     }
 }
 
@@ -290,10 +389,11 @@ pub struct Piece {
     pub v1: f64,
 }
 
-/// A waveform's monotone pieces covering one period.
+/// A waveform's monotone pieces covering one period, with velocities in units of `scale`.
 #[derive(Debug, Clone)]
 pub struct Pieces<'a> {
     wave: &'a Waveform,
+    scale: f64,
     pieces: Vec<Piece>,
     vmin: f64,
     vmax: f64,
@@ -305,17 +405,26 @@ impl Pieces<'_> {
         &self.pieces
     }
 
-    /// `(min v, max v)` over a period (exact: the values at the extrema).
+    /// `(min v, max v)` over a period [m/s] (exact: the values at the extrema).
     pub fn range(&self) -> (f64, f64) {
-        (self.vmin, self.vmax)
+        (self.scale * self.vmin, self.scale * self.vmax)
     }
 
-    /// Fractions of the period with `v > level` and with `v < level`.
+    /// Fractions of the period with `v > level` and with `v < level` (`level` in m/s).
     pub fn measure(&self, level: f64) -> (f64, f64) {
-        let (mut above, mut below) = (0.0, 0.0);
+        self.measure_scaled(level / self.scale)
+    }
+
+    fn measure_scaled(&self, level: f64) -> (f64, f64) {
+        let (mut above, mut below, mut total) = (0.0, 0.0, 0.0);
         for p in &self.pieces {
             let len = p.x1 - p.x0;
-            let (lo, hi) = if p.v0 <= p.v1 { (p.v0, p.v1) } else { (p.v1, p.v0) };
+            total += len;
+            let (lo, hi) = if p.v0 <= p.v1 {
+                (p.v0, p.v1)
+            } else {
+                (p.v1, p.v0)
+            };
             if lo == hi {
                 if level < lo {
                     above += len;
@@ -341,7 +450,8 @@ impl Pieces<'_> {
                 }
             }
         }
-        (above / TAU, below / TAU)
+        // Dividing by the summed lengths (not 2 pi) keeps saturated forces exactly +-1.
+        (above / total, below / total)
     }
 
     /// Mean of `sgn(v - level)` over a period (zero where `v = level`).
@@ -350,11 +460,15 @@ impl Pieces<'_> {
         above - below
     }
 
-    /// The median of `v` over a period: the level above which `v` spends at most half the period
-    /// and below which it spends at most half.
+    /// The median of `v` over a period [m/s]: the level above which `v` spends at most half the
+    /// period and below which it spends at most half.
     pub fn median(&self) -> f64 {
-        let tol = 1e-15 * (self.vmax - self.vmin).max(f64::MIN_POSITIVE);
-        roots::brent(|m| self.mean_sign(m), self.vmin, self.vmax, tol)
+        let tol = 1e-15 * (self.vmax - self.vmin);
+        let sign = |m: f64| {
+            let (above, below) = self.measure_scaled(m);
+            above - below
+        };
+        self.scale * roots::brent(sign, self.vmin, self.vmax, tol)
     }
 }
 
@@ -378,12 +492,17 @@ mod tests {
     #[test]
     fn pieces_cover_a_period_and_find_the_range() {
         // sin t + cos(2t)/2 ranges over [-1.5, 0.75] (SPEC §2.2).
-        let w: Waveform = Harmonics::new(vec![0.0, 0.5], vec![1.0], 1.0).unwrap().into();
+        let w: Waveform = Harmonics::new(vec![0.0, 0.5], vec![1.0], 1.0)
+            .unwrap()
+            .into();
         let p = w.pieces().unwrap();
         let total: f64 = p.pieces().iter().map(|q| q.x1 - q.x0).sum();
         assert!((total - TAU).abs() < 1e-12);
         let (lo, hi) = p.range();
-        assert!((lo + 1.5).abs() < 1e-14 && (hi - 0.75).abs() < 1e-14, "{lo} {hi}");
+        assert!(
+            (lo + 1.5).abs() < 1e-14 && (hi - 0.75).abs() < 1e-14,
+            "{lo} {hi}"
+        );
     }
 
     #[test]
@@ -391,7 +510,10 @@ mod tests {
         let b = BangBang::new(0.3, 2.0, 0.5).unwrap();
         let w: Waveform = b.into();
         let n = 100_000;
-        let mean: f64 = (0..n).map(|i| w.velocity(0.5 * (i as f64 + 0.5) / n as f64)).sum::<f64>() / n as f64;
+        let mean: f64 = (0..n)
+            .map(|i| w.velocity(0.5 * (i as f64 + 0.5) / n as f64))
+            .sum::<f64>()
+            / n as f64;
         assert!(mean.abs() < 1e-9, "{mean}");
         let (t1, t2) = (0.35 * 0.5, 0.65 * 0.5);
         for t in [t1, t2, 0.5] {
@@ -400,10 +522,48 @@ mod tests {
     }
 
     #[test]
+    fn direct_and_piecewise_mean_signs_agree() {
+        let w: Waveform =
+            Harmonics::new(vec![0.3, -0.8, 0.05, 0.4], vec![1.0, 0.25, -0.6, 0.1], 2.0)
+                .unwrap()
+                .into();
+        let p = w.pieces().unwrap();
+        let (lo, hi) = p.range();
+        for k in 0..=50 {
+            let level = lo - 0.1 + (hi - lo + 0.2) * k as f64 / 50.0;
+            let (a, b) = (w.mean_sign(level).unwrap(), p.mean_sign(level));
+            assert!((a - b).abs() < 1e-12, "level {level}: {a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn extreme_scales_give_the_same_shape() {
+        // Root finding runs in normalised units, so 1e-300 and 1e300 m/s behave like 1 m/s.
+        for scale in [1e-300, 1e-5, 1.0, 1e300] {
+            let w: Waveform = Harmonics::two_harmonic(0.5, 1.0, scale, 1.0)
+                .unwrap()
+                .into();
+            let p = w.pieces().unwrap();
+            let want = 0.5 * 1f64.sin(); // (3.16)
+            assert!((p.median() / scale - want).abs() < 1e-12, "scale {scale}");
+        }
+        assert!(BangBang::new(0.5, 1e300, 1e300).is_err());
+        let tiny: Waveform = BangBang::new(0.5, 1e-200, 1e-100).unwrap().into();
+        assert!((crate::friction::feed_rate(&tiny).unwrap() / 1e-300 - 0.0625).abs() < 1e-12);
+    }
+
+    #[test]
     fn rejects_bad_parameters() {
-        assert!(matches!(BangBang::new(1.0, 1.0, 1.0), Err(Error::Parameter { ref name, .. }) if name == "z"));
-        assert!(matches!(Harmonics::new(vec![0.0], vec![0.0], 1.0), Err(Error::Parameter { .. })));
-        assert!(matches!(Harmonics::new(vec![f64::NAN], vec![], 1.0), Err(Error::Parameter { ref name, .. }) if name == "cos[0]"));
+        assert!(
+            matches!(BangBang::new(1.0, 1.0, 1.0), Err(Error::Parameter { ref name, .. }) if name == "z")
+        );
+        assert!(matches!(
+            Harmonics::new(vec![0.0], vec![0.0], 1.0),
+            Err(Error::Parameter { .. })
+        ));
+        assert!(
+            matches!(Harmonics::new(vec![f64::NAN], vec![], 1.0), Err(Error::Parameter { ref name, .. }) if name == "cos[0]")
+        );
         assert!(Harmonics::new(vec![1.0], vec![], 0.0).is_err());
     }
 }

@@ -1,1 +1,408 @@
-// binding: written next
+//! `upm._core`: the thin pyo3 binding of `upm-core`.
+//!
+//! This crate only converts arrays, releases the GIL and maps errors; all physics lives in
+//! `upm-core`. Inputs arrive from the Python layer already broadcast to equal 1-D lengths (or as
+//! `(B, K)` coefficient tables), float64; outputs are new NumPy arrays.
+
+mod errors;
+
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyTuple;
+use upm_core::{friction, theory, BangBang, Harmonics, Waveform};
+
+use errors::{batch, core, shape_error};
+
+/// A batch of validated periodic plate velocities (one per row), built once and reused.
+#[pyclass(frozen, module = "upm._core")]
+struct WaveformBatch {
+    waves: Vec<Waveform>,
+}
+
+fn column(a: &PyReadonlyArray1<'_, f64>) -> Vec<f64> {
+    a.as_array().to_vec()
+}
+
+fn same_len(py: Python<'_>, what: &str, lens: &[(&str, usize)]) -> PyResult<usize> {
+    let n = lens[0].1;
+    if lens.iter().any(|(_, l)| *l != n) {
+        let listed: Vec<String> = lens
+            .iter()
+            .map(|(name, l)| format!("{name}: {l}"))
+            .collect();
+        return Err(shape_error(
+            py,
+            format!(
+                "{what}: inputs must have equal lengths; got {}",
+                listed.join(", ")
+            ),
+        ));
+    }
+    Ok(n)
+}
+
+fn to_2d<'py>(
+    py: Python<'py>,
+    flat: Vec<f64>,
+    rows: usize,
+    cols: usize,
+) -> PyResult<Bound<'py, PyAny>> {
+    Ok(PyArray1::from_vec(py, flat)
+        .reshape([rows, cols])?
+        .into_any())
+}
+
+#[pymethods]
+impl WaveformBatch {
+    /// Rows of harmonic coefficients `cos (B, K)`, `sin (B, K)` and base frequencies `(B,)` [Hz].
+    #[staticmethod]
+    fn harmonics(
+        py: Python<'_>,
+        cos: PyReadonlyArray2<'_, f64>,
+        sin: PyReadonlyArray2<'_, f64>,
+        frequency: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<Self> {
+        let (c, s) = (cos.as_array(), sin.as_array());
+        if c.shape() != s.shape() {
+            return Err(shape_error(
+                py,
+                format!(
+                    "cos and sin must have the same shape; got {:?} and {:?}",
+                    c.shape(),
+                    s.shape()
+                ),
+            ));
+        }
+        let n = same_len(
+            py,
+            "harmonics",
+            &[("cos rows", c.shape()[0]), ("frequency", frequency.len())],
+        )?;
+        let rows: Vec<(Vec<f64>, Vec<f64>)> = (0..n)
+            .map(|i| (c.row(i).to_vec(), s.row(i).to_vec()))
+            .collect();
+        let f = column(&frequency);
+        let waves = batch(py, n, |i| {
+            Ok(Harmonics::new(rows[i].0.clone(), rows[i].1.clone(), f[i])?.into())
+        })?;
+        Ok(WaveformBatch { waves })
+    }
+
+    /// Bang-bang drives from `z`, `a_max` [m/s^2] and `period` [s], each `(B,)`.
+    #[staticmethod]
+    fn bang_bang(
+        py: Python<'_>,
+        z: PyReadonlyArray1<'_, f64>,
+        a_max: PyReadonlyArray1<'_, f64>,
+        period: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<Self> {
+        let n = same_len(
+            py,
+            "bang_bang",
+            &[
+                ("z", z.len()),
+                ("a_max", a_max.len()),
+                ("period", period.len()),
+            ],
+        )?;
+        let (z, a, p) = (column(&z), column(&a_max), column(&period));
+        let waves = batch(py, n, |i| Ok(BangBang::new(z[i], a[i], p[i])?.into()))?;
+        Ok(WaveformBatch { waves })
+    }
+
+    fn __len__(&self) -> usize {
+        self.waves.len()
+    }
+
+    /// Periods [s], `(B,)`.
+    fn period<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_vec(py, self.waves.iter().map(Waveform::period).collect())
+    }
+
+    /// Velocity (`derivative = 0`) or acceleration (`1`) at times `t (B, L)` [s] -> `(B, L)`.
+    fn evaluate<'py>(
+        &self,
+        py: Python<'py>,
+        t: PyReadonlyArray2<'py, f64>,
+        derivative: u8,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let t = t.as_array();
+        let (rows, cols) = (t.shape()[0], t.shape()[1]);
+        same_len(
+            py,
+            "evaluate",
+            &[("waveforms", self.waves.len()), ("t rows", rows)],
+        )?;
+        if derivative > 1 {
+            return Err(errors::to_py(
+                py,
+                upm_core::Error::parameter(
+                    "derivative",
+                    format!("must be 0 or 1; got {derivative}"),
+                ),
+            ));
+        }
+        let t: Vec<f64> = t.iter().copied().collect();
+        let out = batch(py, rows, |i| {
+            let w = &self.waves[i];
+            Ok(t[i * cols..(i + 1) * cols]
+                .iter()
+                .map(|&x| {
+                    if derivative == 0 {
+                        w.velocity(x)
+                    } else {
+                        w.acceleration(x)
+                    }
+                })
+                .collect::<Vec<f64>>())
+        })?;
+        to_2d(py, out.concat(), rows, cols)
+    }
+
+    /// Exact feed rates [m/s] (medians of the velocity), `(B,)`.
+    fn feed_rate<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let out = batch(py, self.waves.len(), |i| {
+            friction::feed_rate(&self.waves[i])
+        })?;
+        Ok(PyArray1::from_vec(py, out))
+    }
+
+    /// Exact average force / (mu m g) at part velocities `(B, L)` [m/s] -> `(B, L)`.
+    fn mean_force<'py>(
+        &self,
+        py: Python<'py>,
+        part_velocity: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let v = part_velocity.as_array();
+        let (rows, cols) = (v.shape()[0], v.shape()[1]);
+        same_len(
+            py,
+            "mean_force",
+            &[
+                ("waveforms", self.waves.len()),
+                ("part_velocity rows", rows),
+            ],
+        )?;
+        let v: Vec<f64> = v.iter().copied().collect();
+        let out = batch(py, rows, |i| {
+            friction::mean_forces(&self.waves[i], &v[i * cols..(i + 1) * cols])
+        })?;
+        to_2d(py, out.concat(), rows, cols)
+    }
+
+    /// Exact `(min, max)` of the velocity over a period [m/s], each `(B,)`.
+    fn velocity_range<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let out = batch(py, self.waves.len(), |i| {
+            Ok(self.waves[i].pieces()?.range())
+        })?;
+        let lo = PyArray1::from_vec(py, out.iter().map(|r| r.0).collect());
+        let hi = PyArray1::from_vec(py, out.iter().map(|r| r.1).collect());
+        PyTuple::new(py, [lo, hi])
+    }
+}
+
+/// Applies `f` to equal-length float64 columns in parallel; returns one array per output.
+fn elementwise<'py, const N: usize, const M: usize, F>(
+    py: Python<'py>,
+    what: &str,
+    inputs: [(&str, PyReadonlyArray1<'py, f64>); N],
+    f: F,
+) -> PyResult<Bound<'py, PyAny>>
+where
+    F: Fn([f64; N]) -> upm_core::Result<[f64; M]> + Sync + Send,
+{
+    let lens: Vec<(&str, usize)> = inputs.iter().map(|(name, a)| (*name, a.len())).collect();
+    let n = same_len(py, what, &lens)?;
+    let cols: Vec<Vec<f64>> = inputs.iter().map(|(_, a)| column(a)).collect();
+    let out = batch(py, n, |i| f(std::array::from_fn(|k| cols[k][i])))?;
+    let arrays: Vec<Bound<'py, PyArray1<f64>>> = (0..M)
+        .map(|m| PyArray1::from_vec(py, out.iter().map(|r| r[m]).collect()))
+        .collect();
+    if M == 1 {
+        Ok(arrays[0].clone().into_any())
+    } else {
+        Ok(PyTuple::new(py, arrays)?.into_any())
+    }
+}
+
+/// Exact average force / (mu m g) at rest under `cos(n1 t) - b cos(n2 (t - psi))`.
+#[pyfunction]
+fn force_table<'py>(
+    py: Python<'py>,
+    n1: i64,
+    n2: i64,
+    psi: PyReadonlyArray1<'py, f64>,
+    b: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    core(py, friction::check_pair(n1, n2))?;
+    elementwise(py, "force_table", [("psi", psi), ("b", b)], |[p, b]| {
+        Ok([friction::two_sinusoid_force(n1, n2, p, b)?])
+    })
+}
+
+/// Theorem 1 closed form, `Tri(n1 n2 psi) / (n2^2 - n1^2)` (0 when both are odd, Lemma 1).
+#[pyfunction]
+fn theorem1_force<'py>(
+    py: Python<'py>,
+    n1: i64,
+    n2: i64,
+    psi: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    core(py, friction::check_pair(n1, n2))?;
+    elementwise(py, "theorem1_force", [("psi", psi)], |[p]| {
+        Ok([theory::theorem1_force(n1, n2, p)?])
+    })
+}
+
+#[pyfunction]
+fn bang_bang_feed_rate<'py>(
+    py: Python<'py>,
+    z: PyReadonlyArray1<'py, f64>,
+    a_max: PyReadonlyArray1<'py, f64>,
+    period: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    elementwise(
+        py,
+        "bang_bang_feed_rate",
+        [("z", z), ("a_max", a_max), ("period", period)],
+        |[z, a, p]| Ok([theory::bang_bang_feed_rate(z, a, p)?]),
+    )
+}
+
+#[pyfunction]
+fn bang_bang_force<'py>(
+    py: Python<'py>,
+    z: PyReadonlyArray1<'py, f64>,
+    part_velocity: PyReadonlyArray1<'py, f64>,
+    a_max: PyReadonlyArray1<'py, f64>,
+    period: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let inputs = [
+        ("z", z),
+        ("part_velocity", part_velocity),
+        ("a_max", a_max),
+        ("period", period),
+    ];
+    elementwise(py, "bang_bang_force", inputs, |[z, v, a, p]| {
+        Ok([theory::bang_bang_force(z, v, a, p)?])
+    })
+}
+
+#[pyfunction]
+fn bang_bang_velocity_range<'py>(
+    py: Python<'py>,
+    z: PyReadonlyArray1<'py, f64>,
+    a_max: PyReadonlyArray1<'py, f64>,
+    period: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    elementwise(
+        py,
+        "bang_bang_velocity_range",
+        [("z", z), ("a_max", a_max), ("period", period)],
+        |[z, a, p]| {
+            let (lo, hi) = theory::bang_bang_velocity_range(z, a, p)?;
+            Ok([lo, hi])
+        },
+    )
+}
+
+#[pyfunction]
+fn bang_bang_efficiency<'py>(
+    py: Python<'py>,
+    z: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    elementwise(py, "bang_bang_efficiency", [("z", z)], |[z]| {
+        let (e1, e2) = theory::bang_bang_efficiency(z)?;
+        Ok([e1, e2])
+    })
+}
+
+#[pyfunction]
+fn viscous_gain<'py>(
+    py: Python<'py>,
+    a_max: PyReadonlyArray1<'py, f64>,
+    period: PyReadonlyArray1<'py, f64>,
+    mu_m_g: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    elementwise(
+        py,
+        "viscous_gain",
+        [("a_max", a_max), ("period", period), ("mu_m_g", mu_m_g)],
+        |[a, p, m]| Ok([theory::viscous_gain(a, p, m)?]),
+    )
+}
+
+#[pyfunction]
+fn two_harmonic_feed_rate<'py>(
+    py: Python<'py>,
+    b: PyReadonlyArray1<'py, f64>,
+    phi: PyReadonlyArray1<'py, f64>,
+    amplitude: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    elementwise(
+        py,
+        "two_harmonic_feed_rate",
+        [("b", b), ("phi", phi), ("amplitude", amplitude)],
+        |[b, phi, a]| Ok([theory::two_harmonic_feed_rate(b, phi, a)?]),
+    )
+}
+
+#[pyfunction]
+fn two_harmonic_force_at_rest<'py>(
+    py: Python<'py>,
+    b: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    elementwise(py, "two_harmonic_force_at_rest", [("b", b)], |[b]| {
+        Ok([theory::two_harmonic_force_at_rest(b)?])
+    })
+}
+
+#[pyfunction]
+fn gamma<'py>(py: Python<'py>, b: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
+    elementwise(py, "gamma", [("b", b)], |[b]| Ok([theory::gamma(b)?]))
+}
+
+#[pyfunction]
+fn normalized_drive<'py>(
+    py: Python<'py>,
+    b: PyReadonlyArray1<'py, f64>,
+    a_max: PyReadonlyArray1<'py, f64>,
+    period: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    elementwise(
+        py,
+        "normalized_drive",
+        [("b", b), ("a_max", a_max), ("period", period)],
+        |[b, a, p]| {
+            let d = theory::normalized_drive(b, a, p)?;
+            Ok([d.gamma, d.v_min, d.v_max, d.v_eq, d.eta1, d.eta2])
+        },
+    )
+}
+
+/// Raises a Rust panic inside the guarded helper: lets the tests prove panics never reach Python.
+#[pyfunction]
+fn _panic_for_test(py: Python<'_>) -> PyResult<()> {
+    errors::detached(py, || -> Result<(), errors::Failure> {
+        panic!("deliberate test panic")
+    })
+}
+
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<WaveformBatch>()?;
+    m.add_function(wrap_pyfunction!(force_table, m)?)?;
+    m.add_function(wrap_pyfunction!(theorem1_force, m)?)?;
+    m.add_function(wrap_pyfunction!(bang_bang_feed_rate, m)?)?;
+    m.add_function(wrap_pyfunction!(bang_bang_force, m)?)?;
+    m.add_function(wrap_pyfunction!(bang_bang_velocity_range, m)?)?;
+    m.add_function(wrap_pyfunction!(bang_bang_efficiency, m)?)?;
+    m.add_function(wrap_pyfunction!(viscous_gain, m)?)?;
+    m.add_function(wrap_pyfunction!(two_harmonic_feed_rate, m)?)?;
+    m.add_function(wrap_pyfunction!(two_harmonic_force_at_rest, m)?)?;
+    m.add_function(wrap_pyfunction!(gamma, m)?)?;
+    m.add_function(wrap_pyfunction!(normalized_drive, m)?)?;
+    m.add_function(wrap_pyfunction!(_panic_for_test, m)?)?;
+    Ok(())
+}

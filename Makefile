@@ -1,0 +1,67 @@
+# upm: `make demo` and `make test` set everything up on a fresh clone (a .venv with maturin and the
+# Python dependencies, the extension built in release mode), then run. `make help` lists the rest.
+SHELL := /bin/bash
+.DEFAULT_GOAL := help
+
+VENV ?= .venv
+PY := $(VENV)/bin/python
+export VIRTUAL_ENV := $(abspath $(VENV))
+# pyo3's build script (cargo clippy, cargo test) must see the same interpreter as maturin.
+export PYO3_PYTHON := $(abspath $(PY))
+export PATH := $(abspath $(VENV))/bin:$(PATH)
+
+RUST_SOURCES := Cargo.toml Cargo.lock $(shell find crates -name '*.rs' -o -name Cargo.toml)
+PY_DIRS := python tests bench examples
+
+$(VENV)/.deps: pyproject.toml
+	python3 -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet 'maturin>=1.9,<2'
+	touch $@
+
+$(VENV)/.built: $(VENV)/.deps $(RUST_SOURCES) pyproject.toml
+	$(VENV)/bin/maturin develop --release --extras dev --quiet
+	touch $@
+
+.PHONY: help
+help: ## list the targets
+	@grep -hE '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-8s %s\n", $$1, $$2}'
+
+.PHONY: install
+install: $(VENV)/.built ## create .venv, install the dependencies, build the extension (release)
+
+.PHONY: demo
+demo: $(VENV)/.built ## the main job: two-harmonic feeding table, figures in out/
+	$(PY) -m upm.cli demo --out out
+
+.PHONY: test
+test: $(VENV)/.built ## every check: cargo test, clippy, pytest, ruff, mypy + stubtest
+	cargo fmt --all --check
+	cargo test --quiet
+	cargo clippy --workspace --all-targets --quiet -- -D warnings
+	$(PY) -m pytest -q
+	$(PY) -m ruff check $(PY_DIRS)
+	$(PY) -m ruff format --check $(PY_DIRS)
+	$(PY) -m mypy
+	$(PY) -m mypy.stubtest upm._core
+
+.PHONY: lint
+lint: $(VENV)/.built ## ruff (fixing what it can), clippy, mypy
+	$(PY) -m ruff format $(PY_DIRS)
+	$(PY) -m ruff check --fix $(PY_DIRS)
+	cargo clippy --workspace --all-targets -- -D warnings
+	$(PY) -m mypy
+
+.PHONY: bench
+bench: $(VENV)/.built ## side-by-side benchmarks (ours vs the peer, ratios printed)
+	cargo bench --quiet -p upm-core
+	$(PY) bench/theory.py
+
+.PHONY: wheel
+wheel: $(VENV)/.deps ## build the abi3 wheel into dist/
+	$(VENV)/bin/maturin build --release --out dist
+
+.PHONY: clean
+clean: ## remove build products and the venv
+	cargo clean
+	rm -rf $(VENV) dist out .pytest_cache .ruff_cache .mypy_cache

@@ -1,0 +1,111 @@
+//! Error mapping and the one helper every long call goes through.
+//!
+//! `upm_core::Error` variants map one-to-one onto the Python tree in `upm._errors` (root
+//! `upm.UpmError`). Heavy work runs with the GIL released, in fixed chunks with a signal check
+//! between them (so Ctrl-C works), and inside `catch_unwind`, so a Rust panic surfaces as
+//! `upm.InternalError` instead of crossing into Python.
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use upm_core::Error;
+
+/// Failures inside a detached call: a core error, a Python error (an interrupt) or a panic.
+pub enum Failure {
+    Core(Error),
+    Python(PyErr),
+    Panic(String),
+}
+
+impl From<Error> for Failure {
+    fn from(e: Error) -> Self {
+        Failure::Core(e)
+    }
+}
+
+impl From<PyErr> for Failure {
+    fn from(e: PyErr) -> Self {
+        Failure::Python(e)
+    }
+}
+
+fn exception(py: Python<'_>, class: &str, message: String) -> PyErr {
+    let found = py
+        .import("upm._errors")
+        .and_then(|m| m.getattr(class))
+        .and_then(|c| c.call1((message.clone(),)));
+    match found {
+        Ok(instance) => PyErr::from_value(instance),
+        // Only reachable when `_core` is imported without its package: keep the standard bases.
+        Err(_) if class == "ConvergenceError" || class == "InternalError" => {
+            PyRuntimeError::new_err(message)
+        }
+        Err(_) => PyValueError::new_err(message),
+    }
+}
+
+/// A core error as the matching `upm` exception.
+pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
+    let class = match e {
+        Error::Parameter { .. } => "ParameterError",
+        Error::Shape(_) => "ShapeError",
+        Error::Convergence(_) => "ConvergenceError",
+    };
+    exception(py, class, e.to_string())
+}
+
+/// A `ShapeError` with `message`.
+pub fn shape_error(py: Python<'_>, message: String) -> PyErr {
+    exception(py, "ShapeError", message)
+}
+
+fn failure_to_py(py: Python<'_>, f: Failure) -> PyErr {
+    match f {
+        Failure::Core(e) => to_py(py, e),
+        Failure::Python(e) => e,
+        Failure::Panic(m) => exception(
+            py,
+            "InternalError",
+            format!("internal error in upm (please report it): {m}"),
+        ),
+    }
+}
+
+fn panic_message(p: Box<dyn std::any::Any + Send>) -> String {
+    p.downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| p.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "a Rust panic".to_string())
+}
+
+/// Runs `work` with the GIL released; panics and errors come back as Python exceptions.
+pub fn detached<T, F>(py: Python<'_>, work: F) -> PyResult<T>
+where
+    T: Send,
+    F: FnOnce() -> Result<T, Failure> + Send,
+{
+    let result = py.detach(|| match catch_unwind(AssertUnwindSafe(work)) {
+        Ok(r) => r,
+        Err(p) => Err(Failure::Panic(panic_message(p))),
+    });
+    result.map_err(|f| failure_to_py(py, f))
+}
+
+/// `f(i)` for `i` in `0..n`, in parallel, GIL released, checking for Ctrl-C between chunks.
+pub fn batch<T, F>(py: Python<'_>, n: usize, f: F) -> PyResult<Vec<T>>
+where
+    T: Send,
+    F: Fn(usize) -> upm_core::Result<T> + Sync + Send,
+{
+    detached(py, || {
+        upm_core::parallel::try_map_chunked(n, f, |_| {
+            Python::attach(|py| py.check_signals()).map_err(Failure::from)
+        })
+    })
+}
+
+/// A core result as a Python result.
+pub fn core<T>(py: Python<'_>, r: upm_core::Result<T>) -> PyResult<T> {
+    r.map_err(|e| to_py(py, e))
+}

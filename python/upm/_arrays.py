@@ -1,0 +1,80 @@
+"""Conversion and validation of array-like inputs, shared by every public function."""
+
+from __future__ import annotations
+
+import operator
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._errors import ParameterError, ShapeError
+
+FloatArray = NDArray[np.float64]
+
+
+def as_float(name: str, value: ArrayLike, *, finite: bool = True) -> FloatArray:
+    """``value`` as a float64 array; `ParameterError` naming ``name`` if it is not real or finite."""
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise ParameterError(f"{name} must be a real number or an array of them; got {value!r}") from error
+    if finite and not np.all(np.isfinite(array)):
+        bad = np.argwhere(~np.isfinite(array))[0]
+        where = f" at index {tuple(int(i) for i in bad)}" if array.ndim else ""
+        raise ParameterError(f"{name} must be finite; got {array[tuple(bad)]}{where}")
+    return array
+
+
+def as_int(name: str, value: Any) -> int:
+    """``value`` as a Python int; `ParameterError` if it is not an integer."""
+    try:
+        return operator.index(value)
+    except TypeError as error:
+        raise ParameterError(f"{name} must be an integer; got {value!r}") from error
+
+
+def broadcast_shape(**arrays: FloatArray) -> tuple[int, ...]:
+    """The common shape of ``arrays``; `ShapeError` listing every shape if there is none."""
+    try:
+        return tuple(np.broadcast_shapes(*(a.shape for a in arrays.values())))
+    except ValueError as error:
+        listed = ", ".join(f"{name} {a.shape}" for name, a in arrays.items())
+        raise ShapeError(f"shapes do not broadcast together: {listed}") from error
+
+
+def flat(array: FloatArray, shape: tuple[int, ...]) -> FloatArray:
+    """``array`` broadcast to ``shape`` and flattened (C order, contiguous float64)."""
+    return np.ascontiguousarray(np.broadcast_to(array, shape), dtype=np.float64).reshape(-1)
+
+
+def shaped(result: FloatArray, shape: tuple[int, ...]) -> Any:
+    """``result`` reshaped to ``shape``; a Python float when ``shape`` is ``()``."""
+    out = np.asarray(result).reshape(shape)
+    return float(out) if out.ndim == 0 else out
+
+
+def check_range(
+    name: str,
+    array: FloatArray,
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = False,
+    high_open: bool = False,
+) -> None:
+    """`ParameterError` unless every entry of ``array`` lies in the stated interval."""
+    ok = np.ones(array.shape, dtype=bool)
+    if low is not None:
+        ok &= (array > low) if low_open else (array >= low)
+    if high is not None:
+        ok &= (array < high) if high_open else (array <= high)
+    if not np.all(ok):
+        bad = tuple(int(i) for i in np.argwhere(~ok)[0])
+        left = "(" if low_open else "["
+        right = ")" if high_open else "]"
+        interval = (
+            f"{left}{'-inf' if low is None else f'{low:g}'}, {'inf' if high is None else f'{high:g}'}{right}"
+        )
+        where = f" at index {bad}" if array.ndim else ""
+        raise ParameterError(f"{name} must lie in {interval}; got {array[bad]}{where}")

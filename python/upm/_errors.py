@@ -1,0 +1,28 @@
+"""The exception tree of upm: everything upm raises on purpose derives from :class:`UpmError`."""
+
+from __future__ import annotations
+
+__all__ = ["ConvergenceError", "InternalError", "ParameterError", "ShapeError", "UpmError"]
+
+
+class UpmError(Exception):
+    """Root of every error upm raises on purpose."""
+
+
+class ParameterError(UpmError, ValueError):
+    """A parameter is non-finite, outside its allowed range, or inconsistent with another one.
+
+    The message names the parameter, what is allowed and what was received.
+    """
+
+
+class ShapeError(UpmError, ValueError):
+    """Arrays whose shapes do not fit together; the message gives the expected shape."""
+
+
+class ConvergenceError(UpmError, RuntimeError):
+    """An iterative method did not reach its tolerance."""
+
+
+class InternalError(UpmError, RuntimeError):
+    """A bug in upm (a Rust panic caught at the boundary). Please report it with the message."""
