@@ -104,40 +104,6 @@ pub fn two_sinusoid_force(n1: i64, n2: i64, psi: f64, b: f64) -> Result<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::waveform::BangBang;
-
-    #[test]
-    fn bang_bang_known_answers() {
-        // SPEC §2.1 (checked; a_max = T = 1): z -> v_eq, and f/(mu m g) = z^2 at rest.
-        for (z, v) in [
-            (0.1, 0.0025),
-            (0.3, 0.0225),
-            (0.5, 0.0625),
-            (0.7, 0.0225),
-            (0.9, 0.0025),
-        ] {
-            let w: Waveform = BangBang::new(z, 1.0, 1.0).unwrap().into();
-            let got = feed_rate(&w).unwrap();
-            assert!((got - v).abs() < 1e-13, "z={z}: {got} vs {v}");
-            assert!((mean_force(&w, 0.0).unwrap() - z * z).abs() < 1e-13);
-        }
-    }
-
-    #[test]
-    fn two_harmonic_known_answers() {
-        // SPEC §2.2 (checked): (b, phi) -> v_eq. Erratum E1: (1, pi/2) gives 0.25, not 1/3.
-        let h = std::f64::consts::FRAC_PI_2;
-        for (b, phi, v) in [
-            (0.5, h, 0.5),
-            (1.0, h, 0.25),
-            (0.5, h / 2.0, 0.5f64.sqrt() / 2.0),
-            (2.0, h, 0.125),
-        ] {
-            let w: Waveform = Harmonics::two_harmonic(b, phi, 1.0, 1.0).unwrap().into();
-            let got = feed_rate(&w).unwrap();
-            assert!((got - v).abs() < 1e-12, "({b}, {phi}): {got} vs {v}");
-        }
-    }
 
     #[test]
     fn pair_checks() {

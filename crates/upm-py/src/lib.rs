@@ -254,131 +254,65 @@ fn theorem1_force<'py>(
     })
 }
 
-#[pyfunction]
-fn bang_bang_feed_rate<'py>(
-    py: Python<'py>,
-    z: PyReadonlyArray1<'py, f64>,
-    a_max: PyReadonlyArray1<'py, f64>,
-    period: PyReadonlyArray1<'py, f64>,
-) -> PyResult<Bound<'py, PyAny>> {
-    elementwise(
-        py,
-        "bang_bang_feed_rate",
-        [("z", z), ("a_max", a_max), ("period", period)],
-        |[z, a, p]| Ok([theory::bang_bang_feed_rate(z, a, p)?]),
-    )
+/// A `#[pyfunction]` taking equal-length float64 columns named like the Rust parameters and
+/// applying a `upm_core::theory` closed form to each row.
+macro_rules! elementwise_fn {
+    ($(#[$doc:meta])* $name:ident($($arg:ident),+) => |$row:pat_param| $body:expr) => {
+        $(#[$doc])*
+        #[pyfunction]
+        fn $name<'py>(py: Python<'py>, $($arg: PyReadonlyArray1<'py, f64>),+) -> PyResult<Bound<'py, PyAny>> {
+            elementwise(py, stringify!($name), [$((stringify!($arg), $arg)),+], |$row| $body)
+        }
+    };
 }
 
-#[pyfunction]
-fn bang_bang_force<'py>(
-    py: Python<'py>,
-    z: PyReadonlyArray1<'py, f64>,
-    part_velocity: PyReadonlyArray1<'py, f64>,
-    a_max: PyReadonlyArray1<'py, f64>,
-    period: PyReadonlyArray1<'py, f64>,
-) -> PyResult<Bound<'py, PyAny>> {
-    let inputs = [
-        ("z", z),
-        ("part_velocity", part_velocity),
-        ("a_max", a_max),
-        ("period", period),
-    ];
-    elementwise(py, "bang_bang_force", inputs, |[z, v, a, p]| {
-        Ok([theory::bang_bang_force(z, v, a, p)?])
-    })
-}
-
-#[pyfunction]
-fn bang_bang_velocity_range<'py>(
-    py: Python<'py>,
-    z: PyReadonlyArray1<'py, f64>,
-    a_max: PyReadonlyArray1<'py, f64>,
-    period: PyReadonlyArray1<'py, f64>,
-) -> PyResult<Bound<'py, PyAny>> {
-    elementwise(
-        py,
-        "bang_bang_velocity_range",
-        [("z", z), ("a_max", a_max), ("period", period)],
-        |[z, a, p]| {
-            let (lo, hi) = theory::bang_bang_velocity_range(z, a, p)?;
-            Ok([lo, hi])
-        },
-    )
-}
-
-#[pyfunction]
-fn bang_bang_efficiency<'py>(
-    py: Python<'py>,
-    z: PyReadonlyArray1<'py, f64>,
-) -> PyResult<Bound<'py, PyAny>> {
-    elementwise(py, "bang_bang_efficiency", [("z", z)], |[z]| {
+elementwise_fn!(
+    /// Bang-bang feed rate (3.11).
+    bang_bang_feed_rate(z, a_max, period) => |[z, a, p]| Ok([theory::bang_bang_feed_rate(z, a, p)?])
+);
+elementwise_fn!(
+    /// Bang-bang force at a part velocity (3.10).
+    bang_bang_force(z, part_velocity, a_max, period) =>
+        |[z, v, a, p]| Ok([theory::bang_bang_force(z, v, a, p)?])
+);
+elementwise_fn!(
+    /// Bang-bang velocity range (3.8) -> (v_min, v_max).
+    bang_bang_velocity_range(z, a_max, period) => |[z, a, p]| {
+        let (lo, hi) = theory::bang_bang_velocity_range(z, a, p)?;
+        Ok([lo, hi])
+    }
+);
+elementwise_fn!(
+    /// Bang-bang efficiencies (3.5) -> (eta1, eta2).
+    bang_bang_efficiency(z) => |[z]| {
         let (e1, e2) = theory::bang_bang_efficiency(z)?;
         Ok([e1, e2])
-    })
-}
-
-#[pyfunction]
-fn viscous_gain<'py>(
-    py: Python<'py>,
-    a_max: PyReadonlyArray1<'py, f64>,
-    period: PyReadonlyArray1<'py, f64>,
-    mu_m_g: PyReadonlyArray1<'py, f64>,
-) -> PyResult<Bound<'py, PyAny>> {
-    elementwise(
-        py,
-        "viscous_gain",
-        [("a_max", a_max), ("period", period), ("mu_m_g", mu_m_g)],
-        |[a, p, m]| Ok([theory::viscous_gain(a, p, m)?]),
-    )
-}
-
-#[pyfunction]
-fn two_harmonic_feed_rate<'py>(
-    py: Python<'py>,
-    b: PyReadonlyArray1<'py, f64>,
-    phi: PyReadonlyArray1<'py, f64>,
-    amplitude: PyReadonlyArray1<'py, f64>,
-) -> PyResult<Bound<'py, PyAny>> {
-    elementwise(
-        py,
-        "two_harmonic_feed_rate",
-        [("b", b), ("phi", phi), ("amplitude", amplitude)],
-        |[b, phi, a]| Ok([theory::two_harmonic_feed_rate(b, phi, a)?]),
-    )
-}
-
-#[pyfunction]
-fn two_harmonic_force_at_rest<'py>(
-    py: Python<'py>,
-    b: PyReadonlyArray1<'py, f64>,
-) -> PyResult<Bound<'py, PyAny>> {
-    elementwise(py, "two_harmonic_force_at_rest", [("b", b)], |[b]| {
-        Ok([theory::two_harmonic_force_at_rest(b)?])
-    })
-}
-
-#[pyfunction]
-fn gamma<'py>(py: Python<'py>, b: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
-    elementwise(py, "gamma", [("b", b)], |[b]| Ok([theory::gamma(b)?]))
-}
-
-#[pyfunction]
-fn normalized_drive<'py>(
-    py: Python<'py>,
-    b: PyReadonlyArray1<'py, f64>,
-    a_max: PyReadonlyArray1<'py, f64>,
-    period: PyReadonlyArray1<'py, f64>,
-) -> PyResult<Bound<'py, PyAny>> {
-    elementwise(
-        py,
-        "normalized_drive",
-        [("b", b), ("a_max", a_max), ("period", period)],
-        |[b, a, p]| {
-            let d = theory::normalized_drive(b, a, p)?;
-            Ok([d.gamma, d.v_min, d.v_max, d.v_eq, d.eta1, d.eta2])
-        },
-    )
-}
+    }
+);
+elementwise_fn!(
+    /// Gain of the viscous model (3.12).
+    viscous_gain(a_max, period, mu_m_g) => |[a, p, m]| Ok([theory::viscous_gain(a, p, m)?])
+);
+elementwise_fn!(
+    /// Two-harmonic feed rate (3.16)-(3.17).
+    two_harmonic_feed_rate(b, phi, amplitude) =>
+        |[b, phi, a]| Ok([theory::two_harmonic_feed_rate(b, phi, a)?])
+);
+elementwise_fn!(
+    /// Force at rest under sin t + b cos 2t (3.15).
+    two_harmonic_force_at_rest(b) => |[b]| Ok([theory::two_harmonic_force_at_rest(b)?])
+);
+elementwise_fn!(
+    /// max |cos t - 2b sin 2t| (3.18).
+    gamma(b) => |[b]| Ok([theory::gamma(b)?])
+);
+elementwise_fn!(
+    /// The normalised drive (3.18)-(3.20) -> (gamma, v_min, v_max, v_eq, eta1, eta2).
+    normalized_drive(b, a_max, period) => |[b, a, p]| {
+        let d = theory::normalized_drive(b, a, p)?;
+        Ok([d.gamma, d.v_min, d.v_max, d.v_eq, d.eta1, d.eta2])
+    }
+);
 
 /// Raises a Rust panic inside the guarded helper: lets the tests prove panics never reach Python.
 #[pyfunction]
