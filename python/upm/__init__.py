@@ -13,6 +13,8 @@ from . import theory
 from ._core import __version__
 from ._errors import ConvergenceError, InternalError, ParameterError, ShapeError, UpmError
 from .feeding import feed_rate, force_table, mean_force, theorem1_force
+from .motion import PlateMotion
+from .sim import Point, SimResult, simulate, simulate_batch
 from .waveforms import BangBang, Harmonics, TwoHarmonic, Waveform
 
 __all__ = [
@@ -21,7 +23,10 @@ __all__ = [
     "Harmonics",
     "InternalError",
     "ParameterError",
+    "PlateMotion",
+    "Point",
     "ShapeError",
+    "SimResult",
     "TwoHarmonic",
     "UpmError",
     "Waveform",
@@ -29,6 +34,8 @@ __all__ = [
     "feed_rate",
     "force_table",
     "mean_force",
+    "simulate",
+    "simulate_batch",
     "theorem1_force",
     "theory",
 ]

@@ -6,6 +6,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
+    "PlateMotion",
     "WaveformBatch",
     "__version__",
     "_panic_for_test",
@@ -16,6 +17,7 @@ __all__ = [
     "force_table",
     "gamma",
     "normalized_drive",
+    "simulate",
     "theorem1_force",
     "two_harmonic_feed_rate",
     "two_harmonic_force_at_rest",
@@ -51,3 +53,45 @@ def two_harmonic_force_at_rest(b: _F) -> _F: ...
 def gamma(b: _F) -> _F: ...
 def normalized_drive(b: _F, a_max: _F, period: _F) -> tuple[_F, _F, _F, _F, _F, _F]: ...
 def _panic_for_test() -> None: ...
+
+@final
+class PlateMotion:
+    @staticmethod
+    def translation(direction: tuple[float, float], waveform: WaveformBatch) -> PlateMotion: ...
+    @staticmethod
+    def rotation(center: tuple[float, float], waveform: WaveformBatch) -> PlateMotion: ...
+    @staticmethod
+    def jet(
+        center: tuple[float, float],
+        direction: tuple[float, float],
+        rho: float,
+        amplitude: float,
+        frequency: float,
+    ) -> PlateMotion: ...
+    @staticmethod
+    def rest(duration: float) -> PlateMotion: ...
+    @staticmethod
+    def from_samples(t: _F, u: _F) -> PlateMotion: ...
+    @staticmethod
+    def sequence(motions: list[PlateMotion]) -> PlateMotion: ...
+    def for_duration(self, seconds: float) -> PlateMotion: ...
+    def with_envelope(self, attack: float, sustain: float, decay: float) -> PlateMotion: ...
+    def duration(self) -> float | None: ...
+    def max_frequency(self) -> float: ...
+    def __len__(self) -> int: ...
+    def evaluate(self, t: _F) -> tuple[_F, _F]: ...
+    def displacement(self) -> list[float]: ...
+
+def simulate(
+    motions: list[PlateMotion],
+    positions: _F,
+    velocities: _F,
+    mu: _F,
+    mu_s: _F,
+    *,
+    dt: float,
+    duration: float,
+    g: float,
+    plate_size: float | None,
+    record_every: int,
+) -> tuple[_F, _F, _F, NDArray[np.bool_], _F]: ...

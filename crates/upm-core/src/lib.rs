@@ -10,13 +10,17 @@
 //! * [`waveform`]: periodic 1-D plate velocities and their monotone pieces.
 //! * [`friction`]: exact average Coulomb forces and feed rates (root-based, no sampling).
 //! * [`theory`]: the closed forms of chapter 3 and Theorem 1 (section 6.4).
+//! * [`motion`]: plate motion programs `(u1, u2, u3)(t)`.
+//! * [`sim`]: the exact stick–slip integrator for point parts, batched and parallel.
 //! * [`parallel`]: deterministic batches on rayon.
 #![deny(missing_docs)]
 
 pub mod error;
 pub mod friction;
+pub mod motion;
 pub mod parallel;
 pub(crate) mod roots;
+pub mod sim;
 pub mod theory;
 pub mod waveform;
 

@@ -228,6 +228,15 @@ impl Waveform {
         }
     }
 
+    /// Highest frequency present [Hz]: the top harmonic, or for bang-bang (whose acceleration
+    /// jumps) ten times the base frequency, enough to place its corners in a fine time step.
+    pub fn max_frequency(&self) -> f64 {
+        match self {
+            Waveform::Harmonics(h) => h.frequency * h.degree() as f64,
+            Waveform::BangBang(b) => 10.0 / b.period,
+        }
+    }
+
     /// Velocity [m/s] at time `t` [s].
     pub fn velocity(&self, t: f64) -> f64 {
         match self {

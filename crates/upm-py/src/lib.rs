@@ -5,6 +5,7 @@
 //! `(B, K)` coefficient tables), float64; outputs are new NumPy arrays.
 
 mod errors;
+mod motion;
 
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -15,8 +16,8 @@ use errors::{batch, core, shape_error};
 
 /// A batch of validated periodic plate velocities (one per row), built once and reused.
 #[pyclass(frozen, module = "upm._core")]
-struct WaveformBatch {
-    waves: Vec<Waveform>,
+pub struct WaveformBatch {
+    pub waves: Vec<Waveform>,
 }
 
 fn column(a: &PyReadonlyArray1<'_, f64>) -> Vec<f64> {
@@ -326,6 +327,8 @@ fn _panic_for_test(py: Python<'_>) -> PyResult<()> {
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<WaveformBatch>()?;
+    m.add_class::<motion::PlateMotion>()?;
+    m.add_function(wrap_pyfunction!(motion::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(force_table, m)?)?;
     m.add_function(wrap_pyfunction!(theorem1_force, m)?)?;
     m.add_function(wrap_pyfunction!(bang_bang_feed_rate, m)?)?;

@@ -1,0 +1,235 @@
+//! Binding of plate motion programs and the point-part integrator.
+
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyTuple;
+use upm_core::motion::PlateMotion as CoreMotion;
+use upm_core::sim::{self, Config, Parts, Trajectory};
+use upm_core::{Error, Waveform};
+
+use crate::errors::{core, detached, shape_error, Failure};
+use crate::WaveformBatch;
+
+/// A plate motion program (see `upm.PlateMotion`).
+#[pyclass(frozen, module = "upm._core")]
+pub struct PlateMotion {
+    pub inner: CoreMotion,
+}
+
+fn one_wave(py: Python<'_>, w: &WaveformBatch) -> PyResult<Waveform> {
+    match w.waves.as_slice() {
+        [single] => Ok(single.clone()),
+        many => Err(shape_error(
+            py,
+            format!(
+                "waveform must be a single waveform (shape ()); got {} of them",
+                many.len()
+            ),
+        )),
+    }
+}
+
+fn wrap(py: Python<'_>, r: upm_core::Result<CoreMotion>) -> PyResult<PlateMotion> {
+    core(py, r).map(|inner| PlateMotion { inner })
+}
+
+#[pymethods]
+impl PlateMotion {
+    #[staticmethod]
+    fn translation(
+        py: Python<'_>,
+        direction: [f64; 2],
+        waveform: &WaveformBatch,
+    ) -> PyResult<Self> {
+        let w = one_wave(py, waveform)?;
+        wrap(py, CoreMotion::translation(direction, w))
+    }
+
+    #[staticmethod]
+    fn rotation(py: Python<'_>, center: [f64; 2], waveform: &WaveformBatch) -> PyResult<Self> {
+        let w = one_wave(py, waveform)?;
+        wrap(py, CoreMotion::rotation(center, w))
+    }
+
+    #[staticmethod]
+    fn jet(
+        py: Python<'_>,
+        center: [f64; 2],
+        direction: [f64; 2],
+        rho: f64,
+        amplitude: f64,
+        frequency: f64,
+    ) -> PyResult<Self> {
+        wrap(
+            py,
+            CoreMotion::jet(center, direction, rho, amplitude, frequency),
+        )
+    }
+
+    #[staticmethod]
+    fn rest(py: Python<'_>, duration: f64) -> PyResult<Self> {
+        wrap(py, CoreMotion::rest(duration))
+    }
+
+    #[staticmethod]
+    fn from_samples(
+        py: Python<'_>,
+        t: PyReadonlyArray1<'_, f64>,
+        u: PyReadonlyArray2<'_, f64>,
+    ) -> PyResult<Self> {
+        let u = u.as_array();
+        if u.shape()[1] != 3 {
+            return Err(shape_error(
+                py,
+                format!(
+                    "u must have shape (N, 3) for (u1, u2, u3); got {:?}",
+                    u.shape()
+                ),
+            ));
+        }
+        let rows: Vec<[f64; 3]> = u.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect();
+        wrap(py, CoreMotion::from_samples(&t.as_array().to_vec(), &rows))
+    }
+
+    #[staticmethod]
+    fn sequence(py: Python<'_>, motions: Vec<PyRef<'_, PlateMotion>>) -> PyResult<Self> {
+        wrap(
+            py,
+            CoreMotion::sequence(motions.iter().map(|m| m.inner.clone()).collect()),
+        )
+    }
+
+    fn for_duration(&self, py: Python<'_>, seconds: f64) -> PyResult<Self> {
+        wrap(py, self.inner.clone().for_duration(seconds))
+    }
+
+    fn with_envelope(
+        &self,
+        py: Python<'_>,
+        attack: f64,
+        sustain: f64,
+        decay: f64,
+    ) -> PyResult<Self> {
+        wrap(py, self.inner.clone().with_envelope(attack, sustain, decay))
+    }
+
+    fn duration(&self) -> Option<f64> {
+        self.inner.duration()
+    }
+
+    fn max_frequency(&self) -> f64 {
+        self.inner.max_frequency()
+    }
+
+    fn __len__(&self) -> usize {
+        self.inner.items().len()
+    }
+
+    /// `(u (N, 3), du/dt (N, 3))` at times `t (N,)`.
+    fn evaluate<'py>(
+        &self,
+        py: Python<'py>,
+        t: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let t = t.as_array().to_vec();
+        let (u, a): (Vec<[f64; 3]>, Vec<[f64; 3]>) = t.iter().map(|&s| self.inner.at(s)).unzip();
+        let n = t.len();
+        let u = PyArray1::from_vec(py, u.concat()).reshape([n, 3])?;
+        let a = PyArray1::from_vec(py, a.concat()).reshape([n, 3])?;
+        PyTuple::new(py, [u, a])
+    }
+
+    fn displacement(&self, py: Python<'_>) -> PyResult<[f64; 3]> {
+        detached(py, || self.inner.displacement().map_err(Failure::from))
+    }
+}
+
+fn pairs(py: Python<'_>, name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f64; 2]>> {
+    let a = a.as_array();
+    if a.shape()[1] != 2 {
+        return Err(shape_error(
+            py,
+            format!("{name} must have shape (M, 2); got {:?}", a.shape()),
+        ));
+    }
+    Ok(a.rows().into_iter().map(|r| [r[0], r[1]]).collect())
+}
+
+/// Flattened `(t, positions, velocities, stuck, left_time)` of several trajectories of equal size.
+fn to_arrays<'py>(
+    py: Python<'py>,
+    runs: Vec<Trajectory>,
+    m: usize,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let b = runs.len();
+    let rows = runs.first().map_or(0, |r| r.t.len());
+    let t = PyArray1::from_vec(py, runs.first().map(|r| r.t.clone()).unwrap_or_default());
+    let mut pos: Vec<f64> = Vec::with_capacity(b * rows * m * 2);
+    let mut vel: Vec<f64> = Vec::with_capacity(b * rows * m * 2);
+    let mut stuck = Vec::with_capacity(b * rows * m);
+    let mut left = Vec::with_capacity(b * m);
+    for r in runs {
+        pos.extend(r.positions.iter().flatten());
+        vel.extend(r.velocities.iter().flatten());
+        stuck.extend(r.stuck);
+        left.extend(r.left_plate.iter().map(|l| l.unwrap_or(f64::NAN)));
+    }
+    let pos = PyArray1::from_vec(py, pos).reshape([b, rows, m, 2])?;
+    let vel = PyArray1::from_vec(py, vel).reshape([b, rows, m, 2])?;
+    let stuck = PyArray1::from_vec(py, stuck).reshape([b, rows, m])?;
+    let left = PyArray1::from_vec(py, left).reshape([b, m])?;
+    PyTuple::new(
+        py,
+        [
+            t.into_any(),
+            pos.into_any(),
+            vel.into_any(),
+            stuck.into_any(),
+            left.into_any(),
+        ],
+    )
+}
+
+/// Simulates point parts under each of `motions` (B worlds); arrays carry a leading batch axis.
+#[pyfunction]
+#[pyo3(signature = (motions, positions, velocities, mu, mu_s, *, dt, duration, g, plate_size, record_every))]
+#[allow(clippy::too_many_arguments)]
+pub fn simulate<'py>(
+    py: Python<'py>,
+    motions: Vec<PyRef<'py, PlateMotion>>,
+    positions: PyReadonlyArray2<'py, f64>,
+    velocities: PyReadonlyArray2<'py, f64>,
+    mu: PyReadonlyArray1<'py, f64>,
+    mu_s: PyReadonlyArray1<'py, f64>,
+    dt: f64,
+    duration: f64,
+    g: f64,
+    plate_size: Option<f64>,
+    record_every: usize,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let parts = Parts {
+        position: pairs(py, "positions", &positions)?,
+        velocity: pairs(py, "velocities", &velocities)?,
+        mu: mu.as_array().to_vec(),
+        mu_s: mu_s.as_array().to_vec(),
+    };
+    let m = parts.position.len();
+    let cfg = Config {
+        dt,
+        duration,
+        g,
+        plate_size,
+        record_every,
+    };
+    let motions: Vec<CoreMotion> = motions.iter().map(|p| p.inner.clone()).collect();
+    if motions.is_empty() {
+        return Err(crate::errors::to_py(
+            py,
+            Error::parameter("motions", "must contain at least one motion"),
+        ));
+    }
+    let runs = detached(py, || {
+        sim::simulate_batch(&motions, &parts, &cfg).map_err(Failure::from)
+    })?;
+    to_arrays(py, runs, m)
+}

@@ -1,0 +1,163 @@
+"""Plate motion programs: the plate's in-plane velocity ``(u1, u2, u3)(t)`` (SPEC §1, thesis 4.2).
+
+World frame, metres and seconds. The plate's surface velocity at ``P = (x, y)`` is
+``v_s(P) = (u1 - u3 y, u2 + u3 x)`` [m/s]; ``u3`` is the angular rate [rad/s]. Plate displacements
+are assumed small, so the plate and world frames coincide for friction.
+
+A motion without a duration repeats forever; ``for_duration`` and ``with_envelope`` give it one,
+and ``PlateMotion.sequence`` plays timed motions one after another. After the last timed motion
+the plate is at rest.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from . import _core
+from ._arrays import as_float
+from ._errors import ParameterError, ShapeError
+from .waveforms import Waveform
+
+__all__ = ["PlateMotion"]
+
+
+def _vector(name: str, value: ArrayLike) -> tuple[float, float]:
+    v = as_float(name, value)
+    if v.shape != (2,):
+        raise ShapeError(f"{name} must have shape (2,); got {v.shape}")
+    return float(v[0]), float(v[1])
+
+
+def _scalar_waveform(waveform: Any) -> _core.WaveformBatch:
+    if not isinstance(waveform, Waveform):
+        kind = type(waveform).__name__
+        raise ParameterError(
+            f"waveform must be a upm waveform (TwoHarmonic, BangBang, Harmonics); got {kind}"
+        )
+    if waveform.shape != ():
+        raise ShapeError(f"waveform must be a single waveform (shape ()); got shape {waveform.shape}")
+    return waveform._batch
+
+
+class PlateMotion:
+    """A plate motion program. Build one with the class methods; combine with :meth:`sequence`.
+
+    Examples
+    --------
+    >>> import upm, numpy as np
+    >>> drive = upm.TwoHarmonic(0.5, np.pi / 2, amplitude=0.02, frequency=35.0)
+    >>> pulse = upm.PlateMotion.translation((1, 0), drive).with_envelope(0.02, 0.2, 0.02)
+    >>> program = upm.PlateMotion.sequence([pulse, upm.PlateMotion.rest(0.5)])
+    >>> round(program.duration, 6)
+    0.74
+    """
+
+    __slots__ = ("_inner",)
+
+    def __init__(self, inner: _core.PlateMotion):
+        self._inner = inner
+
+    @classmethod
+    def translation(cls, direction: ArrayLike, waveform: Waveform) -> PlateMotion:
+        """Translation along ``direction`` (normalised) with speed ``waveform(t)`` [m/s]."""
+        return cls(_core.PlateMotion.translation(_vector("direction", direction), _scalar_waveform(waveform)))
+
+    @classmethod
+    def rotation(cls, center: ArrayLike, waveform: Waveform) -> PlateMotion:
+        """Rotation about ``center`` [m] at angular rate ``waveform(t)`` [rad/s]."""
+        return cls(_core.PlateMotion.rotation(_vector("center", center), _scalar_waveform(waveform)))
+
+    @classmethod
+    def jet(
+        cls, center: ArrayLike, direction: ArrayLike, rho: float, amplitude: float, frequency: float
+    ) -> PlateMotion:
+        """The jet (6.4): ``A d [cos wt - cos 2wt] + (2A/rho) sin(2wt/3) R90(P - C)``.
+
+        Parts near ``center`` feed along ``direction`` with a third of ``mu m g`` at the focus;
+        far away the force vanishes; ``rho`` [m] is where the two terms have equal peaks. Period
+        ``3 / frequency``.
+        """
+        return cls(
+            _core.PlateMotion.jet(
+                _vector("center", center),
+                _vector("direction", direction),
+                float(rho),
+                float(amplitude),
+                float(frequency),
+            )
+        )
+
+    @classmethod
+    def rest(cls, duration: float) -> PlateMotion:
+        """The plate at rest for ``duration`` [s]."""
+        return cls(_core.PlateMotion.rest(float(duration)))
+
+    @classmethod
+    def from_samples(cls, t: ArrayLike, u1: ArrayLike, u2: ArrayLike, u3: ArrayLike) -> PlateMotion:
+        """Measured or synthesised plate velocities, linearly interpolated.
+
+        ``t`` [s] strictly increasing; ``u1, u2`` [m/s] and ``u3`` [rad/s] of the same length.
+        The motion lasts ``t[-1] - t[0]``.
+        """
+        ts = np.ascontiguousarray(as_float("t", t).reshape(-1))
+        cols = [as_float(n, v).reshape(-1) for n, v in (("u1", u1), ("u2", u2), ("u3", u3))]
+        if any(c.size != ts.size for c in cols):
+            raise ShapeError(
+                f"t, u1, u2, u3 must have equal lengths; got {ts.size}, {[c.size for c in cols]}"
+            )
+        return cls(_core.PlateMotion.from_samples(ts, np.ascontiguousarray(np.stack(cols, axis=1))))
+
+    @classmethod
+    def sequence(cls, motions: Sequence[PlateMotion]) -> PlateMotion:
+        """The motions one after another; every one but the last needs a duration."""
+        items = list(motions)
+        if not all(isinstance(m, PlateMotion) for m in items):
+            raise ParameterError("motions must be a sequence of upm.PlateMotion")
+        return cls(_core.PlateMotion.sequence([m._inner for m in items]))
+
+    def for_duration(self, seconds: float) -> PlateMotion:
+        """This motion for ``seconds`` [s] only."""
+        return PlateMotion(self._inner.for_duration(float(seconds)))
+
+    def with_envelope(self, attack: float, sustain: float, decay: float) -> PlateMotion:
+        """This motion under a raised-cosine envelope (SPEC §5); lasts ``attack + sustain + decay``."""
+        return PlateMotion(self._inner.with_envelope(float(attack), float(sustain), float(decay)))
+
+    @property
+    def duration(self) -> float | None:
+        """Total duration [s]; ``None`` when the motion repeats forever."""
+        return self._inner.duration()
+
+    @property
+    def max_frequency(self) -> float:
+        """Highest frequency in the program [Hz]; the integrator needs ``dt <= 1 / (20 max_frequency)``."""
+        return self._inner.max_frequency()
+
+    def velocity(self, t: ArrayLike) -> np.ndarray:
+        """Plate velocity ``(u1, u2, u3)`` at times ``t`` [s]: shape ``(*t.shape, 3)``."""
+        ts = as_float("t", t)
+        u, _ = self._inner.evaluate(np.ascontiguousarray(ts.reshape(-1)))
+        return u.reshape(*ts.shape, 3)
+
+    def acceleration(self, t: ArrayLike) -> np.ndarray:
+        """Plate acceleration ``d(u1, u2, u3)/dt`` at times ``t`` [s]: shape ``(*t.shape, 3)``."""
+        ts = as_float("t", t)
+        _, a = self._inner.evaluate(np.ascontiguousarray(ts.reshape(-1)))
+        return a.reshape(*ts.shape, 3)
+
+    def displacement(self) -> np.ndarray:
+        """Net pose change ``(dx [m], dy [m], dtheta [rad])`` over the program (one period if it
+        repeats forever), integrated with RK4."""
+        return np.array(self._inner.displacement())
+
+    def is_closed(self, tol: float = 1e-9) -> bool:
+        """Whether the plate returns home: every component of :meth:`displacement` within ``tol``."""
+        return bool(np.all(np.abs(self.displacement()) <= tol))
+
+    def __repr__(self) -> str:
+        d = self.duration
+        return f"PlateMotion(items={len(self._inner)}, duration={'forever' if d is None else f'{d:g} s'})"
