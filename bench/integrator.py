@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import argparse
 import os
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -51,10 +53,26 @@ def numpy_reference(
     return x, y, vx, vy
 
 
+def ours_only(n: int, steps: int) -> float:
+    """Best-of-three ns per part-step of upm alone (used to measure thread scaling)."""
+    motion, dt = program(), 1 / F / 400
+    pos = np.random.default_rng(3).uniform(-0.1, 0.1, (n, 2))
+    best = np.inf
+    for _ in range(3):
+        start = time.perf_counter()
+        upm.simulate(motion, pos, duration=steps * dt, dt=dt, mu=MU, mu_s=MU_S, record_every=steps)
+        best = min(best, time.perf_counter() - start)
+    return best * 1e9 / (n * steps)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="smaller problems")
+    parser.add_argument("--ours-only", nargs=2, type=int, metavar=("PARTS", "STEPS"), help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.ours_only:
+        print(ours_only(*args.ours_only))
+        return
     motion = program()
     dt = 1 / F / 400
     rng = np.random.default_rng(3)
@@ -64,6 +82,7 @@ def main() -> None:
     sizes = [(1_000, 20_000), (100_000, 1000), (1_000_000, 200)]
     if args.quick:
         sizes = [(1_000, 2000), (100_000, 100)]
+    numpy_ns: dict[int, float] = {}
     for n, steps in sizes:
         pos = rng.uniform(-0.1, 0.1, (n, 2))
         kw = dict(duration=steps * dt, dt=dt, mu=MU, mu_s=MU_S, record_every=steps)
@@ -77,10 +96,29 @@ def main() -> None:
         t_np = time.perf_counter() - start
         diff = np.abs(run.positions[-1] - np.stack([x, y], 1)).max()
         ns = 1e9 / (n * steps)
+        numpy_ns[n] = t_np * ns
         print(
             f"{n:>9,} {steps:>7} {t_ours * ns:>17.2f} {t_np * ns:>19.2f} {t_np / t_ours:>6.1f}x  {diff:.1e}"
         )
         assert diff < 1e-12, "the reference must reproduce upm's trajectory for the ratio to mean anything"
+
+    n, steps = (100_000, 1000) if not args.quick else (100_000, 100)
+    per_thread = {}
+    for threads in ("1", str(os.cpu_count())):
+        env = dict(os.environ, RAYON_NUM_THREADS=threads)
+        out = subprocess.run(
+            [sys.executable, __file__, "--ours-only", str(n), str(steps)],
+            env=env,
+            capture_output=True,
+            text=True,
+        )
+        per_thread[threads] = float(out.stdout.strip())
+    one, many = per_thread["1"], per_thread[str(os.cpu_count())]
+    cores = os.cpu_count()
+    print(f"\nthread scaling at {n:,} parts: 1 thread {one:.2f} ns/part-step, {cores} threads {many:.2f}")
+    print(f"  speed-up {one / many:.2f}x")
+    if n in numpy_ns:
+        print(f"  per core (1 thread) against numpy at {n:,} parts: {numpy_ns[n] / one:.1f}x")
 
 
 if __name__ == "__main__":

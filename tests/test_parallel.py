@@ -15,7 +15,11 @@ SCRIPT = """
 import numpy as np, upm, sys
 psi = np.linspace(-3, 3, 20011)
 rates = upm.feed_rate(upm.TwoHarmonic(np.linspace(0, 2, 101)[:, None], np.linspace(-3, 3, 97)))
-sys.stdout.buffer.write(upm.force_table(2, 7, psi).tobytes() + rates.tobytes())
+drive = upm.TwoHarmonic(0.5, 1.5707963, amplitude=0.05, frequency=35.0)
+motion = upm.PlateMotion.rotation((0.01, 0.02), drive)
+parts = np.random.default_rng(5).uniform(-0.1, 0.1, (1000, 2))
+run = upm.simulate(motion, parts, duration=0.05, dt=1e-4, mu=0.3, mu_s=0.4, record_every=100)
+sys.stdout.buffer.write(upm.force_table(2, 7, psi).tobytes() + rates.tobytes() + run.positions.tobytes())
 """
 
 
@@ -25,7 +29,7 @@ def test_bitwise_identical_for_one_and_two_threads():
         env = dict(os.environ, RAYON_NUM_THREADS=threads)
         run = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True, check=True)
         outputs.append(run.stdout)
-    assert len(outputs[0]) == 8 * (20011 + 101 * 97)
+    assert len(outputs[0]) == 8 * (20011 + 101 * 97 + 6 * 1000 * 2)
     assert outputs[0] == outputs[1]
 
 
@@ -64,4 +68,21 @@ def test_ctrl_c_interrupts_a_long_call():
     finally:
         timer.cancel()
     # Each call takes far longer than 0.2 s, so the interrupt must have stopped the first one.
+    assert completed == 0
+
+
+def test_ctrl_c_interrupts_a_long_simulation():
+    motion = upm.PlateMotion.translation((1, 0), upm.TwoHarmonic(0.5, 1.0, amplitude=0.02, frequency=35.0))
+    parts = np.zeros((20_000, 2))
+    timer = threading.Timer(0.2, os.kill, (os.getpid(), signal.SIGINT))
+    completed = 0
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            for _ in range(3):
+                # 2e10 part-steps: minutes of work unless the interrupt stops it between blocks.
+                upm.simulate(motion, parts, duration=70.0, dt=7e-5, mu=0.3, record_every=10**6)
+                completed += 1
+    finally:
+        timer.cancel()
     assert completed == 0

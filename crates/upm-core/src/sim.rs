@@ -219,7 +219,7 @@ fn step_kernel(
         let (sx, sy) = (u1 - u3 * y[i], u2 + u3 * x[i]);
         let (wx, wy) = (vx[i] - sx, vy[i] - sy);
         let wn = (wx * wx + wy * wy).sqrt();
-        let stick = wn <= slide[i] || (stuck[i] > 0.0 && wn <= hold[i]);
+        let stick = (wn <= slide[i]) | ((stuck[i] > 0.0) & (wn <= hold[i]));
         let keep = if stick { 0.0 } else { 1.0 - slide[i] / wn };
         let (nvx, nvy) = (sx + wx * keep, sy + wy * keep);
         // Parts that left the plate (active = 0) keep their state.
@@ -316,14 +316,35 @@ impl Chunk {
     }
 }
 
-/// Simulates point `parts` on a plate driven by `motion`.
-pub fn simulate(motion: &PlateMotion, parts: &Parts, cfg: &Config) -> Result<Trajectory> {
-    parts.check()?;
+/// The chunks of one world and what has been recorded of it.
+struct World<'a> {
+    motion: &'a PlateMotion,
+    chunks: Vec<Chunk>,
+    out: Trajectory,
+    table: Vec<[f64; 3]>,
+}
+
+impl World<'_> {
+    /// Appends the rows the chunks recorded since the last flush, part-major within a row.
+    fn flush(&mut self) {
+        let n = self.chunks.first().map_or(0, |c| c.record.len());
+        for r in 0..n {
+            for c in &self.chunks {
+                self.out.positions.extend_from_slice(&c.record[r].pos);
+                self.out.velocities.extend_from_slice(&c.record[r].vel);
+                self.out.stuck.extend_from_slice(&c.record[r].stuck);
+            }
+        }
+        for c in &mut self.chunks {
+            c.record.clear();
+        }
+    }
+}
+
+fn chunks(parts: &Parts, cfg: &Config, u0: [f64; 3]) -> Vec<Chunk> {
     let m = parts.position.len();
-    let steps = cfg.steps(motion, m)?;
     let half = cfg.plate_size.map_or(f64::INFINITY, |s| 0.5 * s);
-    let u0 = motion.velocity(0.0);
-    let mut chunks: Vec<Chunk> = (0..m)
+    (0..m)
         .step_by(CHUNK_PARTS)
         .map(|start| {
             let r = start..(start + CHUNK_PARTS).min(m);
@@ -362,57 +383,15 @@ pub fn simulate(motion: &PlateMotion, parts: &Parts, cfg: &Config) -> Result<Tra
                 record: Vec::new(),
             }
         })
-        .collect();
+        .collect()
+}
 
-    let rows = steps / cfg.record_every + 1;
-    let mut out = Trajectory {
-        t: Vec::with_capacity(rows),
-        positions: Vec::with_capacity(rows * m),
-        velocities: Vec::with_capacity(rows * m),
-        stuck: Vec::with_capacity(rows * m),
-        left_plate: Vec::new(),
-    };
-    let flush = |chunks: &mut [Chunk], out: &mut Trajectory| {
-        let n = chunks.first().map_or(0, |c| c.record.len());
-        for r in 0..n {
-            for c in chunks.iter() {
-                out.positions.extend_from_slice(&c.record[r].pos);
-                out.velocities.extend_from_slice(&c.record[r].vel);
-                out.stuck.extend_from_slice(&c.record[r].stuck);
-            }
-        }
-        for c in chunks.iter_mut() {
-            c.record.clear();
-        }
-    };
-    out.t.push(0.0);
-    for c in chunks.iter_mut() {
-        c.record.push(c.row());
-    }
-    flush(&mut chunks, &mut out);
-
-    let mut table = Vec::with_capacity(BLOCK_STEPS);
-    let mut first = 0;
-    while first < steps {
-        let end = (first + BLOCK_STEPS).min(steps);
-        table.clear();
-        // Sampled a hair before each step's end: a program boundary that falls on a step end
-        // (the usual case: durations in whole steps) then always belongs to the step before it,
-        // whatever the rounding of (s + 1) dt.
-        table.extend((first..end).map(|s| motion.velocity(((s + 1) as f64 - 1e-6) * cfg.dt)));
-        chunks
-            .par_iter_mut()
-            .for_each(|c| c.run(&table, first, cfg));
-        out.t.extend(
-            ((first + 1)..=end)
-                .filter(|s| s.is_multiple_of(cfg.record_every))
-                .map(|s| s as f64 * cfg.dt),
-        );
-        flush(&mut chunks, &mut out);
-        first = end;
-    }
-    out.left_plate = chunks.iter().flat_map(|c| c.left.iter().copied()).collect();
-    Ok(out)
+/// Simulates point `parts` on a plate driven by `motion`.
+pub fn simulate(motion: &PlateMotion, parts: &Parts, cfg: &Config) -> Result<Trajectory> {
+    let mut runs = simulate_worlds(std::slice::from_ref(motion), parts, cfg, |_| {
+        Ok::<(), Error>(())
+    })?;
+    Ok(runs.remove(0))
 }
 
 /// Simulates `B` independent worlds, one motion each, all starting from `parts`, in parallel.
@@ -421,7 +400,91 @@ pub fn simulate_batch(
     parts: &Parts,
     cfg: &Config,
 ) -> Result<Vec<Trajectory>> {
-    crate::parallel::try_map(0..motions.len(), |b| {
-        simulate(&motions[b], parts, cfg).map_err(|e| e.with_context(&format!("world {b}")))
-    })
+    simulate_worlds(motions, parts, cfg, |_| Ok::<(), Error>(()))
+}
+
+/// The worlds of [`simulate_batch`], advanced together one block of steps at a time (every chunk
+/// of every world in parallel), calling `between(steps_done)` on the calling thread after each
+/// block; an error from it (an interrupt) stops the run.
+pub fn simulate_worlds<E, B>(
+    motions: &[PlateMotion],
+    parts: &Parts,
+    cfg: &Config,
+    mut between: B,
+) -> std::result::Result<Vec<Trajectory>, E>
+where
+    E: From<Error>,
+    B: FnMut(usize) -> std::result::Result<(), E>,
+{
+    parts.check()?;
+    let m = parts.position.len();
+    let mut steps = 0;
+    for (b, motion) in motions.iter().enumerate() {
+        steps = cfg.steps(motion, m).map_err(|e| {
+            if motions.len() > 1 {
+                e.with_context(&format!("world {b}"))
+            } else {
+                e
+            }
+        })?;
+    }
+    let rows = steps / cfg.record_every + 1;
+    let mut worlds: Vec<World> = motions
+        .iter()
+        .map(|motion| World {
+            motion,
+            chunks: chunks(parts, cfg, motion.velocity(0.0)),
+            out: Trajectory {
+                t: Vec::with_capacity(rows),
+                positions: Vec::with_capacity(rows * m),
+                velocities: Vec::with_capacity(rows * m),
+                stuck: Vec::with_capacity(rows * m),
+                left_plate: Vec::new(),
+            },
+            table: Vec::with_capacity(BLOCK_STEPS),
+        })
+        .collect();
+    for w in &mut worlds {
+        w.out.t.push(0.0);
+        for c in &mut w.chunks {
+            c.record.push(c.row());
+        }
+        w.flush();
+    }
+    let mut first = 0;
+    while first < steps {
+        let end = (first + BLOCK_STEPS).min(steps);
+        worlds.par_iter_mut().for_each(|w| {
+            w.table.clear();
+            // Sampled a hair before each step's end: a program boundary that falls on a step end
+            // (the usual case: durations in whole steps) then always belongs to the step before
+            // it, whatever the rounding of (s + 1) dt.
+            let motion = w.motion;
+            w.table
+                .extend((first..end).map(|s| motion.velocity(((s + 1) as f64 - 1e-6) * cfg.dt)));
+            let table = &w.table;
+            w.chunks
+                .par_iter_mut()
+                .for_each(|c| c.run(table, first, cfg));
+            w.out.t.extend(
+                ((first + 1)..=end)
+                    .filter(|s| s.is_multiple_of(cfg.record_every))
+                    .map(|s| s as f64 * cfg.dt),
+            );
+            w.flush();
+        });
+        between(end)?;
+        first = end;
+    }
+    Ok(worlds
+        .into_iter()
+        .map(|mut w| {
+            w.out.left_plate = w
+                .chunks
+                .iter()
+                .flat_map(|c| c.left.iter().copied())
+                .collect();
+            w.out
+        })
+        .collect())
 }

@@ -229,7 +229,10 @@ pub fn simulate<'py>(
         ));
     }
     let runs = detached(py, || {
-        sim::simulate_batch(&motions, &parts, &cfg).map_err(Failure::from)
+        // Every world advances one block at a time; Ctrl-C is honoured between blocks.
+        sim::simulate_worlds(&motions, &parts, &cfg, |_| {
+            Python::attach(|py| py.check_signals()).map_err(Failure::from)
+        })
     })?;
     to_arrays(py, runs, m)
 }
