@@ -18,5 +18,6 @@ for periods in (5, 10, 20):
     x, v = run.positions[:, 0, 0], run.velocities[k, 0, 0]
     print(
         f"sustain {periods:>2} periods: moved {1000 * x[-1]:6.3f} mm, of which coasting "
-        f"{1000 * (x[-1] - x[k]):.3f} mm (v^2/2 mu g = {1000 * v * v / (2 * MU * G):.3f} mm); at rest: {run.stuck[-1, 0]}"
+        f"{1000 * (x[-1] - x[k]):.3f} mm (v^2/2 mu g = {1000 * v * v / (2 * MU * G):.3f} mm);",
+        f"at rest: {run.stuck[-1, 0]}",
     )
