@@ -56,7 +56,8 @@ lint: $(VENV)/.built ## ruff (fixing what it can), clippy, mypy
 bench: $(VENV)/.built ## side-by-side benchmarks (ours vs the peer, ratios printed)
 	cargo bench --quiet -p upm-core
 	$(PY) bench/theory.py
-	$(PY) bench/integrator.py
+	$(PY) -m pip install --quiet 'mujoco>=3.1'
+	$(PY) bench/integrator.py --mujoco
 
 .PHONY: wheel
 wheel: $(VENV)/.deps ## build the abi3 wheel into dist/

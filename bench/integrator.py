@@ -20,6 +20,7 @@ import numpy as np
 import upm
 
 F, G, MU, MU_S = 35.0, 9.81, 0.3, 0.4
+HALF = 0.0005  # half-size of MuJoCo's point-like box parts [m]
 
 
 def program() -> upm.PlateMotion:
@@ -53,6 +54,46 @@ def numpy_reference(
     return x, y, vx, vy
 
 
+def mujoco_peer(motion: upm.PlateMotion, pos: np.ndarray, steps: int, dt: float) -> tuple[float, np.ndarray]:
+    """MuJoCo: a massive plate on slide/slide/hinge joints whose joint velocities are prescribed
+    open-loop from ``motion`` each step, and small boxes lying on it as point-like parts (spheres
+    would roll instead of sliding).
+    Elliptic friction cones, impratio 100, solref 0.001, timestep ``dt``. Returns the seconds the
+    steps took and the parts' final (x, y)."""
+    import mujoco
+
+    spheres = "\n".join(
+        f'<body pos="{x:.6f} {y:.6f} 0.0105"><freejoint/>'
+        f'<geom type="box" size="{HALF} {HALF} {HALF}" mass="0.001"/></body>'
+        for x, y in pos
+    )
+    xml = f"""
+    <mujoco>
+      <option timestep="{dt}" cone="elliptic" impratio="100" gravity="0 0 -{G}"/>
+      <default><geom solref="0.001 1" friction="{MU} 0.005 0.0001" condim="3"/></default>
+      <worldbody>
+        <body name="plate">
+          <joint type="slide" axis="1 0 0"/><joint type="slide" axis="0 1 0"/>
+          <joint type="hinge" axis="0 0 1"/>
+          <geom type="box" size="0.3 0.3 0.01" mass="10000"/>
+        </body>
+        {spheres}
+      </worldbody>
+    </mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    for _ in range(200):  # let the spheres settle onto the still plate
+        mujoco.mj_step(model, data)
+    u = motion.velocity(np.arange(1, steps + 1) * dt)
+    start = time.perf_counter()
+    for k in range(steps):
+        data.qvel[:3] = u[k]
+        mujoco.mj_step(model, data)
+    elapsed = time.perf_counter() - start
+    xy = data.qpos[3:].reshape(-1, 7)[:, :2].copy()
+    return elapsed, xy
+
+
 def ours_only(n: int, steps: int) -> float:
     """Best-of-three ns per part-step of upm alone (used to measure thread scaling)."""
     motion, dt = program(), 1 / F / 400
@@ -68,6 +109,7 @@ def ours_only(n: int, steps: int) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="smaller problems")
+    parser.add_argument("--mujoco", action="store_true", help="also run the MuJoCo peer (pip install mujoco)")
     parser.add_argument("--ours-only", nargs=2, type=int, metavar=("PARTS", "STEPS"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.ours_only:
@@ -119,6 +161,33 @@ def main() -> None:
     print(f"  speed-up {one / many:.2f}x")
     if n in numpy_ns:
         print(f"  per core (1 thread) against numpy at {n:,} parts: {numpy_ns[n] / one:.1f}x")
+
+    if args.mujoco:
+        print("\nMuJoCo peer (same plate motion, 1 mm boxes as point-like parts), ns per part-step:")
+        for n, steps in [(100, 2000), (1_000, 500)]:
+            pos = rng.uniform(-0.1, 0.1, (n, 2))
+            t_mj, xy = mujoco_peer(motion, pos, steps, dt)
+            run = upm.simulate(motion, pos, duration=steps * dt, dt=dt, mu=MU, mu_s=MU_S, record_every=steps)
+            start = time.perf_counter()
+            run = upm.simulate(motion, pos, duration=steps * dt, dt=dt, mu=MU, mu_s=MU_S, record_every=steps)
+            t_ours = time.perf_counter() - start
+            moved_mj = 1e3 * np.mean(xy - pos, axis=0)
+            moved_ours = 1e3 * np.mean(run.positions[-1] - pos, axis=0)
+            ns = 1e9 / (n * steps)
+            times = f"upm {t_ours * ns:8.2f}  mujoco {t_mj * ns:10.1f}  ratio {t_mj / t_ours:8.0f}x"
+            disks = [upm.Disk((x, y), radius=HALF) for x, y in pos]
+            start = time.perf_counter()
+            upm.simulate(motion, disks, duration=steps * dt, dt=dt, mu=MU, mu_s=MU_S, record_every=steps)
+            t_disk = time.perf_counter() - start
+            print(f"  {n:>6,} parts: {times}")
+            disk_ns = t_disk * ns
+            print(
+                f"          upm disks {disk_ns:8.2f} ns/part-step, ratio to mujoco boxes {t_mj / t_disk:.0f}x"
+            )
+            print(
+                f"          mean displacement [mm]: upm {np.round(moved_ours, 4)}, "
+                f"mujoco {np.round(moved_mj, 4)}"
+            )
 
 
 if __name__ == "__main__":

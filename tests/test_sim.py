@@ -208,3 +208,32 @@ def test_bad_input(call, error, match):
     motion = upm.PlateMotion.translation((1, 0), upm.TwoHarmonic(0.5, 1.0, amplitude=0.02, frequency=35.0))
     with pytest.raises(error, match=match):
         call(motion)
+
+
+def test_points_and_disks_together_keep_their_order():
+    # On a still plate: point and disk slide v^2/(2 mu g) (the disk without spin like a point);
+    # the spinning disk turns and stops turning when it stops sliding.
+    mu = 0.3
+    parts = [
+        upm.Point((0.0, 0.0), (0.2, 0.0)),
+        upm.Disk((0.0, 0.05), radius=0.01, velocity=(0.2, 0.0)),
+        upm.Disk((0.0, -0.05), radius=0.01, velocity=(0.1, 0.0), spin=30.0),
+    ]
+    run = upm.simulate(upm.PlateMotion.rest(1.0), parts, duration=0.2, dt=1e-5, mu=mu, record_every=100)
+    assert run.positions.shape == (201, 3, 2)
+    assert run.spins.shape == run.angles.shape == (201, 3)
+    want = 0.2**2 / (2 * mu * G)
+    assert run.positions[-1, 0, 0] == pytest.approx(want, abs=3e-6)
+    assert run.positions[-1, 1, 0] == pytest.approx(want, abs=3e-6)
+    assert run.positions[-1, 1, 1] == 0.05
+    # Spin turns part of the friction sideways to the slide, so a spinning disk slides farther.
+    assert run.positions[-1, 2, 0] > 0.1**2 / (2 * mu * G)
+    assert run.angles[-1, 2] > 0
+    assert run.stuck[-1].all()
+    np.testing.assert_array_equal(run.spins[:, :2], 0.0)
+    assert run.spins[-1, 2] == 0.0
+
+
+def test_a_disk_needs_a_positive_radius():
+    with pytest.raises(upm.ParameterError, match="radius must be > 0 for a Disk"):
+        upm.simulate(upm.PlateMotion.rest(1.0), [upm.Disk((0, 0), 0.0)], duration=0.1, dt=1e-4, mu=0.3)

@@ -14,12 +14,13 @@ from ._core import __version__
 from ._errors import ConvergenceError, InternalError, ParameterError, ShapeError, UpmError
 from .feeding import feed_rate, force_table, mean_force, theorem1_force
 from .motion import PlateMotion
-from .sim import Point, SimResult, simulate, simulate_batch
+from .sim import Disk, Point, SimResult, simulate, simulate_batch
 from .waveforms import BangBang, Harmonics, TwoHarmonic, Waveform
 
 __all__ = [
     "BangBang",
     "ConvergenceError",
+    "Disk",
     "Harmonics",
     "InternalError",
     "ParameterError",

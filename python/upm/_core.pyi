@@ -88,10 +88,13 @@ def simulate(
     velocities: _F,
     mu: _F,
     mu_s: _F,
+    radius: _F,
+    angle: _F,
+    spin: _F,
     *,
     dt: float,
     duration: float,
     g: float,
     plate_size: float | None,
     record_every: int,
-) -> tuple[_F, _F, _F, NDArray[np.bool_], _F]: ...
+) -> tuple[_F, _F, _F, NDArray[np.bool_], _F, _F, _F]: ...

@@ -1,6 +1,6 @@
 """Simulating parts on the plate: the exact stick–slip integrator (SPEC §1).
 
-``simulate`` runs point parts on a plate driven by a :class:`upm.PlateMotion`, in Rust, parallel
+``simulate`` runs point and disk parts on a plate driven by a :class:`upm.PlateMotion`, in Rust, parallel
 over parts with the GIL released; ``simulate_batch`` runs many independent worlds at once.
 """
 
@@ -18,7 +18,7 @@ from ._arrays import as_float
 from ._errors import ParameterError, ShapeError
 from .motion import PlateMotion
 
-__all__ = ["Point", "SimResult", "simulate", "simulate_batch"]
+__all__ = ["Disk", "Point", "SimResult", "simulate", "simulate_batch"]
 
 
 class Point(NamedTuple):
@@ -26,6 +26,20 @@ class Point(NamedTuple):
 
     position: tuple[float, float]
     velocity: tuple[float, float] = (0.0, 0.0)
+
+
+class Disk(NamedTuple):
+    """A flat disk part of ``radius`` [m] pressing uniformly on the plate: it slides and spins.
+
+    ``position`` [m], ``velocity`` [m/s], ``angle`` [rad], ``spin`` [rad/s]. Friction force and
+    torque are integrated over the footprint (see ``docs/simulation.md``).
+    """
+
+    position: tuple[float, float]
+    radius: float
+    velocity: tuple[float, float] = (0.0, 0.0)
+    angle: float = 0.0
+    spin: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -43,26 +57,39 @@ class SimResult:
     """Velocities [m/s], ``(T, M, 2)``."""
     stuck: NDArray[np.bool_]
     """Whether each part moved with the plate surface, ``(T, M)``."""
+    angles: NDArray[np.float64]
+    """Orientations [rad], ``(T, M)`` (0 for points, which have none)."""
+    spins: NDArray[np.float64]
+    """Angular velocities [rad/s], ``(T, M)`` (0 for points)."""
     left_plate: NDArray[np.bool_]
     """Parts whose centre left the square plate, ``(M,)``; they stop being simulated."""
     left_time: NDArray[np.float64]
     """When each part left the plate [s] (NaN: it did not), ``(M,)``."""
 
 
-def _parts(parts: Any) -> tuple[np.ndarray, np.ndarray]:
-    if isinstance(parts, (list, tuple)) and parts and all(isinstance(p, Point) for p in parts):
+def _parts(parts: Any) -> tuple[np.ndarray, ...]:
+    """Positions, velocities (M, 2) and radius, angle, spin (M,) of points and disks."""
+    if isinstance(parts, (list, tuple)) and parts and all(isinstance(p, (Point, Disk)) for p in parts):
         pos = as_float("parts[i].position", [p.position for p in parts])
         vel = as_float("parts[i].velocity", [p.velocity for p in parts])
+        radius = as_float("parts[i].radius", [p.radius if isinstance(p, Disk) else 0.0 for p in parts])
+        angle = as_float("parts[i].angle", [p.angle if isinstance(p, Disk) else 0.0 for p in parts])
+        spin = as_float("parts[i].spin", [p.spin if isinstance(p, Disk) else 0.0 for p in parts])
+        bad = [i for i, p in enumerate(parts) if isinstance(p, Disk) and not p.radius > 0]
+        if bad:
+            raise ParameterError(
+                f"radius must be > 0 for a Disk; got {parts[bad[0]].radius} for part {bad[0]}"
+            )
     else:
         pos = as_float("parts", parts)
         vel = np.zeros_like(pos)
+        radius = angle = spin = np.zeros(pos.shape[:1])
     if pos.ndim != 2 or pos.shape[1] != 2 or pos.shape[0] == 0:
-        raise ShapeError(
-            f"parts must be an (M, 2) array of positions or a list of upm.Point; got shape {pos.shape}"
-        )
+        allowed = "an (M, 2) array of positions or a list of upm.Point/upm.Disk"
+        raise ShapeError(f"parts must be {allowed}; got shape {pos.shape}")
     if vel.shape != pos.shape:
         raise ShapeError(f"part velocities must have shape {pos.shape}; got {vel.shape}")
-    return np.ascontiguousarray(pos), np.ascontiguousarray(vel)
+    return tuple(np.ascontiguousarray(a, dtype=np.float64) for a in (pos, vel, radius, angle, spin))
 
 
 def _per_part(name: str, value: ArrayLike, m: int) -> np.ndarray:
@@ -85,7 +112,7 @@ def _run(
 ) -> tuple[Any, ...]:
     if not all(isinstance(m, PlateMotion) for m in motions):
         raise ParameterError("motion must be a upm.PlateMotion")
-    pos, vel = _parts(parts)
+    pos, vel, radius, angle, spin = _parts(parts)
     m = pos.shape[0]
     mu_a = _per_part("mu", mu, m)
     mu_s_a = mu_a if mu_s is None else _per_part("mu_s", mu_s, m)
@@ -97,6 +124,9 @@ def _run(
         vel,
         mu_a,
         mu_s_a,
+        radius,
+        angle,
+        spin,
         dt=float(dt),
         duration=float(duration),
         g=float(g),
@@ -117,17 +147,18 @@ def simulate(
     plate_size: float | None = None,
     record_every: int = 1,
 ) -> SimResult:
-    """Simulate point parts sliding on the plate under ``motion``.
+    """Simulate parts sliding (points) or sliding and spinning (disks) on the plate under ``motion``.
 
     Each step is the exact implicit Coulomb step of SPEC §1: a part sticks when the force needed
     to keep it with the plate is within ``mu_s m g``, otherwise it slides at ``mu m g``; no
-    regularisation, so parts on a still plate stop and never creep.
+    regularisation, so parts on a still plate stop and never creep. A disk's force and torque are
+    integrated over its footprint and its translation and spin stick or slide together.
 
     Parameters
     ----------
     motion : PlateMotion
-    parts : array_like of shape (M, 2), or list of upm.Point
-        Positions [m] (parts at rest), or points with positions and velocities.
+    parts : array_like of shape (M, 2), or list of upm.Point and upm.Disk
+        Positions [m] of point parts at rest, or points and disks with their state.
     duration : float
         Simulated time [s]; the run takes ``ceil(duration / dt)`` steps.
     dt : float
@@ -146,8 +177,10 @@ def simulate(
     -------
     SimResult
     """
-    t, pos, vel, stuck, left = _run([motion], parts, duration, dt, mu, mu_s, g, plate_size, record_every)
-    return SimResult(t, pos[0], vel[0], stuck[0], ~np.isnan(left[0]), left[0])
+    t, pos, vel, stuck, angles, spins, left = _run(
+        [motion], parts, duration, dt, mu, mu_s, g, plate_size, record_every
+    )
+    return SimResult(t, pos[0], vel[0], stuck[0], angles[0], spins[0], ~np.isnan(left[0]), left[0])
 
 
 def simulate_batch(
@@ -170,5 +203,7 @@ def simulate_batch(
     ms = list(motions)
     if not ms:
         raise ParameterError("motions must contain at least one upm.PlateMotion")
-    t, pos, vel, stuck, left = _run(ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every)
-    return SimResult(t, pos, vel, stuck, ~np.isnan(left), left)
+    t, pos, vel, stuck, angles, spins, left = _run(
+        ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every
+    )
+    return SimResult(t, pos, vel, stuck, angles, spins, ~np.isnan(left), left)

@@ -8,6 +8,7 @@
 //! project's clean restatement of it.
 //!
 //! * [`waveform`]: periodic 1-D plate velocities and their monotone pieces.
+//! * [`disk`]: friction force and torque of a flat disk, and its implicit stick–slip step.
 //! * [`friction`]: exact average Coulomb forces and feed rates (root-based, no sampling).
 //! * [`theory`]: the closed forms of chapter 3 and Theorem 1 (section 6.4).
 //! * [`motion`]: plate motion programs `(u1, u2, u3)(t)`.
@@ -15,6 +16,7 @@
 //! * [`parallel`]: deterministic batches on rayon.
 #![deny(missing_docs)]
 
+pub mod disk;
 pub mod error;
 pub mod friction;
 pub mod motion;

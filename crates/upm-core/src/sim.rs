@@ -1,4 +1,4 @@
-//! The sliding-friction integrator for point parts (SPEC §1).
+//! The sliding-friction integrator for point and disk parts (SPEC §1).
 //!
 //! Units: metres, seconds; world frame (see [`crate::motion`]). Each step applies the exact,
 //! unconditionally stable implicit Coulomb step to the part's velocity relative to the plate
@@ -14,7 +14,10 @@
 //! plate) the step sticks whenever the miss is closer than `mu g dt`, an `O(dt)` error whose sign
 //! depends on the step grid.
 //!
-//! Layout for speed: parts are processed in chunks of [`CHUNK_PARTS`] with structure-of-arrays
+//! Disk parts ([`Parts::radius`] > 0) take the coupled translation–spin step of [`crate::disk`]
+//! instead, one disk at a time (in parallel over disks).
+//!
+//! Layout for speed: point parts are processed in chunks of [`CHUNK_PARTS`] with structure-of-arrays
 //! state and the time loop inside, so the state stays in cache and the per-part update vectorises;
 //! the plate velocity is tabulated once per block of steps and shared by all chunks. Chunks run on
 //! rayon threads; each part is independent, so results are bitwise identical for any thread
@@ -43,6 +46,12 @@ pub struct Parts {
     pub mu: Vec<f64>,
     /// Static friction coefficient, `>= mu`.
     pub mu_s: Vec<f64>,
+    /// Disk radius [m]; 0 for a point part.
+    pub radius: Vec<f64>,
+    /// Orientation [rad] (disks; points keep 0).
+    pub angle: Vec<f64>,
+    /// Angular velocity [rad/s] (disks; points keep 0).
+    pub spin: Vec<f64>,
 }
 
 /// Integration settings.
@@ -72,6 +81,10 @@ pub struct Trajectory {
     pub velocities: Vec<[f64; 2]>,
     /// Whether each part was stuck to the plate, `(rows, parts)`.
     pub stuck: Vec<bool>,
+    /// Orientations [rad], `(rows, parts)` (0 for points).
+    pub angles: Vec<f64>,
+    /// Angular velocities [rad/s], `(rows, parts)` (0 for points).
+    pub spins: Vec<f64>,
     /// Time each part's centre left the plate [s], if it did.
     pub left_plate: Vec<Option<f64>>,
 }
@@ -128,15 +141,52 @@ impl Config {
 
 impl Parts {
     /// Checks lengths, finiteness and `mu_s >= mu > 0`.
+    /// Point parts at `position` with `velocity`, friction `mu` and `mu_s`.
+    pub fn points(
+        position: Vec<[f64; 2]>,
+        velocity: Vec<[f64; 2]>,
+        mu: Vec<f64>,
+        mu_s: Vec<f64>,
+    ) -> Self {
+        let m = position.len();
+        Parts {
+            position,
+            velocity,
+            mu,
+            mu_s,
+            radius: vec![0.0; m],
+            angle: vec![0.0; m],
+            spin: vec![0.0; m],
+        }
+    }
+
+    /// The parts at `idx`, in that order.
+    fn subset(&self, idx: &[usize]) -> Parts {
+        Parts {
+            position: idx.iter().map(|&i| self.position[i]).collect(),
+            velocity: idx.iter().map(|&i| self.velocity[i]).collect(),
+            mu: idx.iter().map(|&i| self.mu[i]).collect(),
+            mu_s: idx.iter().map(|&i| self.mu_s[i]).collect(),
+            radius: idx.iter().map(|&i| self.radius[i]).collect(),
+            angle: idx.iter().map(|&i| self.angle[i]).collect(),
+            spin: idx.iter().map(|&i| self.spin[i]).collect(),
+        }
+    }
+
+    /// Checks lengths, finiteness, `mu_s >= mu > 0` and `radius >= 0`.
     pub fn check(&self) -> Result<()> {
         let m = self.position.len();
-        if self.velocity.len() != m || self.mu.len() != m || self.mu_s.len() != m {
+        let lens = [
+            self.velocity.len(),
+            self.mu.len(),
+            self.mu_s.len(),
+            self.radius.len(),
+            self.angle.len(),
+            self.spin.len(),
+        ];
+        if lens.iter().any(|&l| l != m) {
             return Err(Error::Shape(format!(
-                "parts: {} positions, {} velocities, {} mu, {} mu_s; all must be equal",
-                m,
-                self.velocity.len(),
-                self.mu.len(),
-                self.mu_s.len()
+                "parts: {m} positions but {lens:?} velocities, mu, mu_s, radius, angle, spin; all must be equal"
             )));
         }
         for i in 0..m {
@@ -153,6 +203,15 @@ impl Parts {
                 }
             }
             positive("mu", self.mu[i]).map_err(at)?;
+            if !(self.radius[i].is_finite() && self.radius[i] >= 0.0) {
+                return Err(at(Error::parameter(
+                    "radius",
+                    format!("must be finite and >= 0; got {}", self.radius[i]),
+                )));
+            }
+            for (name, v) in [("angle", self.angle[i]), ("spin", self.spin[i])] {
+                crate::error::finite(name, v).map_err(at)?;
+            }
             if !(self.mu_s[i].is_finite() && self.mu_s[i] >= self.mu[i]) {
                 return Err(at(Error::parameter(
                     "mu_s",
@@ -316,27 +375,140 @@ impl Chunk {
     }
 }
 
-/// The chunks of one world and what has been recorded of it.
+/// A recorded disk state: position, velocity, angle, spin, stuck.
+type DiskRow = ([f64; 2], [f64; 2], f64, f64, bool);
+
+/// One disk part: its state, friction thresholds and the rows recorded in the current block.
+struct DiskState {
+    p: [f64; 2],
+    v: [f64; 2],
+    angle: f64,
+    spin: f64,
+    radius: f64,
+    stuck: bool,
+    active: bool,
+    left: Option<f64>,
+    slide: f64,
+    hold: f64,
+    record: Vec<DiskRow>,
+}
+
+impl DiskState {
+    fn new(parts: &Parts, i: usize, cfg: &Config, u0: [f64; 3]) -> Self {
+        let (p, v, spin) = (parts.position[i], parts.velocity[i], parts.spin[i]);
+        let half = cfg.plate_size.map_or(f64::INFINITY, |s| 0.5 * s);
+        let outside = p[0].abs() > half || p[1].abs() > half;
+        DiskState {
+            p,
+            v,
+            angle: parts.angle[i],
+            spin,
+            radius: parts.radius[i],
+            // A disk that starts moving with the plate surface starts stuck.
+            stuck: v[0] == u0[0] - u0[2] * p[1] && v[1] == u0[1] + u0[2] * p[0] && spin == u0[2],
+            active: !outside,
+            left: outside.then_some(0.0),
+            slide: parts.mu[i] * cfg.g * cfg.dt,
+            hold: parts.mu_s[i] * cfg.g * cfg.dt,
+            record: Vec::new(),
+        }
+    }
+
+    fn row(&self) -> DiskRow {
+        (self.p, self.v, self.angle, self.spin, self.stuck)
+    }
+
+    /// Advances through one block with the disk's implicit step ([`crate::disk::implicit_step`]).
+    fn run(&mut self, table: &[[f64; 3]], first: usize, cfg: &Config) {
+        let half = cfg.plate_size.map_or(f64::INFINITY, |s| 0.5 * s);
+        let dt = cfg.dt;
+        for (k, &[u1, u2, u3]) in table.iter().enumerate() {
+            if self.active {
+                let [x, y] = self.p;
+                let (sx, sy) = (u1 - u3 * y, u2 + u3 * x);
+                let free = [self.v[0] - sx, self.v[1] - sy];
+                let r = self.radius;
+                let st = crate::disk::implicit_step(
+                    free,
+                    r * (self.spin - u3),
+                    self.slide,
+                    self.hold,
+                    self.stuck,
+                );
+                let v = [sx + st.w[0], sy + st.w[1]];
+                let spin = u3 + st.s / r;
+                self.p = [
+                    x + 0.5 * (self.v[0] + v[0]) * dt,
+                    y + 0.5 * (self.v[1] + v[1]) * dt,
+                ];
+                self.angle += 0.5 * (self.spin + spin) * dt;
+                (self.v, self.spin, self.stuck) = (v, spin, st.stuck);
+                if self.p[0].abs() > half || self.p[1].abs() > half {
+                    self.active = false;
+                    self.left = Some((first + k + 1) as f64 * dt);
+                }
+            }
+            if (first + k + 1).is_multiple_of(cfg.record_every) {
+                self.record.push(self.row());
+            }
+        }
+    }
+}
+
+/// The parts of one world and what has been recorded of it.
 struct World<'a> {
     motion: &'a PlateMotion,
+    /// Point parts in chunks; `points[j]` is the index of the j-th point among all parts.
     chunks: Vec<Chunk>,
+    points: Vec<usize>,
+    /// Disk parts; `disk_index[j]` is the index of the j-th disk among all parts.
+    disks: Vec<DiskState>,
+    disk_index: Vec<usize>,
     out: Trajectory,
     table: Vec<[f64; 3]>,
 }
 
 impl World<'_> {
-    /// Appends the rows the chunks recorded since the last flush, part-major within a row.
-    fn flush(&mut self) {
-        let n = self.chunks.first().map_or(0, |c| c.record.len());
+    /// Appends the rows recorded since the last flush, in the parts' original order.
+    fn flush(&mut self, m: usize) {
+        let n = self.chunks.first().map_or_else(
+            || self.disks.first().map_or(0, |d| d.record.len()),
+            |c| c.record.len(),
+        );
         for r in 0..n {
+            let base = self.out.positions.len();
+            self.out.positions.resize(base + m, [0.0; 2]);
+            self.out.velocities.resize(base + m, [0.0; 2]);
+            self.out.stuck.resize(base + m, false);
+            self.out.angles.resize(base + m, 0.0);
+            self.out.spins.resize(base + m, 0.0);
+            let mut j = 0;
             for c in &self.chunks {
-                self.out.positions.extend_from_slice(&c.record[r].pos);
-                self.out.velocities.extend_from_slice(&c.record[r].vel);
-                self.out.stuck.extend_from_slice(&c.record[r].stuck);
+                let row = &c.record[r];
+                for q in 0..row.pos.len() {
+                    let i = base + self.points[j];
+                    self.out.positions[i] = row.pos[q];
+                    self.out.velocities[i] = row.vel[q];
+                    self.out.stuck[i] = row.stuck[q];
+                    j += 1;
+                }
+            }
+            for (d, &idx) in self.disks.iter().zip(&self.disk_index) {
+                let (p, v, angle, spin, stuck) = d.record[r];
+                let i = base + idx;
+                (
+                    self.out.positions[i],
+                    self.out.velocities[i],
+                    self.out.stuck[i],
+                ) = (p, v, stuck);
+                (self.out.angles[i], self.out.spins[i]) = (angle, spin);
             }
         }
         for c in &mut self.chunks {
             c.record.clear();
+        }
+        for d in &mut self.disks {
+            d.record.clear();
         }
     }
 }
@@ -429,19 +601,33 @@ where
         })?;
     }
     let rows = steps / cfg.record_every + 1;
+    let (points, disk_index): (Vec<usize>, Vec<usize>) =
+        (0..m).partition(|&i| parts.radius[i] == 0.0);
+    let point_parts = parts.subset(&points);
     let mut worlds: Vec<World> = motions
         .iter()
-        .map(|motion| World {
-            motion,
-            chunks: chunks(parts, cfg, motion.velocity(0.0)),
-            out: Trajectory {
-                t: Vec::with_capacity(rows),
-                positions: Vec::with_capacity(rows * m),
-                velocities: Vec::with_capacity(rows * m),
-                stuck: Vec::with_capacity(rows * m),
-                left_plate: Vec::new(),
-            },
-            table: Vec::with_capacity(BLOCK_STEPS),
+        .map(|motion| {
+            let u0 = motion.velocity(0.0);
+            World {
+                motion,
+                chunks: chunks(&point_parts, cfg, u0),
+                points: points.clone(),
+                disks: disk_index
+                    .iter()
+                    .map(|&i| DiskState::new(parts, i, cfg, u0))
+                    .collect(),
+                disk_index: disk_index.clone(),
+                out: Trajectory {
+                    t: Vec::with_capacity(rows),
+                    positions: Vec::with_capacity(rows * m),
+                    velocities: Vec::with_capacity(rows * m),
+                    stuck: Vec::with_capacity(rows * m),
+                    angles: Vec::with_capacity(rows * m),
+                    spins: Vec::with_capacity(rows * m),
+                    left_plate: Vec::new(),
+                },
+                table: Vec::with_capacity(BLOCK_STEPS),
+            }
         })
         .collect();
     for w in &mut worlds {
@@ -449,7 +635,10 @@ where
         for c in &mut w.chunks {
             c.record.push(c.row());
         }
-        w.flush();
+        for d in &mut w.disks {
+            d.record.push(d.row());
+        }
+        w.flush(m);
     }
     let mut first = 0;
     while first < steps {
@@ -466,12 +655,15 @@ where
             w.chunks
                 .par_iter_mut()
                 .for_each(|c| c.run(table, first, cfg));
+            w.disks
+                .par_iter_mut()
+                .for_each(|d| d.run(table, first, cfg));
             w.out.t.extend(
                 ((first + 1)..=end)
                     .filter(|s| s.is_multiple_of(cfg.record_every))
                     .map(|s| s as f64 * cfg.dt),
             );
-            w.flush();
+            w.flush(m);
         });
         between(end)?;
         first = end;
@@ -479,11 +671,15 @@ where
     Ok(worlds
         .into_iter()
         .map(|mut w| {
-            w.out.left_plate = w
-                .chunks
-                .iter()
-                .flat_map(|c| c.left.iter().copied())
-                .collect();
+            let mut left = vec![None; m];
+            let point_left = w.chunks.iter().flat_map(|c| c.left.iter().copied());
+            for (j, l) in point_left.enumerate() {
+                left[w.points[j]] = l;
+            }
+            for (d, &i) in w.disks.iter().zip(&w.disk_index) {
+                left[i] = d.left;
+            }
+            w.out.left_plate = left;
             w.out
         })
         .collect())

@@ -10,11 +10,18 @@ const G: f64 = 9.81;
 
 fn parts(position: Vec<[f64; 2]>, velocity: Vec<[f64; 2]>, mu: f64, mu_s: f64) -> Parts {
     let m = position.len();
+    Parts::points(position, velocity, vec![mu; m], vec![mu_s; m])
+}
+
+fn disk(position: [f64; 2], velocity: [f64; 2], radius: f64, spin: f64, mu: f64) -> Parts {
     Parts {
-        position,
-        velocity,
-        mu: vec![mu; m],
-        mu_s: vec![mu_s; m],
+        position: vec![position],
+        velocity: vec![velocity],
+        mu: vec![mu],
+        mu_s: vec![mu],
+        radius: vec![radius],
+        angle: vec![0.0],
+        spin: vec![spin],
     }
 }
 
@@ -282,4 +289,98 @@ fn bad_settings_are_refused_with_the_limit() {
         .to_string()
         .contains("mu_s must be finite and >= mu"));
     assert!(simulate(&motion, &p, &cfg(-1e-4, 1.0)).is_err());
+}
+
+#[test]
+fn a_sliding_spinning_disk_stops_both_at_once_with_the_farkas_ratio() {
+    // Farkas, Bartels, Unger, Wolf, PRL 90, 248302 (2003): v / (R w) tends to a fixed ratio and
+    // both motions stop together. The ratio 0.6530 was computed independently (a NumPy average
+    // over a 4000^2 grid of the disk), and agrees with the paper's 0.653.
+    const FIXED: f64 = 0.6530;
+    let (r, mu) = (0.01, 0.3);
+    let still = PlateMotion::rest(10.0).unwrap();
+    let ratios = |v0: f64, w0: f64| {
+        let tr = simulate(
+            &still,
+            &disk([0.0, 0.0], [v0, 0.0], r, w0, mu),
+            &cfg(1e-5, 0.2),
+        )
+        .unwrap();
+        let stop = tr.stuck.iter().position(|&s| s).expect("the disk stops");
+        // Both still move one step before the stop, and both are zero from then on.
+        assert!(tr.velocities[stop - 1][0] > 0.0 && tr.spins[stop - 1] > 0.0);
+        assert!(
+            tr.velocities[stop..].iter().all(|v| *v == [0.0, 0.0])
+                && tr.spins[stop..].iter().all(|&w| w == 0.0)
+        );
+        assert!(tr.positions[stop..]
+            .iter()
+            .all(|p| *p == tr.positions[stop]));
+        assert!(tr.angles[stop..].iter().all(|a| *a == tr.angles[stop]));
+        (0..stop)
+            .map(|k| tr.velocities[k][0] / (r * tr.spins[k]))
+            .collect::<Vec<f64>>()
+    };
+    // From above it converges to the fixed ratio by the stop.
+    let above = ratios(0.3, 10.0);
+    assert!(
+        (above[above.len() - 1] - FIXED).abs() < 5e-3,
+        "{}",
+        above[above.len() - 1]
+    );
+    // Started at the fixed ratio it stays there.
+    let fixed = ratios(FIXED * r * 40.0, 40.0);
+    assert!(
+        fixed.iter().all(|q| (q - FIXED).abs() < 2e-3),
+        "{:?}",
+        fixed.iter().fold(0.0f64, |m, q| m.max((q - FIXED).abs()))
+    );
+    // From below it rises monotonically towards it.
+    let below = ratios(0.05, 60.0);
+    assert!(below.windows(2).all(|w| w[1] >= w[0]) && below[below.len() - 1] < FIXED);
+}
+
+#[test]
+fn a_disk_on_a_plate_rotating_about_its_centre_spins_up() {
+    // Pure spin: torque (2/3) mu m g R, I = m R^2 / 2, so R dW/dt = (4/3) mu g sgn(W_plate - W).
+    // Under w_s ~ cos t - cos(2t)/2 the mean sign is 0.2386 (SPEC §3), while the disk is slow.
+    let (r, mu, f) = (0.01, 0.001, 35.0);
+    let motion = PlateMotion::rotation([0.0, 0.0], asymmetric(20.0, f)).unwrap();
+    let period = 1.0 / f;
+    let tr = simulate(
+        &motion,
+        &disk([0.0, 0.0], [0.0, 0.0], r, 0.0, mu),
+        &cfg(period / 4000.0, period),
+    )
+    .unwrap();
+    let spin = *tr.spins.last().unwrap();
+    let want = 0.2386 * 4.0 / 3.0 * mu * G * period / r;
+    assert!(
+        (spin - want).abs() < 3e-3 * want.abs() + 1e-9,
+        "{spin} vs {want}"
+    );
+    assert!(
+        tr.positions.last().unwrap()[0].abs() < 1e-12,
+        "the centre stays put"
+    );
+}
+
+#[test]
+fn a_disk_that_does_not_spin_slides_like_a_point() {
+    let wave: Waveform = Harmonics::two_harmonic(0.5, FRAC_PI_2, 0.05, 35.0)
+        .unwrap()
+        .into();
+    let motion = PlateMotion::translation([0.6, 0.8], wave).unwrap();
+    let c = cfg(1e-5, 0.3);
+    let d = simulate(&motion, &disk([0.01, 0.0], [0.0, 0.0], 0.005, 0.0, 0.3), &c).unwrap();
+    let p = simulate(
+        &motion,
+        &parts(vec![[0.01, 0.0]], vec![[0.0, 0.0]], 0.3, 0.3),
+        &c,
+    )
+    .unwrap();
+    for (a, b) in d.positions.iter().zip(&p.positions) {
+        assert!((a[0] - b[0]).abs() < 1e-10 && (a[1] - b[1]).abs() < 1e-10);
+    }
+    assert!(d.spins.iter().all(|&w| w == 0.0));
 }

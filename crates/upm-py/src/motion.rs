@@ -167,16 +167,22 @@ fn to_arrays<'py>(
     let mut pos: Vec<f64> = Vec::with_capacity(b * rows * m * 2);
     let mut vel: Vec<f64> = Vec::with_capacity(b * rows * m * 2);
     let mut stuck = Vec::with_capacity(b * rows * m);
+    let mut angles = Vec::with_capacity(b * rows * m);
+    let mut spins = Vec::with_capacity(b * rows * m);
     let mut left = Vec::with_capacity(b * m);
     for r in runs {
         pos.extend(r.positions.iter().flatten());
         vel.extend(r.velocities.iter().flatten());
         stuck.extend(r.stuck);
+        angles.extend(r.angles);
+        spins.extend(r.spins);
         left.extend(r.left_plate.iter().map(|l| l.unwrap_or(f64::NAN)));
     }
     let pos = PyArray1::from_vec(py, pos).reshape([b, rows, m, 2])?;
     let vel = PyArray1::from_vec(py, vel).reshape([b, rows, m, 2])?;
     let stuck = PyArray1::from_vec(py, stuck).reshape([b, rows, m])?;
+    let angles = PyArray1::from_vec(py, angles).reshape([b, rows, m])?;
+    let spins = PyArray1::from_vec(py, spins).reshape([b, rows, m])?;
     let left = PyArray1::from_vec(py, left).reshape([b, m])?;
     PyTuple::new(
         py,
@@ -185,14 +191,16 @@ fn to_arrays<'py>(
             pos.into_any(),
             vel.into_any(),
             stuck.into_any(),
+            angles.into_any(),
+            spins.into_any(),
             left.into_any(),
         ],
     )
 }
 
-/// Simulates point parts under each of `motions` (B worlds); arrays carry a leading batch axis.
+/// Simulates point and disk parts under each of `motions` (B worlds); arrays carry a batch axis.
 #[pyfunction]
-#[pyo3(signature = (motions, positions, velocities, mu, mu_s, *, dt, duration, g, plate_size, record_every))]
+#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -201,6 +209,9 @@ pub fn simulate<'py>(
     velocities: PyReadonlyArray2<'py, f64>,
     mu: PyReadonlyArray1<'py, f64>,
     mu_s: PyReadonlyArray1<'py, f64>,
+    radius: PyReadonlyArray1<'py, f64>,
+    angle: PyReadonlyArray1<'py, f64>,
+    spin: PyReadonlyArray1<'py, f64>,
     dt: f64,
     duration: f64,
     g: f64,
@@ -212,6 +223,9 @@ pub fn simulate<'py>(
         velocity: pairs(py, "velocities", &velocities)?,
         mu: mu.as_array().to_vec(),
         mu_s: mu_s.as_array().to_vec(),
+        radius: radius.as_array().to_vec(),
+        angle: angle.as_array().to_vec(),
+        spin: spin.as_array().to_vec(),
     };
     let m = parts.position.len();
     let cfg = Config {
