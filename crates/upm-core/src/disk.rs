@@ -141,20 +141,6 @@ pub struct Step {
     pub stuck: bool,
 }
 
-/// Bisection for the increasing function `g` on `[0, pi/2]`: the `phi` where it crosses zero.
-fn bisect(g: impl Fn(f64) -> f64) -> f64 {
-    let (mut lo, mut hi) = (0.0, FRAC_PI_2);
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if g(mid) < 0.0 {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
-}
-
 /// The implicit Coulomb step of a uniform disk (`I = m R^2 / 2`): `w_free` and `s_free` are the
 /// relative velocity and `R` times the relative spin the disk would have after the step without
 /// friction; `slide = mu g dt`, `hold = mu_s g dt` (used while the disk is stuck).
@@ -172,33 +158,74 @@ pub fn implicit_step(
         s: 0.0,
         stuck: true,
     };
+    if a0 == 0.0 && b0 == 0.0 {
+        return stuck;
+    }
     // Stick test: the wrench that stops the disk, in units of mu m g (and mu m g R), inside the
-    // limit curve (for the static coefficient while stuck).
+    // limit curve (for the static coefficient while stuck). The curve lies in [0, 1] x [0, 2/3]
+    // and, being convex, contains the chord f + 3t/2 <= 1; only in between is it consulted.
     let c = if was_stuck { hold } else { slide };
     let (na, nb) = (a0 / c, 0.5 * b0 / c);
-    if na == 0.0 && nb == 0.0 {
-        return stuck;
+    if na <= 1.0 && nb <= 2.0 / 3.0 {
+        if na + 1.5 * nb <= 1.0 {
+            return stuck;
+        }
+        let psi = nb.atan2(na);
+        let phi = crate::roots::brent(
+            |p| {
+                let (f, t) = limit_curve(p);
+                t.atan2(f) - psi
+            },
+            0.0,
+            FRAC_PI_2,
+            1e-15,
+        );
+        let (f, t) = limit_curve(phi);
+        if na * na + nb * nb <= f * f + t * t {
+            return stuck;
+        }
     }
-    let psi = nb.atan2(na);
-    let phi = bisect(|p| {
-        let (f, t) = limit_curve(p);
-        t.atan2(f) - psi
-    });
-    let (f, t) = limit_curve(phi);
-    if na * na + nb * nb <= f * f + t * t {
-        return stuck;
-    }
-    // Sliding: w' = w_free (1 - slide f / |w_free|), s' = s_free - 2 slide t sgn, with phi' the
-    // angle of the result itself; atan2(b(phi), a(phi)) - phi decreases, so bisect its negative.
+    // Sliding: |w'| = |w_free| - slide f(phi'), |s'| = |s_free| - 2 slide t(phi'), with phi' the
+    // angle of the result itself. Pure sliding and pure spinning are closed forms (f(0) = 1,
+    // t(pi/2) = 2/3); otherwise iterate phi <- atan2(b(phi), a(phi)), a contraction unless the
+    // disk is about to stop, with Brent's method on the monotone residual as the fallback.
     let ab = |p: f64| {
         let (f, t) = limit_curve(p);
         (a0 - slide * f, b0 - 2.0 * slide * t)
     };
-    let phi = bisect(|p| {
-        let (a, b) = ab(p);
-        p - b.atan2(a)
-    });
-    let (a, b) = ab(phi);
+    let (a, b) = if b0 == 0.0 {
+        (a0 - slide, 0.0)
+    } else if a0 == 0.0 {
+        (0.0, b0 - 4.0 / 3.0 * slide)
+    } else {
+        let mut phi = b0.atan2(a0);
+        let mut converged = false;
+        for _ in 0..30 {
+            let (a, b) = ab(phi);
+            let next = b.atan2(a);
+            if !(0.0..=FRAC_PI_2).contains(&next) {
+                break;
+            }
+            if (next - phi).abs() <= 1e-15 {
+                phi = next;
+                converged = true;
+                break;
+            }
+            phi = next;
+        }
+        if !converged {
+            phi = crate::roots::brent(
+                |p| {
+                    let (a, b) = ab(p);
+                    p - b.atan2(a)
+                },
+                0.0,
+                FRAC_PI_2,
+                1e-15,
+            );
+        }
+        ab(phi)
+    };
     let (a, b) = (a.max(0.0), b.max(0.0));
     let scale = if a0 > 0.0 { a / a0 } else { 0.0 };
     Step {
