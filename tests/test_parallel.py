@@ -55,34 +55,31 @@ def test_the_gil_is_released_during_a_long_call():
     assert len(progress) == 50_000
 
 
-def test_ctrl_c_interrupts_a_long_call():
-    psi = np.linspace(0, 2 * np.pi, 20_000_000)
+def _calls_completed_before_ctrl_c(call):
+    """Sends SIGINT after 0.2 s while ``call`` runs (up to three times); returns how many calls
+    finished before the KeyboardInterrupt, which must come."""
     timer = threading.Timer(0.2, os.kill, (os.getpid(), signal.SIGINT))
     completed = 0
     timer.start()
     try:
         with pytest.raises(KeyboardInterrupt):
             for _ in range(3):
-                upm.force_table(2, 7, psi)
+                call()
                 completed += 1
     finally:
         timer.cancel()
+    return completed
+
+
+def test_ctrl_c_interrupts_a_long_call():
+    psi = np.linspace(0, 2 * np.pi, 20_000_000)
     # Each call takes far longer than 0.2 s, so the interrupt must have stopped the first one.
-    assert completed == 0
+    assert _calls_completed_before_ctrl_c(lambda: upm.force_table(2, 7, psi)) == 0
 
 
 def test_ctrl_c_interrupts_a_long_simulation():
     motion = upm.PlateMotion.translation((1, 0), upm.TwoHarmonic(0.5, 1.0, amplitude=0.02, frequency=35.0))
     parts = np.zeros((20_000, 2))
-    timer = threading.Timer(0.2, os.kill, (os.getpid(), signal.SIGINT))
-    completed = 0
-    timer.start()
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            for _ in range(3):
-                # 2e10 part-steps: minutes of work unless the interrupt stops it between blocks.
-                upm.simulate(motion, parts, duration=70.0, dt=7e-5, mu=0.3, record_every=10**6)
-                completed += 1
-    finally:
-        timer.cancel()
-    assert completed == 0
+    # 2e10 part-steps: minutes of work unless the interrupt stops it between blocks.
+    run = lambda: upm.simulate(motion, parts, duration=70.0, dt=7e-5, mu=0.3, record_every=10**6)  # noqa: E731
+    assert _calls_completed_before_ctrl_c(run) == 0

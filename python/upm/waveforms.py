@@ -39,6 +39,10 @@ class Waveform(ABC):
     def _batch(self) -> _core.WaveformBatch:
         return self._build(self.shape)
 
+    def _validate(self) -> None:
+        """Build the Rust batch now, so invalid parameters raise in the constructor, not later."""
+        _ = self._batch
+
     @property
     def size(self) -> int:
         """Number of waveforms (the product of :attr:`shape`)."""
@@ -120,7 +124,7 @@ class Harmonics(Waveform):
         self.cos: FloatArray = np.broadcast_to(c, (*self.shape, k))
         self.sin: FloatArray = np.broadcast_to(s, (*self.shape, k))
         self.frequency: FloatArray = np.broadcast_to(f, self.shape)
-        self._batch  # noqa: B018  (validate now: errors belong to the constructor)
+        self._validate()
 
     def _build(self, shape: tuple[int, ...]) -> _core.WaveformBatch:
         return _harmonic_batch(self.cos, self.sin, self.frequency, shape)
@@ -170,7 +174,7 @@ class TwoHarmonic(Waveform):
         self.shape = broadcast_shape(
             b=self.b, phi=self.phi, amplitude=self.amplitude, frequency=self.frequency
         )
-        self._batch  # noqa: B018
+        self._validate()
 
     def coefficients(self) -> tuple[FloatArray, FloatArray]:
         """``(cos, sin)`` coefficient arrays of shape ``(*shape, 2)`` of the equivalent series."""
@@ -228,7 +232,7 @@ class BangBang(Waveform):
         check_range("a_max", self.a_max, low=0.0, low_open=True)
         check_range("period", self._period, low=0.0, low_open=True)
         self.shape = broadcast_shape(z=self.z, a_max=self.a_max, period=self._period)
-        self._batch  # noqa: B018
+        self._validate()
 
     def _build(self, shape: tuple[int, ...]) -> _core.WaveformBatch:
         return _core.WaveformBatch.bang_bang(
