@@ -35,7 +35,7 @@ const BLOCK_STEPS: usize = 4096;
 /// Largest number of recorded values (rows x parts) a simulation may allocate.
 const MAX_RECORDED: usize = 1 << 30;
 
-/// Point parts: initial state and friction coefficients, one entry per part.
+/// Parts (points and disks): initial state and friction coefficients, one entry per part.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Parts {
     /// Positions [m].
@@ -140,7 +140,6 @@ impl Config {
 }
 
 impl Parts {
-    /// Checks lengths, finiteness and `mu_s >= mu > 0`.
     /// Point parts at `position` with `velocity`, friction `mu` and `mu_s`.
     pub fn points(
         position: Vec<[f64; 2]>,
@@ -224,6 +223,22 @@ impl Parts {
         }
         Ok(())
     }
+}
+
+/// Whether a part at `p` with velocity `v` moves with the plate surface of velocity `u`
+/// (such a part starts stuck).
+fn moves_with_plate(p: [f64; 2], v: [f64; 2], u: [f64; 3]) -> bool {
+    v[0] == u[0] - u[2] * p[1] && v[1] == u[1] + u[2] * p[0]
+}
+
+/// Whether a centre at `(x, y)` is off the square plate of half-side `half`.
+fn off_plate(x: f64, y: f64, half: f64) -> bool {
+    x.abs() > half || y.abs() > half
+}
+
+/// Half the plate's side [m], infinite for an unbounded plate.
+fn half_side(cfg: &Config) -> f64 {
+    cfg.plate_size.map_or(f64::INFINITY, |s| 0.5 * s)
 }
 
 /// State of one chunk of parts, structure of arrays. Flags are f64 masks (0 or 1) so the step is
@@ -362,7 +377,7 @@ impl Chunk {
             }
             if let Some(half) = half {
                 for i in 0..self.x.len() {
-                    if self.active[i] > 0.0 && (self.x[i].abs() > half || self.y[i].abs() > half) {
+                    if self.active[i] > 0.0 && off_plate(self.x[i], self.y[i], half) {
                         self.active[i] = 0.0;
                         self.left[i] = Some((first + k + 1) as f64 * cfg.dt);
                     }
@@ -396,8 +411,7 @@ struct DiskState {
 impl DiskState {
     fn new(parts: &Parts, i: usize, cfg: &Config, u0: [f64; 3]) -> Self {
         let (p, v, spin) = (parts.position[i], parts.velocity[i], parts.spin[i]);
-        let half = cfg.plate_size.map_or(f64::INFINITY, |s| 0.5 * s);
-        let outside = p[0].abs() > half || p[1].abs() > half;
+        let outside = off_plate(p[0], p[1], half_side(cfg));
         DiskState {
             p,
             v,
@@ -405,7 +419,7 @@ impl DiskState {
             spin,
             radius: parts.radius[i],
             // A disk that starts moving with the plate surface starts stuck.
-            stuck: v[0] == u0[0] - u0[2] * p[1] && v[1] == u0[1] + u0[2] * p[0] && spin == u0[2],
+            stuck: moves_with_plate(p, v, u0) && spin == u0[2],
             active: !outside,
             left: outside.then_some(0.0),
             slide: parts.mu[i] * cfg.g * cfg.dt,
@@ -420,7 +434,7 @@ impl DiskState {
 
     /// Advances through one block with the disk's implicit step ([`crate::disk::implicit_step`]).
     fn run(&mut self, table: &[[f64; 3]], first: usize, cfg: &Config) {
-        let half = cfg.plate_size.map_or(f64::INFINITY, |s| 0.5 * s);
+        let half = half_side(cfg);
         let dt = cfg.dt;
         for (k, &[u1, u2, u3]) in table.iter().enumerate() {
             if self.active {
@@ -443,7 +457,7 @@ impl DiskState {
                 ];
                 self.angle += 0.5 * (self.spin + spin) * dt;
                 (self.v, self.spin, self.stuck) = (v, spin, st.stuck);
-                if self.p[0].abs() > half || self.p[1].abs() > half {
+                if off_plate(self.p[0], self.p[1], half) {
                     self.active = false;
                     self.left = Some((first + k + 1) as f64 * dt);
                 }
@@ -460,10 +474,10 @@ struct World<'a> {
     motion: &'a PlateMotion,
     /// Point parts in chunks; `points[j]` is the index of the j-th point among all parts.
     chunks: Vec<Chunk>,
-    points: Vec<usize>,
+    points: &'a [usize],
     /// Disk parts; `disk_index[j]` is the index of the j-th disk among all parts.
     disks: Vec<DiskState>,
-    disk_index: Vec<usize>,
+    disk_index: &'a [usize],
     out: Trajectory,
     table: Vec<[f64; 3]>,
 }
@@ -493,7 +507,7 @@ impl World<'_> {
                     j += 1;
                 }
             }
-            for (d, &idx) in self.disks.iter().zip(&self.disk_index) {
+            for (d, &idx) in self.disks.iter().zip(self.disk_index) {
                 let (p, v, angle, spin, stuck) = d.record[r];
                 let i = base + idx;
                 (
@@ -515,7 +529,7 @@ impl World<'_> {
 
 fn chunks(parts: &Parts, cfg: &Config, u0: [f64; 3]) -> Vec<Chunk> {
     let m = parts.position.len();
-    let half = cfg.plate_size.map_or(f64::INFINITY, |s| 0.5 * s);
+    let half = half_side(cfg);
     (0..m)
         .step_by(CHUNK_PARTS)
         .map(|start| {
@@ -526,16 +540,9 @@ fn chunks(parts: &Parts, cfg: &Config, u0: [f64; 3]) -> Vec<Chunk> {
             let stuck = pos
                 .iter()
                 .zip(vel)
-                .map(|(p, v)| {
-                    f64::from(u8::from(
-                        v[0] == u0[0] - u0[2] * p[1] && v[1] == u0[1] + u0[2] * p[0],
-                    ))
-                })
+                .map(|(&p, &v)| f64::from(u8::from(moves_with_plate(p, v, u0))))
                 .collect();
-            let outside: Vec<bool> = pos
-                .iter()
-                .map(|p| p[0].abs() > half || p[1].abs() > half)
-                .collect();
+            let outside: Vec<bool> = pos.iter().map(|p| off_plate(p[0], p[1], half)).collect();
             Chunk {
                 x: pos.iter().map(|p| p[0]).collect(),
                 y: pos.iter().map(|p| p[1]).collect(),
@@ -558,7 +565,7 @@ fn chunks(parts: &Parts, cfg: &Config, u0: [f64; 3]) -> Vec<Chunk> {
         .collect()
 }
 
-/// Simulates point `parts` on a plate driven by `motion`.
+/// Simulates `parts` (points and disks) on a plate driven by `motion`.
 pub fn simulate(motion: &PlateMotion, parts: &Parts, cfg: &Config) -> Result<Trajectory> {
     let mut runs = simulate_worlds(std::slice::from_ref(motion), parts, cfg, |_| {
         Ok::<(), Error>(())
@@ -611,12 +618,12 @@ where
             World {
                 motion,
                 chunks: chunks(&point_parts, cfg, u0),
-                points: points.clone(),
+                points: &points,
                 disks: disk_index
                     .iter()
                     .map(|&i| DiskState::new(parts, i, cfg, u0))
                     .collect(),
-                disk_index: disk_index.clone(),
+                disk_index: &disk_index,
                 out: Trajectory {
                     t: Vec::with_capacity(rows),
                     positions: Vec::with_capacity(rows * m),
@@ -676,7 +683,7 @@ where
             for (j, l) in point_left.enumerate() {
                 left[w.points[j]] = l;
             }
-            for (d, &i) in w.disks.iter().zip(&w.disk_index) {
+            for (d, &i) in w.disks.iter().zip(w.disk_index) {
                 left[i] = d.left;
             }
             w.out.left_plate = left;

@@ -79,12 +79,9 @@ impl WaveformBatch {
             "harmonics",
             &[("cos rows", c.shape()[0]), ("frequency", frequency.len())],
         )?;
-        let rows: Vec<(Vec<f64>, Vec<f64>)> = (0..n)
-            .map(|i| (c.row(i).to_vec(), s.row(i).to_vec()))
-            .collect();
         let f = column(&frequency);
         let waves = batch(py, n, |i| {
-            Ok(Harmonics::new(rows[i].0.clone(), rows[i].1.clone(), f[i])?.into())
+            Ok(Harmonics::new(c.row(i).to_vec(), s.row(i).to_vec(), f[i])?.into())
         })?;
         Ok(WaveformBatch { waves })
     }
