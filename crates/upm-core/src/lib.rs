@@ -13,16 +13,21 @@
 //! * [`theory`]: the closed forms of chapter 3 and Theorem 1 (section 6.4).
 //! * [`motion`]: plate motion programs `(u1, u2, u3)(t)`.
 //! * [`sim`]: the exact stick–slip integrator for point parts, batched and parallel.
+//! * [`field`]: average force fields of rotations, jets and any plate motion.
+//! * [`solve`]: the sequencing-rotations and displacement-field solvers (SVD, bounded, ordered).
 //! * [`parallel`]: deterministic batches on rayon.
 #![deny(missing_docs)]
 
 pub mod disk;
 pub mod error;
+pub mod field;
 pub mod friction;
 pub mod motion;
 pub mod parallel;
+pub(crate) mod quadrature;
 pub(crate) mod roots;
 pub mod sim;
+pub mod solve;
 pub mod theory;
 pub mod waveform;
 

@@ -183,7 +183,7 @@ impl Segment {
     }
 
     /// The segment's natural period [s] (`None`: not periodic).
-    fn period(&self) -> Option<f64> {
+    pub(crate) fn period(&self) -> Option<f64> {
         match self {
             Segment::Translation { wave, .. } | Segment::Rotation { wave, .. } => {
                 Some(wave.period())
@@ -194,7 +194,7 @@ impl Segment {
     }
 
     /// Highest frequency present [Hz] (0 for rest; samples: the Nyquist rate of their spacing).
-    fn max_frequency(&self) -> f64 {
+    pub(crate) fn max_frequency(&self) -> f64 {
         match self {
             Segment::Translation { wave, .. } | Segment::Rotation { wave, .. } => {
                 wave.max_frequency()
@@ -424,11 +424,16 @@ impl PlateMotion {
         self.at(t).0
     }
 
-    /// The plate's net displacement `(dx, dy, dtheta)` of the material point at the origin over
-    /// the program (one period if it repeats forever), integrated with RK4 on `steps` steps.
-    pub fn displacement(&self) -> Result<[f64; 3]> {
-        let span = match self.duration() {
-            Some(d) => d,
+    /// Start time of each item [s].
+    pub fn starts(&self) -> &[f64] {
+        &self.starts
+    }
+
+    /// The span one pass of the program covers [s]: its duration, or up to the end of the first
+    /// period of an item that repeats forever.
+    pub fn span(&self) -> Result<f64> {
+        match self.duration() {
+            Some(d) => Ok(d),
             None => {
                 let last = self.items.len() - 1;
                 let p = self.items[last].segment.period().ok_or_else(|| {
@@ -437,9 +442,39 @@ impl PlateMotion {
                         "repeats forever without a period: give it a duration",
                     )
                 })?;
-                self.starts[last] + p
+                Ok(self.starts[last] + p)
             }
-        };
+        }
+    }
+
+    /// Times in `[0, span]` where the velocity or its derivative may jump or bend: item starts,
+    /// envelope phase ends, sample times. Sorted, without duplicates, ending with `span`.
+    pub fn breakpoints(&self) -> Result<Vec<f64>> {
+        let span = self.span()?;
+        let mut out = vec![0.0, span];
+        for (item, &start) in self.items.iter().zip(&self.starts) {
+            out.push(start);
+            if let Some(d) = item.duration {
+                out.push(start + d);
+            }
+            if let Some(env) = item.envelope {
+                out.push(start + env.attack);
+                out.push(start + env.attack + env.sustain);
+            }
+            if let Segment::Samples { t, .. } = &item.segment {
+                out.extend(t.iter().map(|x| start + x));
+            }
+        }
+        out.retain(|&t| (0.0..=span).contains(&t));
+        out.sort_by(f64::total_cmp);
+        out.dedup();
+        Ok(out)
+    }
+
+    /// The plate's net displacement `(dx, dy, dtheta)` of the material point at the origin over
+    /// the program (one period if it repeats forever), integrated with RK4 on `steps` steps.
+    pub fn displacement(&self) -> Result<[f64; 3]> {
+        let span = self.span()?;
         let steps = ((span * self.max_frequency().max(1.0 / span) * 400.0).ceil() as usize)
             .clamp(1000, 2_000_000);
         let h = span / steps as f64;
