@@ -11,32 +11,64 @@ from __future__ import annotations
 
 from . import theory
 from ._core import __version__
-from ._errors import ConvergenceError, InternalError, ParameterError, ShapeError, UpmError
+from ._errors import ConvergenceError, InternalError, ParameterError, PlanWarning, RankWarning, ShapeError, UpmError
 from .feeding import feed_rate, force_table, mean_force, theorem1_force
+from .fields import average_field, jet_field, rotation_curl, rotation_field
 from .motion import PlateMotion
+from .planning import jet_plan, plan_to_motion
 from .sim import Disk, Point, SimResult, simulate, simulate_batch
+from .solvers import (
+    DisplacementPlan,
+    RotationPlan,
+    corner_centers,
+    flow_error,
+    grid_centers,
+    ring_centers,
+    rotation_order,
+    solve_displacements,
+    solve_rotations,
+    solve_rotations_batch,
+)
 from .waveforms import BangBang, Harmonics, TwoHarmonic, Waveform
 
 __all__ = [
     "BangBang",
     "ConvergenceError",
     "Disk",
+    "DisplacementPlan",
     "Harmonics",
     "InternalError",
     "ParameterError",
+    "PlanWarning",
     "PlateMotion",
     "Point",
+    "RankWarning",
+    "RotationPlan",
     "ShapeError",
     "SimResult",
     "TwoHarmonic",
     "UpmError",
     "Waveform",
     "__version__",
+    "average_field",
+    "corner_centers",
     "feed_rate",
+    "flow_error",
     "force_table",
+    "grid_centers",
+    "jet_field",
+    "jet_plan",
     "mean_force",
+    "plan_to_motion",
+    "ring_centers",
+    "rotation_curl",
+    "rotation_field",
+    "rotation_order",
     "simulate",
     "simulate_batch",
+    "solve_displacements",
+    "solve_rotations",
+    "solve_rotations_batch",
     "theorem1_force",
     "theory",
 ]

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["ConvergenceError", "InternalError", "ParameterError", "ShapeError", "UpmError"]
+__all__ = ["ConvergenceError", "InternalError", "ParameterError", "PlanWarning", "RankWarning", "ShapeError", "UpmError"]
 
 
 class UpmError(Exception):
@@ -26,3 +26,11 @@ class ConvergenceError(UpmError, RuntimeError):
 
 class InternalError(UpmError, RuntimeError):
     """A bug in upm (a Rust panic caught at the boundary). Please report it with the message."""
+
+
+class RankWarning(UserWarning):
+    """A linear system is rank deficient: the result is a least-squares compromise, not exact."""
+
+
+class PlanWarning(UserWarning):
+    """A plate motion program will not achieve its plan closely (the message says by how much)."""

@@ -44,7 +44,8 @@ class Disk(NamedTuple):
 
 @dataclass(frozen=True)
 class SimResult:
-    """What a simulation recorded (rows every ``record_every`` steps, the initial state first).
+    """What a simulation recorded (the initial state, every ``record_every``-th step, and always the
+    final state).
 
     ``simulate_batch`` adds a leading batch axis ``B`` to every array but ``t``.
     """
@@ -171,7 +172,8 @@ def simulate(
         Side of the square plate centred at the origin [m]; parts whose centre leaves it are
         flagged in ``left_plate`` and frozen.
     record_every : int
-        Record every this many steps; memory is ``T = steps / record_every + 1`` rows.
+        Record every this many steps (and the last step); memory is about ``steps / record_every + 2``
+        rows, whatever the number of steps.
 
     Returns
     -------

@@ -475,23 +475,31 @@ impl PlateMotion {
     /// the program (one period if it repeats forever), integrated with RK4 on `steps` steps.
     pub fn displacement(&self) -> Result<[f64; 3]> {
         let span = self.span()?;
-        let steps = ((span * self.max_frequency().max(1.0 / span) * 400.0).ceil() as usize)
+        let total = ((span * self.max_frequency().max(1.0 / span) * 400.0).ceil() as usize)
             .clamp(1000, 2_000_000);
-        let h = span / steps as f64;
-        let rhs = |t: f64, s: [f64; 3]| {
-            let u = self.velocity(t);
-            [u[0] - u[2] * s[1], u[1] + u[2] * s[0], u[2]]
-        };
         let mut s = [0.0; 3];
-        for i in 0..steps {
-            let t = i as f64 * h;
-            let k1 = rhs(t, s);
-            let k2 = rhs(t + h / 2.0, std::array::from_fn(|j| s[j] + h / 2.0 * k1[j]));
-            let k3 = rhs(t + h / 2.0, std::array::from_fn(|j| s[j] + h / 2.0 * k2[j]));
-            let k4 = rhs(t + h, std::array::from_fn(|j| s[j] + h * k3[j]));
-            s = std::array::from_fn(|j| {
-                s[j] + h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
-            });
+        // RK4 on each stretch between breakpoints, sampling the velocity strictly inside the
+        // stretch: where the velocity jumps (a drive switched on or off) each side uses its own
+        // one-sided value.
+        for w in self.breakpoints()?.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            let steps = ((total as f64 * (b - a) / span).ceil() as usize).max(4);
+            let h = (b - a) / steps as f64;
+            let inset = 1e-9 * (b - a);
+            let rhs = |t: f64, s: [f64; 3]| {
+                let u = self.velocity(t.clamp(a + inset, b - inset));
+                [u[0] - u[2] * s[1], u[1] + u[2] * s[0], u[2]]
+            };
+            for i in 0..steps {
+                let t = a + i as f64 * h;
+                let k1 = rhs(t, s);
+                let k2 = rhs(t + h / 2.0, std::array::from_fn(|j| s[j] + h / 2.0 * k1[j]));
+                let k3 = rhs(t + h / 2.0, std::array::from_fn(|j| s[j] + h / 2.0 * k2[j]));
+                let k4 = rhs(t + h, std::array::from_fn(|j| s[j] + h * k3[j]));
+                s = std::array::from_fn(|j| {
+                    s[j] + h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+                });
+            }
         }
         Ok(s)
     }

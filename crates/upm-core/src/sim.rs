@@ -70,6 +70,17 @@ pub struct Config {
     pub record_every: usize,
 }
 
+/// Whether step `s` (1-based) is recorded: every `every`-th step, and always the last one.
+#[inline]
+fn recorded(s: usize, steps: usize, every: usize) -> bool {
+    s.is_multiple_of(every) || s == steps
+}
+
+/// Rows recorded for `steps` steps: the initial state, every `every`-th step and the last step.
+fn recorded_rows(steps: usize, every: usize) -> usize {
+    steps / every + 1 + usize::from(!steps.is_multiple_of(every))
+}
+
 /// What a simulation recorded. Arrays are row-major `(rows, parts)`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Trajectory {
@@ -124,7 +135,7 @@ impl Config {
             ));
         }
         let steps = steps as usize;
-        let rows = steps / self.record_every + 1;
+        let rows = recorded_rows(steps, self.record_every);
         if rows.saturating_mul(parts.max(1)) > MAX_RECORDED {
             return Err(Error::parameter(
                 "record_every",
@@ -354,7 +365,7 @@ impl Chunk {
     }
 
     /// Advances through one block: `table[k] = (u1, u2, u3)` at the end of step `first + k`.
-    fn run(&mut self, table: &[[f64; 3]], first: usize, cfg: &Config) {
+    fn run(&mut self, table: &[[f64; 3]], first: usize, cfg: &Config, steps: usize) {
         let half = cfg.plate_size.map(|s| 0.5 * s);
         let avx2 = use_avx2();
         for (k, &u) in table.iter().enumerate() {
@@ -383,7 +394,7 @@ impl Chunk {
                     }
                 }
             }
-            if (first + k + 1).is_multiple_of(cfg.record_every) {
+            if recorded(first + k + 1, steps, cfg.record_every) {
                 self.record.push(self.row());
             }
         }
@@ -433,7 +444,7 @@ impl DiskState {
     }
 
     /// Advances through one block with the disk's implicit step ([`crate::disk::implicit_step`]).
-    fn run(&mut self, table: &[[f64; 3]], first: usize, cfg: &Config) {
+    fn run(&mut self, table: &[[f64; 3]], first: usize, cfg: &Config, steps: usize) {
         let half = half_side(cfg);
         let dt = cfg.dt;
         for (k, &[u1, u2, u3]) in table.iter().enumerate() {
@@ -462,7 +473,7 @@ impl DiskState {
                     self.left = Some((first + k + 1) as f64 * dt);
                 }
             }
-            if (first + k + 1).is_multiple_of(cfg.record_every) {
+            if recorded(first + k + 1, steps, cfg.record_every) {
                 self.record.push(self.row());
             }
         }
@@ -607,7 +618,7 @@ where
             }
         })?;
     }
-    let rows = steps / cfg.record_every + 1;
+    let rows = recorded_rows(steps, cfg.record_every);
     let (points, disk_index): (Vec<usize>, Vec<usize>) =
         (0..m).partition(|&i| parts.radius[i] == 0.0);
     let point_parts = parts.subset(&points);
@@ -661,13 +672,13 @@ where
             let table = &w.table;
             w.chunks
                 .par_iter_mut()
-                .for_each(|c| c.run(table, first, cfg));
+                .for_each(|c| c.run(table, first, cfg, steps));
             w.disks
                 .par_iter_mut()
-                .for_each(|d| d.run(table, first, cfg));
+                .for_each(|d| d.run(table, first, cfg, steps));
             w.out.t.extend(
                 ((first + 1)..=end)
-                    .filter(|s| s.is_multiple_of(cfg.record_every))
+                    .filter(|&s| recorded(s, steps, cfg.record_every))
                     .map(|s| s as f64 * cfg.dt),
             );
             w.flush(m);

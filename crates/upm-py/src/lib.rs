@@ -6,6 +6,7 @@
 
 mod errors;
 mod motion;
+mod solve;
 
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -326,6 +327,14 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<WaveformBatch>()?;
     m.add_class::<motion::PlateMotion>()?;
     m.add_function(wrap_pyfunction!(motion::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(solve::solve, m)?)?;
+    m.add_function(wrap_pyfunction!(solve::solve_batch, m)?)?;
+    m.add_function(wrap_pyfunction!(solve::priorities, m)?)?;
+    m.add_function(wrap_pyfunction!(solve::flow_error, m)?)?;
+    m.add_function(wrap_pyfunction!(solve::rotation_field, m)?)?;
+    m.add_function(wrap_pyfunction!(solve::rotation_curl, m)?)?;
+    m.add_function(wrap_pyfunction!(solve::jet_field, m)?)?;
+    m.add_function(wrap_pyfunction!(solve::average_field, m)?)?;
     m.add_function(wrap_pyfunction!(force_table, m)?)?;
     m.add_function(wrap_pyfunction!(theorem1_force, m)?)?;
     m.add_function(wrap_pyfunction!(bang_bang_feed_rate, m)?)?;
