@@ -19,7 +19,11 @@ drive = upm.TwoHarmonic(0.5, 1.5707963, amplitude=0.05, frequency=35.0)
 motion = upm.PlateMotion.rotation((0.01, 0.02), drive)
 parts = np.random.default_rng(5).uniform(-0.1, 0.1, (1000, 2))
 run = upm.simulate(motion, parts, duration=0.05, dt=1e-4, mu=0.3, mu_s=0.4, record_every=100)
-sys.stdout.buffer.write(upm.force_table(2, 7, psi).tobytes() + rates.tobytes() + run.positions.tobytes())
+rng = np.random.default_rng(6)
+plans = upm.solve_rotations_batch(rng.uniform(-0.1, 0.1, (5000, 3, 2)), rng.normal(0, 1, (5000, 3, 2)),
+                                  upm.ring_centers(8, 0.2))
+sys.stdout.buffer.write(upm.force_table(2, 7, psi).tobytes() + rates.tobytes() + run.positions.tobytes()
+                        + plans.strengths.tobytes())
 """
 
 
@@ -29,7 +33,7 @@ def test_bitwise_identical_for_one_and_two_threads():
         env = dict(os.environ, RAYON_NUM_THREADS=threads)
         run = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True, check=True)
         outputs.append(run.stdout)
-    assert len(outputs[0]) == 8 * (20011 + 101 * 97 + 6 * 1000 * 2)
+    assert len(outputs[0]) == 8 * (20011 + 101 * 97 + 6 * 1000 * 2 + 5000 * 8)
     assert outputs[0] == outputs[1]
 
 

@@ -75,24 +75,24 @@ def _solve_increasing(f: Callable[[float], float], target: float, x0: float, nam
     if not (f_lo <= target <= f_hi):
         raise ConvergenceError(f"could not bracket the {name} giving a step of {target:g} m")
     a, b, fa, fb, side = math.log(lo), math.log(hi), f_lo - target, f_hi - target, 0
-    for _ in range(60):
-        if b - a < 1e-9 or fb == fa:
-            break
-        x = b - fb * (b - a) / (fb - fa)
+    for _ in range(100):
+        x = (a * fb - b * fa) / (fb - fa) if fb != fa else 0.5 * (a + b)
         fx = f(math.exp(x)) - target
         if abs(fx) <= 1e-4 * target:
             return math.exp(x)
-        if fx * fb < 0:
-            a, fa = b, fb
+        if fx < 0:
+            a, fa = x, fx
             if side == -1:
-                fb /= 2  # Illinois: keep the stale end from stalling the iteration
+                fb /= 2  # Illinois: the end kept twice in a row counts half
             side = -1
         else:
+            b, fb = x, fx
             if side == 1:
                 fa /= 2
             side = 1
-        b, fb = x, fx
-    return math.exp(0.5 * (a + b))
+        if b - a < 1e-12:
+            break
+    raise ConvergenceError(f"the {name} giving a step of {target:g} m did not converge (the step jumps there)")
 
 
 class _Probe:
@@ -479,7 +479,7 @@ def jet_plan(
             raise ParameterError("parts must be distinct to size the jets (two share a position)")
     rho = _positive("rho", rho)
     period = 3.0 / frequency  # the jet's period, 6 pi / w
-    rise = 1.0 / frequency if attack is None else _positive("attack", attack)
+    rise = period if attack is None else _positive("attack", attack)
     items: list[PlateMotion] = []
     for i in range(len(p)):
         length = float(np.hypot(*s[i]))
