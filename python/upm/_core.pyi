@@ -10,14 +10,22 @@ __all__ = [
     "WaveformBatch",
     "__version__",
     "_panic_for_test",
+    "average_field",
     "bang_bang_efficiency",
     "bang_bang_feed_rate",
     "bang_bang_force",
     "bang_bang_velocity_range",
+    "flow_error",
     "force_table",
     "gamma",
+    "jet_field",
     "normalized_drive",
+    "priorities",
+    "rotation_curl",
+    "rotation_field",
     "simulate",
+    "solve",
+    "solve_batch",
     "theorem1_force",
     "two_harmonic_feed_rate",
     "two_harmonic_force_at_rest",
@@ -98,3 +106,37 @@ def simulate(
     plate_size: float | None,
     record_every: int,
 ) -> tuple[_F, _F, _F, NDArray[np.bool_], _F, _F, _F]: ...
+
+_I = NDArray[np.int64]
+_Solved = tuple[_F, _I, _F, _F, _F, _F, _F, _I, _F]
+
+def solve(
+    parts: _F,
+    targets: _F,
+    centers: _F,
+    curl_points: _F,
+    curls: _F,
+    mu_m_g: float | None,
+    rcond: float | None,
+    damping: float,
+    max_strength: float | None,
+) -> _Solved: ...
+def solve_batch(
+    parts: _F,
+    targets: _F,
+    centers: _F,
+    curl_points: _F,
+    curls: _F,
+    mu_m_g: float | None,
+    rcond: float | None,
+    damping: float,
+    max_strength: float | None,
+) -> _Solved: ...
+def priorities(strengths: _F, parts: _F, centers: _F) -> _F: ...
+def flow_error(strengths: _F, parts: _F, centers: _F, order: list[int], exact: bool) -> _F: ...
+def rotation_field(points: _F, center: tuple[float, float]) -> _F: ...
+def rotation_curl(points: _F, center: tuple[float, float]) -> _F: ...
+def jet_field(
+    points: _F, center: tuple[float, float], direction: tuple[float, float], rho: float, tol: float
+) -> _F: ...
+def average_field(motion: PlateMotion, points: _F, part_velocity: _F, tol: float) -> _F: ...

@@ -15,7 +15,7 @@ from .waveforms import Harmonics, TwoHarmonic
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["feed_rate_map", "feeding_versus_b"]
+__all__ = ["feed_rate_map", "feeding_versus_b", "field"]
 
 
 def _pyplot() -> Any:
@@ -86,5 +86,76 @@ def feed_rate_map(b: ArrayLike, phi: ArrayLike) -> Figure:
     ax.set_ylabel(r"$b$")
     ax.set_title(r"Feed rate of $\sin t + b \sin(2t + \varphi)$")
     ax.legend(loc="lower right", fontsize=8)
+    figure: Figure = fig
+    return figure
+
+
+def field(
+    kind: str | Any,
+    extent: ArrayLike,
+    *,
+    center: ArrayLike = (0.0, 0.0),
+    direction: ArrayLike = (0.0, 1.0),
+    rho: float = 1.0,
+    strengths: ArrayLike | None = None,
+    centers: ArrayLike | None = None,
+    parts: ArrayLike | None = None,
+    resolution: int = 21,
+    ax: Any = None,
+) -> Figure:
+    """Quiver plot of an average force field / (mu m g), as in Figs. 4.7 and 6.2.
+
+    Parameters
+    ----------
+    kind : "rotation", "jet", "plan" or a PlateMotion
+        ``"rotation"``: the unit tangential field about ``center``; ``"jet"``: the jet (6.4) at
+        ``center`` along ``direction`` with ``rho``; ``"plan"``: the superposition
+        ``(1/N) sum_j k_j R90(P - C_j)/|P - C_j|`` of ``strengths`` about ``centers`` (4.9);
+        a :class:`upm.PlateMotion`: its :func:`upm.average_field`.
+    extent : (xmin, ymin, xmax, ymax)
+        The plotted square of the plate [m], sampled on ``resolution x resolution`` arrows.
+    parts, centers : array_like (K, 2), optional
+        Marked as dots and crosses.
+    """
+    from .fields import average_field, jet_field, rotation_field
+    from .motion import PlateMotion
+
+    plt = _pyplot()
+    x0, y0, x1, y1 = as_float("extent", extent).reshape(4)
+    gx, gy = np.meshgrid(np.linspace(x0, x1, resolution), np.linspace(y0, y1, resolution))
+    points = np.stack([gx, gy], axis=-1)
+    title: str
+    if isinstance(kind, PlateMotion):
+        f, title = average_field(kind, points, tol=1e-7), "average field of the motion"
+    elif kind == "rotation":
+        f, title = rotation_field(points, center), "rotation field (4.8)"
+    elif kind == "jet":
+        f, title = jet_field(points, center, direction, rho, tol=1e-7), "jet (6.4)"
+    elif kind == "plan":
+        if strengths is None or centers is None:
+            raise ValueError("kind='plan' needs strengths and centers")
+        k = as_float("strengths", strengths).reshape(-1)
+        cs = as_float("centers", centers).reshape(-1, 2)
+        f = sum(kj * rotation_field(points, c) for kj, c in zip(k, cs, strict=True)) / len(k)
+        title = "superposed rotations (4.9)"
+    else:
+        raise ValueError(f"kind must be 'rotation', 'jet', 'plan' or a upm.PlateMotion; got {kind!r}")
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(5.2, 5.0), layout="constrained")
+    else:
+        fig = ax.figure
+    ax.quiver(gx, gy, f[..., 0], f[..., 1], np.hypot(f[..., 0], f[..., 1]), cmap="viridis", pivot="mid")
+    if centers is not None:
+        cs = as_float("centers", centers).reshape(-1, 2)
+        ax.plot(cs[:, 0], cs[:, 1], "r+", ms=10, mew=2, label="centres")
+    if parts is not None:
+        ps = as_float("parts", parts).reshape(-1, 2)
+        ax.plot(ps[:, 0], ps[:, 1], "ko", ms=6, label="parts")
+    if centers is not None or parts is not None:
+        ax.legend(loc="upper right", fontsize=8)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(f"Force / $\\mu m g$: {title}")
     figure: Figure = fig
     return figure

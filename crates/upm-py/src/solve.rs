@@ -9,7 +9,11 @@ use upm_core::{field, Error};
 use crate::errors::{batch, detached, shape_error, Failure};
 use crate::motion::PlateMotion;
 
-fn points(py: Python<'_>, name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f64; 2]>> {
+fn point_list(
+    py: Python<'_>,
+    name: &str,
+    a: &PyReadonlyArray2<'_, f64>,
+) -> PyResult<Vec<[f64; 2]>> {
     let a = a.as_array();
     if a.shape()[1] != 2 {
         return Err(shape_error(
@@ -146,10 +150,10 @@ pub fn solve<'py>(
     damping: f64,
     max_strength: Option<f64>,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let p = points(py, "parts", &parts)?;
-    let t = points(py, "targets", &targets)?;
-    let c = points(py, "centers", &centers)?;
-    let q = points(py, "curl_points", &curl_points)?;
+    let p = point_list(py, "parts", &parts)?;
+    let t = point_list(py, "targets", &targets)?;
+    let c = point_list(py, "centers", &centers)?;
+    let q = point_list(py, "curl_points", &curl_points)?;
     let k = curls.as_array().to_vec();
     let opts = options(rcond, damping, max_strength);
     let plan = detached(py, || {
@@ -209,8 +213,8 @@ pub fn priorities<'py>(
     parts: PyReadonlyArray2<'py, f64>,
     centers: PyReadonlyArray2<'py, f64>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let p = points(py, "parts", &parts)?;
-    let c = points(py, "centers", &centers)?;
+    let p = point_list(py, "parts", &parts)?;
+    let c = point_list(py, "centers", &centers)?;
     let k = strengths.as_array().to_vec();
     if k.len() != c.len() {
         return Err(shape_error(
@@ -231,8 +235,8 @@ pub fn flow_error<'py>(
     order: Vec<usize>,
     exact: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let p = points(py, "parts", &parts)?;
-    let c = points(py, "centers", &centers)?;
+    let p = point_list(py, "parts", &parts)?;
+    let c = point_list(py, "centers", &centers)?;
     let k = strengths.as_array().to_vec();
     let out = detached(py, || {
         if exact {
@@ -259,10 +263,10 @@ fn field_out<'py>(py: Python<'py>, v: Vec<[f64; 2]>) -> PyResult<Bound<'py, PyAn
 #[pyfunction]
 pub fn rotation_field<'py>(
     py: Python<'py>,
-    points_: PyReadonlyArray2<'py, f64>,
+    points: PyReadonlyArray2<'py, f64>,
     center: [f64; 2],
 ) -> PyResult<Bound<'py, PyAny>> {
-    let p = points(py, "points", &points_)?;
+    let p = point_list(py, "points", &points)?;
     field_out(
         py,
         p.iter()
@@ -275,10 +279,10 @@ pub fn rotation_field<'py>(
 #[pyfunction]
 pub fn rotation_curl<'py>(
     py: Python<'py>,
-    points_: PyReadonlyArray2<'py, f64>,
+    points: PyReadonlyArray2<'py, f64>,
     center: [f64; 2],
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let p = points(py, "points", &points_)?;
+    let p = point_list(py, "points", &points)?;
     Ok(PyArray1::from_vec(
         py,
         p.iter().map(|&x| field::rotation_curl(x, center)).collect(),
@@ -289,13 +293,13 @@ pub fn rotation_curl<'py>(
 #[pyfunction]
 pub fn jet_field<'py>(
     py: Python<'py>,
-    points_: PyReadonlyArray2<'py, f64>,
+    points: PyReadonlyArray2<'py, f64>,
     center: [f64; 2],
     direction: [f64; 2],
     rho: f64,
     tol: f64,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let p = points(py, "points", &points_)?;
+    let p = point_list(py, "points", &points)?;
     let out = batch(py, p.len(), |i| {
         field::jet_field(p[i], center, direction, rho, tol)
     })?;
@@ -307,12 +311,12 @@ pub fn jet_field<'py>(
 pub fn average_field<'py>(
     py: Python<'py>,
     motion: PyRef<'py, PlateMotion>,
-    points_: PyReadonlyArray2<'py, f64>,
+    points: PyReadonlyArray2<'py, f64>,
     part_velocity: PyReadonlyArray2<'py, f64>,
     tol: f64,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let p = points(py, "points", &points_)?;
-    let v = points(py, "part_velocity", &part_velocity)?;
+    let p = point_list(py, "points", &points)?;
+    let v = point_list(py, "part_velocity", &part_velocity)?;
     if v.len() != p.len() {
         return Err(shape_error(
             py,
