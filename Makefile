@@ -56,6 +56,7 @@ lint: $(VENV)/.built ## ruff (fixing what it can), clippy, mypy
 bench: $(VENV)/.built ## side-by-side benchmarks (ours vs the peer, ratios printed)
 	cargo bench --quiet -p upm-core
 	$(PY) bench/theory.py
+	$(PY) bench/solvers.py
 	$(PY) -m pip install --quiet 'mujoco>=3.1'
 	$(PY) bench/integrator.py --mujoco
 

@@ -75,7 +75,9 @@ def main() -> None:
           f"median condition number {np.median(cond):.2g}; all agree to cond x 1e-14")  # fmt: skip
     print(f"  upm.solve_rotations_batch   {t_ours * 1e6 / b:8.2f} us/system")
     print(f"  numpy.linalg.pinv (stack)   {t_pinv * 1e6 / b:8.2f} us/system   ratio {t_pinv / t_ours:6.1f}x")
-    print(f"  numpy.linalg.lstsq (loop)   {t_lstsq * 1e6 / b:8.2f} us/system   ratio {t_lstsq / t_ours:6.1f}x")
+    print(
+        f"  numpy.linalg.lstsq (loop)   {t_lstsq * 1e6 / b:8.2f} us/system   ratio {t_lstsq / t_ours:6.1f}x"
+    )
 
     p2 = rng.uniform(-0.05, 0.05, (2, 2))
     f2 = rng.normal(0.0, 0.01, (2, 2))

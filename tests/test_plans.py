@@ -148,3 +148,22 @@ def test_jets_move_one_part_at_a_time():
     assert cross_talk < 0.25
     both = upm.jet_plan(parts, [[1e-3, 0], [0, -1e-3], [0, 0]], mu=0.3, frequency=300.0, amplitude=0.5)
     assert both.duration > motion.duration  # two jets, one after the other
+
+
+def test_field_plot_draws_the_fields():
+    plot = pytest.importorskip("upm.plot")
+    fig = plot.field("jet", (-2, -2, 2, 2), rho=1.0, resolution=5, parts=[(0, 0)])
+    quiver = fig.axes[0].collections[0]
+    gx, gy = np.meshgrid(np.linspace(-2, 2, 5), np.linspace(-2, 2, 5))
+    want = upm.jet_field(np.stack([gx, gy], axis=-1), (0, 0), (0, 1), 1.0)
+    np.testing.assert_allclose(np.asarray(quiver.U).reshape(5, 5), want[..., 0], atol=1e-6)
+    np.testing.assert_allclose(np.asarray(quiver.V).reshape(5, 5), want[..., 1], atol=1e-6)
+    plan = upm.solve_rotations(
+        [(0.5, 0), (-0.75, 0.25)], [(0.01, 0.01), (-0.01, 0)], upm.corner_centers((-1, -0.5, 1, 0.5))
+    )
+    fig = plot.field(
+        "plan", (-1.2, -0.8, 1.2, 0.8), strengths=plan.strengths, centers=plan.centers, parts=plan.parts
+    )
+    assert len(fig.axes[0].lines) == 2  # centres and parts marked
+    with pytest.raises(ValueError, match="kind must be"):
+        plot.field("vortex", (0, 0, 1, 1))

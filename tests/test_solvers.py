@@ -68,7 +68,9 @@ def test_damping_and_rcond():
     with pytest.warns(upm.RankWarning):
         cut = upm.solve_displacements(parts, steps, centers, rcond=float(s[2] / s[0]) * 1.0001)
     assert cut.rank == 2
-    np.testing.assert_allclose(cut.strengths, np.linalg.pinv(a, rcond=float(s[2] / s[0]) * 1.0001) @ b, atol=1e-14)
+    np.testing.assert_allclose(
+        cut.strengths, np.linalg.pinv(a, rcond=float(s[2] / s[0]) * 1.0001) @ b, atol=1e-14
+    )
 
 
 def test_max_strength_bounds_and_reports_its_cost():
@@ -98,7 +100,9 @@ def test_batch_matches_single_calls_exactly():
         assert np.array_equal(one.strengths, batch.strengths[i])
         assert np.array_equal(one.order, batch.order[i])
         assert one.residual == batch.residual[i]
-    per = upm.solve_rotations_batch(parts, forces, np.broadcast_to(centers, (50, 7, 2)), mu_m_g=0.2, damping=0.01)
+    per = upm.solve_rotations_batch(
+        parts, forces, np.broadcast_to(centers, (50, 7, 2)), mu_m_g=0.2, damping=0.01
+    )
     assert np.array_equal(per.strengths, batch.strengths)
 
 
@@ -155,7 +159,9 @@ def test_flow_error_is_the_exact_sequencing_error_to_third_order():
         assert np.linalg.norm(exact - estimate) < 0.2 * np.linalg.norm(exact)
         rest.append(np.linalg.norm(exact - estimate))
     assert 6 < rest[0] / rest[1] < 10  # third order
-    np.testing.assert_array_equal(upm.flow_error(plan), upm.flow_error(plan.strengths, parts, centers, plan.order))
+    np.testing.assert_array_equal(
+        upm.flow_error(plan), upm.flow_error(plan.strengths, parts, centers, plan.order)
+    )
     # The error depends on the order of the rotations.
     assert not np.allclose(upm.flow_error(plan), upm.flow_error(plan, order=plan.order[::-1]))
     with pytest.raises(upm.ParameterError, match="DisplacementPlan"):

@@ -11,7 +11,15 @@ from __future__ import annotations
 
 from . import theory
 from ._core import __version__
-from ._errors import ConvergenceError, InternalError, ParameterError, PlanWarning, RankWarning, ShapeError, UpmError
+from ._errors import (
+    ConvergenceError,
+    InternalError,
+    ParameterError,
+    PlanWarning,
+    RankWarning,
+    ShapeError,
+    UpmError,
+)
 from .feeding import feed_rate, force_table, mean_force, theorem1_force
 from .fields import average_field, jet_field, rotation_curl, rotation_field
 from .motion import PlateMotion

@@ -2,7 +2,15 @@
 
 from __future__ import annotations
 
-__all__ = ["ConvergenceError", "InternalError", "ParameterError", "PlanWarning", "RankWarning", "ShapeError", "UpmError"]
+__all__ = [
+    "ConvergenceError",
+    "InternalError",
+    "ParameterError",
+    "PlanWarning",
+    "RankWarning",
+    "ShapeError",
+    "UpmError",
+]
 
 
 class UpmError(Exception):

@@ -73,7 +73,9 @@ def jet_field(
     Returns an array of shape ``(..., 2)`` like ``points``.
     """
     p, lead = _points("points", points)
-    out = _core.jet_field(p, _vector("center", center), _vector("direction", direction), float(rho), _tol(tol))
+    out = _core.jet_field(
+        p, _vector("center", center), _vector("direction", direction), float(rho), _tol(tol)
+    )
     return np.asarray(out).reshape(*lead, 2)
 
 

@@ -92,7 +92,9 @@ def _solve_increasing(f: Callable[[float], float], target: float, x0: float, nam
             side = 1
         if b - a < 1e-12:
             break
-    raise ConvergenceError(f"the {name} giving a step of {target:g} m did not converge (the step jumps there)")
+    raise ConvergenceError(
+        f"the {name} giving a step of {target:g} m did not converge (the step jumps there)"
+    )
 
 
 class _Probe:
@@ -189,7 +191,9 @@ def plan_to_motion(
             raise ParameterError(f"intensity must be 'duration' or 'amplitude'; got {intensity!r}")
         if isinstance(refine, bool) or not isinstance(refine, int) or refine < 0:
             raise ParameterError(f"refine must be an integer >= 0; got {refine!r}")
-        return _pulse_program(plan, h, mu_f, mu_s_f, _positive("g", g), attack, rest, intensity, sustain, refine)
+        return _pulse_program(
+            plan, h, mu_f, mu_s_f, _positive("g", g), attack, rest, intensity, sustain, refine
+        )
     raise ParameterError(f"plan must be a RotationPlan or a DisplacementPlan; got {type(plan).__name__}")
 
 
@@ -281,7 +285,7 @@ def _pulse_program(
         return effect @ sizes, effect
 
     total, effect = measured(d)
-    error = np.linalg.norm(total - targets)
+    error = float(np.linalg.norm(total - targets))
     for _ in range(8):
         change = np.linalg.lstsq(effect, targets - total, rcond=None)[0]
         for _ in range(6):
@@ -292,7 +296,7 @@ def _pulse_program(
             except ParameterError:  # beyond the largest tabulated pulse: a shorter change
                 t_error = math.inf
             else:
-                t_error = np.linalg.norm(t_total - targets)
+                t_error = float(np.linalg.norm(t_total - targets))
             if t_error < error:
                 break
             change = change / 2
@@ -301,6 +305,7 @@ def _pulse_program(
         d, total, effect, error = trial, t_total, t_effect, t_error
         if error <= 1e-3 * np.linalg.norm(targets):
             break
+
     def program(arcs: np.ndarray) -> PlateMotion:
         items: list[PlateMotion] = []
         for j in plan.order:
@@ -322,7 +327,8 @@ def _pulse_program(
         run = simulate(motion, parts, duration=duration, dt=dt, mu=mu, mu_s=mu_s, g=g,
                        record_every=max(1, int(duration / dt)))  # fmt: skip
         moved = run.positions[-1] - parts
-        return targets - np.concatenate([moved[:, 0], moved[:, 1]])
+        out: np.ndarray = targets - np.concatenate([moved[:, 0], moved[:, 1]])
+        return out
 
     residual = miss(d)
     for _ in range(refine):
@@ -413,7 +419,9 @@ class _PulseTable:
     def steps(self, d: float) -> np.ndarray:
         """Steps of every part, ``(2M,)`` (x then y), for the pulse sized for ``d``."""
         x = self.knob(d)
-        out = [np.interp(x, self.grid, self.moved[:, i, k]) for k in (0, 1) for i in range(self.moved.shape[1])]
+        out = [
+            np.interp(x, self.grid, self.moved[:, i, k]) for k in (0, 1) for i in range(self.moved.shape[1])
+        ]
         return np.array(out)
 
     def pulse(self, d: float, sign: float) -> list[PlateMotion]:
@@ -494,7 +502,9 @@ def jet_plan(
 
         def step(hold: float, pulse: Callable[[float], PlateMotion] = pulse, probe: _Probe = probe) -> float:
             m = pulse(hold)
-            return probe(PlateMotion.sequence([m, PlateMotion.rest(_settle(m.duration or 0.0, mu_f, mu_s_f, rest))]))
+            return probe(
+                PlateMotion.sequence([m, PlateMotion.rest(_settle(m.duration or 0.0, mu_f, mu_s_f, rest))])
+            )
 
         hold = _solve_increasing(step, length, period, "sustain")
         m = pulse(hold)

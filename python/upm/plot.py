@@ -136,7 +136,7 @@ def field(
             raise ValueError("kind='plan' needs strengths and centers")
         k = as_float("strengths", strengths).reshape(-1)
         cs = as_float("centers", centers).reshape(-1, 2)
-        f = sum(kj * rotation_field(points, c) for kj, c in zip(k, cs, strict=True)) / len(k)
+        f = np.sum([kj * rotation_field(points, c) for kj, c in zip(k, cs, strict=True)], axis=0) / len(k)
         title = "superposed rotations (4.9)"
     else:
         raise ValueError(f"kind must be 'rotation', 'jet', 'plan' or a upm.PlateMotion; got {kind!r}")

@@ -137,7 +137,13 @@ def _warn_rank(rank: Any, constraints: int) -> None:
         )
 
 
-def _order(plan_order: NDArray[np.int64], strengths: FloatArray, parts: FloatArray, centers: FloatArray, order: OrderRule) -> NDArray[np.int64]:
+def _order(
+    plan_order: NDArray[np.int64],
+    strengths: FloatArray,
+    parts: FloatArray,
+    centers: FloatArray,
+    order: OrderRule,
+) -> NDArray[np.int64]:
     if isinstance(order, str) and order == "priority":
         return plan_order
     return rotation_order(strengths, parts, centers, rule=order)
@@ -308,9 +314,7 @@ def rotation_order(
     elif rule == "given":
         return np.arange(k.size, dtype=np.int64)
     else:
-        raise ParameterError(
-            f"rule must be 'priority', 'magnitude', 'given' or a callable; got {rule!r}"
-        )
+        raise ParameterError(f"rule must be 'priority', 'magnitude', 'given' or a callable; got {rule!r}")
     return np.argsort(-rho, kind="stable").astype(np.int64)
 
 
@@ -355,8 +359,8 @@ def flow_error(
     if not exact:
         return end
     rows = np.stack([_core.rotation_field(p, (float(x), float(y))) for x, y in c], axis=1)
-    linear = p + np.einsum("mnk,n->mk", rows, d)
-    return end - linear
+    linear: FloatArray = p + np.einsum("mnk,n->mk", rows, d)
+    return np.asarray(end - linear, dtype=np.float64)
 
 
 def corner_centers(workspace: ArrayLike) -> FloatArray:
@@ -364,7 +368,9 @@ def corner_centers(workspace: ArrayLike) -> FloatArray:
     lower-left, lower-right, upper-right, upper-left. Shape ``(4, 2)``."""
     w = np.asarray(workspace, dtype=np.float64)
     if w.shape != (4,) or not np.all(np.isfinite(w)) or not (w[2] > w[0] and w[3] > w[1]):
-        raise ParameterError(f"workspace must be finite (xmin, ymin, xmax, ymax) with max > min; got {workspace!r}")
+        raise ParameterError(
+            f"workspace must be finite (xmin, ymin, xmax, ymax) with max > min; got {workspace!r}"
+        )
     x0, y0, x1, y1 = w
     return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
 
