@@ -24,4 +24,5 @@ moved = run.positions[-1] - parts
 for i, (want, got) in enumerate(zip(steps, moved, strict=True)):
     print(f"part {i}: asked {1e3 * want} mm, moved {np.round(1e3 * got, 4)} mm")
 error = np.linalg.norm(moved - steps) / np.linalg.norm(steps)
-print(f"program {program.duration:.2f} s; all parts at rest: {bool(run.stuck[-1].all())}; error {100 * error:.1f}%")
+at_rest = bool(run.stuck[-1].all())
+print(f"program {program.duration:.2f} s; all parts at rest: {at_rest}; error {100 * error:.1f}%")
