@@ -9,7 +9,7 @@ equation numbers pointing into the thesis, is in ``docs/theory.md``.
 
 from __future__ import annotations
 
-from . import theory
+from . import actuation, theory
 from ._core import __version__
 from ._errors import (
     ConvergenceError,
@@ -17,13 +17,14 @@ from ._errors import (
     ParameterError,
     PlanWarning,
     RankWarning,
+    ResonanceWarning,
     ShapeError,
     UpmError,
 )
 from .feeding import feed_rate, force_table, mean_force, theorem1_force
 from .fields import average_field, jet_field, rotation_curl, rotation_field
 from .motion import PlateMotion
-from .planning import jet_plan, plan_to_motion
+from .planning import jet_plan, plan_to_motion, sustain_for_displacement
 from .sim import Disk, Point, SimResult, simulate, simulate_batch
 from .solvers import (
     DisplacementPlan,
@@ -51,6 +52,7 @@ __all__ = [
     "PlateMotion",
     "Point",
     "RankWarning",
+    "ResonanceWarning",
     "RotationPlan",
     "ShapeError",
     "SimResult",
@@ -58,6 +60,7 @@ __all__ = [
     "UpmError",
     "Waveform",
     "__version__",
+    "actuation",
     "average_field",
     "corner_centers",
     "feed_rate",
@@ -77,6 +80,7 @@ __all__ = [
     "solve_displacements",
     "solve_rotations",
     "solve_rotations_batch",
+    "sustain_for_displacement",
     "theorem1_force",
     "theory",
 ]

@@ -11,15 +11,21 @@ __all__ = [
     "__version__",
     "_panic_for_test",
     "average_field",
+    "axis_response",
     "bang_bang_efficiency",
     "bang_bang_feed_rate",
     "bang_bang_force",
     "bang_bang_velocity_range",
+    "center_of_rotation",
+    "cor_from_accelerometers",
     "flow_error",
     "force_table",
     "gamma",
+    "harmonic_fit",
     "jet_field",
+    "motors_for",
     "normalized_drive",
+    "positive_force",
     "priorities",
     "rotation_curl",
     "rotation_field",
@@ -29,6 +35,8 @@ __all__ = [
     "theorem1_force",
     "two_harmonic_feed_rate",
     "two_harmonic_force_at_rest",
+    "velocity_amplitudes",
+    "velocity_from_fit",
     "viscous_gain",
 ]
 
@@ -140,3 +148,24 @@ def jet_field(
     points: _F, center: tuple[float, float], direction: tuple[float, float], rho: float, tol: float
 ) -> _F: ...
 def average_field(motion: PlateMotion, points: _F, part_velocity: _F, tol: float) -> _F: ...
+def motors_for(
+    mass: float, inertia: float, lever: float, u: tuple[float, float, float], limit: float | None
+) -> tuple[float, float, float, float]: ...
+def velocity_amplitudes(
+    mass: float, inertia: float, lever: float, motors: tuple[float, float, float, float]
+) -> tuple[float, float, float]: ...
+def center_of_rotation(u: tuple[float, float, float]) -> tuple[tuple[float, float], float]: ...
+def axis_response(mass: float, damping: float, stiffness: float, w: _F) -> tuple[float | None, _F, _F]: ...
+def harmonic_fit(
+    samples: _F, sample_rate: float, frequency: float, multiples: list[float]
+) -> tuple[_F, float, float]: ...
+def velocity_from_fit(coefficients: _F, frequency: float, multiples: list[float]) -> _F: ...
+def positive_force(coefficients: _F) -> NDArray[np.bool_]: ...
+def cor_from_accelerometers(
+    first: _F,
+    second: _F,
+    r1: tuple[float, float],
+    sample_rate: float,
+    frequency: float,
+    multiples: list[float],
+) -> tuple[tuple[float, float], _F, float]: ...

@@ -42,3 +42,7 @@ class RankWarning(UserWarning):
 
 class PlanWarning(UserWarning):
     """A plate motion program will not achieve its plan closely (the message says by how much)."""
+
+
+class ResonanceWarning(UserWarning):
+    """The drive is too close to a resonance of the plate for velocity = integral of force / mass."""

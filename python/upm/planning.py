@@ -29,7 +29,7 @@ from .sim import simulate, simulate_batch
 from .solvers import DisplacementPlan, RotationPlan
 from .waveforms import Harmonics, TwoHarmonic, Waveform
 
-__all__ = ["jet_plan", "plan_to_motion"]
+__all__ = ["jet_plan", "plan_to_motion", "sustain_for_displacement"]
 
 
 def _harmonics(waveform: Waveform | None, amplitude: float, frequency: float) -> Harmonics:
@@ -512,3 +512,48 @@ def jet_plan(
     if not items:
         items.append(PlateMotion.rest(period))
     return PlateMotion.sequence(items)
+
+
+def sustain_for_displacement(
+    d: float,
+    *,
+    radius: float,
+    mu: float,
+    mu_s: float | None = None,
+    g: float = 9.81,
+    waveform: Waveform | None = None,
+    amplitude: float = 2.0,
+    frequency: float = 35.0,
+    attack: float | None = None,
+) -> float:
+    """Sustain [s] of a rotation pulse that moves a part by arc length ``d`` [m] (5.2.3).
+
+    The pulse is ``waveform`` (default ``amplitude (cos wt - cos(2wt)/2)`` [rad/s] at
+    ``frequency``) about a centre, under a raised-cosine envelope ``(attack, S, attack)`` (attack
+    default one period), followed by rest; the part rests at ``radius`` [m] from the centre. While
+    the part is slow next to the plate the step grows as ``S^2`` (so ``S ∝ sqrt(d)``); the sustain
+    is solved against the exact integrator (time step 1/200 of the highest frequency's period),
+    coast after the pulse included, so it stays right beyond that regime. `ParameterError` when
+    even a pulse without sustain moves the part further.
+    """
+    h = _harmonics(waveform, amplitude, frequency)
+    target = _positive("d", d)
+    r = _positive("radius", radius)
+    mu_f = _positive("mu", mu)
+    mu_s_f = mu_f if mu_s is None else float(mu_s)
+    period = 1.0 / float(h.frequency)
+    rise = period if attack is None else _positive("attack", attack)
+    probe = _Probe(np.array([r, 0.0]), np.array([0.0, 1.0]), mu_f, mu_s_f, _positive("g", g))
+
+    def step(sustain: float) -> float:
+        pulse = PlateMotion.rotation((0.0, 0.0), h).with_envelope(rise, sustain, rise)
+        rest = _settle(pulse.duration or 0.0, mu_f, mu_s_f, None)
+        return probe(PlateMotion.sequence([pulse, PlateMotion.rest(rest)]))
+
+    shortest = step(0.0)
+    if target <= shortest:
+        raise ParameterError(
+            f"d = {target:.3g} m is below what the attack and decay alone give ({shortest:.3g} m): "
+            "shorten the attack or raise the frequency"
+        )
+    return _solve_increasing(step, target, 4 * period, "sustain")

@@ -7,6 +7,8 @@
 //! unless a name says otherwise. Equation numbers `(x.y)` refer to the thesis; `SPEC §n` to the
 //! project's clean restatement of it.
 //!
+//! * [`actuation`]: motors, wrench and centre of rotation; plate dynamics; harmonic fits and
+//!   the accelerometer centre of rotation.
 //! * [`waveform`]: periodic 1-D plate velocities and their monotone pieces.
 //! * [`disk`]: friction force and torque of a flat disk, and its implicit stick–slip step.
 //! * [`friction`]: exact average Coulomb forces and feed rates (root-based, no sampling).
@@ -18,6 +20,7 @@
 //! * [`parallel`]: deterministic batches on rayon.
 #![deny(missing_docs)]
 
+pub mod actuation;
 pub mod disk;
 pub mod error;
 pub mod field;

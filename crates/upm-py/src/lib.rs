@@ -4,6 +4,7 @@
 //! `upm-core`. Inputs arrive from the Python layer already broadcast to equal 1-D lengths (or as
 //! `(B, K)` coefficient tables), float64; outputs are new NumPy arrays.
 
+mod actuation;
 mod errors;
 mod motion;
 mod solve;
@@ -327,6 +328,14 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<WaveformBatch>()?;
     m.add_class::<motion::PlateMotion>()?;
     m.add_function(wrap_pyfunction!(motion::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(actuation::motors_for, m)?)?;
+    m.add_function(wrap_pyfunction!(actuation::velocity_amplitudes, m)?)?;
+    m.add_function(wrap_pyfunction!(actuation::center_of_rotation, m)?)?;
+    m.add_function(wrap_pyfunction!(actuation::axis_response, m)?)?;
+    m.add_function(wrap_pyfunction!(actuation::harmonic_fit, m)?)?;
+    m.add_function(wrap_pyfunction!(actuation::velocity_from_fit, m)?)?;
+    m.add_function(wrap_pyfunction!(actuation::positive_force, m)?)?;
+    m.add_function(wrap_pyfunction!(actuation::cor_from_accelerometers, m)?)?;
     m.add_function(wrap_pyfunction!(solve::solve, m)?)?;
     m.add_function(wrap_pyfunction!(solve::solve_batch, m)?)?;
     m.add_function(wrap_pyfunction!(solve::priorities, m)?)?;
