@@ -58,6 +58,9 @@ def test_table_5_1_rows_are_minimum_norm_and_the_fit_reports_its_residual():
     # printed column labels.
     assert cmap.matrix[0, 0] < 0 and cmap.matrix[1, 1] < 0
     assert abs(cmap.matrix[0, 1]) < 0.2 * abs(cmap.matrix[0, 0])
+    # Predictions against measurements: each row from the map fitted to the other five.
+    loo = act.cross_validate_cor_map(m, table["cor_inches"])
+    assert loo.shape == (6,) and np.all(loo < 0.6)
     # The library inverts the map.
     targets = np.array([[0.0, 0.0], [1.5, 1.5], [-2.0, 3.0]])
     library = act.cor_library(cmap, targets, strength=512)
@@ -161,3 +164,37 @@ def test_sustain_for_displacement_is_exact_and_grows_as_sqrt_d():
     assert run.stuck[-1, 0]
     with pytest.raises(upm.ParameterError, match="below what the attack and decay alone give"):
         upm.sustain_for_displacement(1e-7, **kwargs)
+
+
+def test_precompensated_force_gives_the_wanted_velocity_in_the_ode():
+    # Independent check: integrate m q'' + b q' + k q = F(t) (RK4) near resonance and fit the
+    # steady-state velocity's harmonics.
+    axis = act.Axis(mass=2.0, damping=15.0, stiffness=2.0e4)  # resonance ~16 Hz
+    f = 20.0
+    wanted = {1.0: 0.1 + 0.0j, 2.0: 0.05j}
+    forces = act.precompensate(axis, f, wanted)
+    w = 2 * np.pi * f
+
+    def force(t):
+        return sum((p * np.exp(1j * h * w * t)).real for h, p in forces.items())
+
+    def rhs(t, y):
+        q, v = y
+        return np.array([v, (force(t) - axis.damping * v - axis.stiffness * q) / axis.mass])
+
+    dt, y, t, vs = 1 / (f * 2000), np.zeros(2), 0.0, []
+    for _ in range(int(3.0 / dt)):
+        k1 = rhs(t, y)
+        k2 = rhs(t + dt / 2, y + dt / 2 * k1)
+        k3 = rhs(t + dt / 2, y + dt / 2 * k2)
+        k4 = rhs(t + dt, y + dt * k3)
+        y, t = y + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4), t + dt
+        if t > 2.0:  # transients (time constant 2m/b = 0.27 s) have died out
+            vs.append(y[1])
+    t0 = 2.0 + dt
+    fit = act.harmonic_fit(np.array(vs), 1 / dt, f)
+    # Re(p e^{i h w (t0 + s)}) = c cos(h w s) + s sin(h w s) with p' = p e^{i h w t0}.
+    for k, (h, p) in enumerate(wanted.items()):
+        shifted = p * np.exp(1j * h * w * t0)
+        assert fit.coefficients[2 * k] == pytest.approx(shifted.real, abs=2e-4)
+        assert fit.coefficients[2 * k + 1] == pytest.approx(-shifted.imag, abs=2e-4)

@@ -34,6 +34,7 @@ __all__ = [
     "check_drive",
     "cor_from_accelerometers",
     "cor_library",
+    "cross_validate_cor_map",
     "fit_cor_map",
     "harmonic_fit",
     "positive_force",
@@ -379,3 +380,18 @@ def cor_library(
     """The "COR library" (5.3.1): motor amplitudes ``(K, 4)`` for each target centre ``(K, 2)``."""
     cs = as_float("centers", centers).reshape(-1, 2)
     return np.stack([cor_map.motors_for(c, strength, limit) for c in cs])
+
+
+def cross_validate_cor_map(motors: ArrayLike, centers: ArrayLike) -> FloatArray:
+    """Leave-one-out validation of :func:`fit_cor_map`: for each row, the distance between its
+    measured centre and the one predicted by the map fitted to the other rows, ``(K,)``."""
+    m = as_float("motors", motors)
+    c = as_float("centers", centers)
+    if m.ndim != 2 or m.shape[1] != 4 or c.shape != (m.shape[0], 2):
+        raise ShapeError(f"motors must be (K, 4) and centers (K, 2); got {m.shape} and {c.shape}")
+    errors = np.empty(len(m))
+    for i in range(len(m)):
+        keep = np.arange(len(m)) != i
+        fitted = fit_cor_map(m[keep], c[keep])
+        errors[i] = float(np.hypot(*(fitted.predict(m[i]) - c[i])))
+    return errors
