@@ -12,6 +12,7 @@ from __future__ import annotations
 from . import actuation, theory
 from ._core import __version__
 from ._errors import (
+    BoardError,
     ConvergenceError,
     InternalError,
     ParameterError,
@@ -42,6 +43,7 @@ from .waveforms import BangBang, Harmonics, TwoHarmonic, Waveform
 
 __all__ = [
     "BangBang",
+    "BoardError",
     "ConvergenceError",
     "Disk",
     "DisplacementPlan",

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 __all__ = [
+    "BoardError",
     "ConvergenceError",
     "InternalError",
     "ParameterError",
     "PlanWarning",
     "RankWarning",
+    "ResonanceWarning",
     "ShapeError",
     "UpmError",
 ]
@@ -46,3 +48,7 @@ class PlanWarning(UserWarning):
 
 class ResonanceWarning(UserWarning):
     """The drive is too close to a resonance of the plate for velocity = integral of force / mass."""
+
+
+class BoardError(UpmError):
+    """The board link failed: a timeout, a protocol violation, a refused command (subclasses)."""

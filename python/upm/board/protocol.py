@@ -1,0 +1,325 @@
+"""The upm board protocol, version 1: pure bytes <-> messages (``docs/protocol.md``).
+
+A frame is ``version u8 | type u8 | seq u16 | length u16 | payload | crc u16`` (little-endian),
+the CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF) of everything before it; on the wire each frame
+is COBS-encoded and followed by one zero byte. Nothing here does I/O.
+"""
+
+from __future__ import annotations
+
+import binascii
+import struct
+from dataclasses import dataclass, fields
+from enum import IntEnum
+from typing import ClassVar
+
+from cobs import cobs
+
+from .._errors import BoardError
+
+__all__ = [
+    "MAX_PAYLOAD",
+    "VERSION",
+    "Ack",
+    "Decoder",
+    "GetStatus",
+    "Heartbeat",
+    "Hello",
+    "Message",
+    "Nack",
+    "NackCode",
+    "ProtocolError",
+    "Pulse",
+    "PulseDone",
+    "Samples",
+    "SetChannel",
+    "SetEnvelope",
+    "SetWatchdog",
+    "State",
+    "Status",
+    "Stop",
+    "decode_frame",
+    "encode",
+]
+
+VERSION = 1
+MAX_PAYLOAD = 1024
+_HEADER = struct.Struct("<BBHH")
+
+
+class ProtocolError(BoardError):
+    """A frame that is not a valid protocol-v1 message (the message says which check failed)."""
+
+
+class NackCode(IntEnum):
+    """Why the board refused a command."""
+
+    UNKNOWN_TYPE = 1
+    BAD_LENGTH = 2
+    OUT_OF_LIMITS = 3
+    BAD_STATE = 4
+    VERSION = 5
+    BAD_CHANNEL = 6
+
+
+class State(IntEnum):
+    """The board's state in STATUS."""
+
+    IDLE = 0
+    PULSING = 1
+    STOPPED = 2
+    WATCHDOG = 3
+    FAULT = 4
+
+
+@dataclass(frozen=True)
+class Message:
+    """Base of every message; ``TYPE`` is its type byte, ``FORMAT`` its fixed payload layout."""
+
+    TYPE: ClassVar[int]
+    FORMAT: ClassVar[str] = "<"
+
+    def payload(self) -> bytes:
+        return struct.pack(self.FORMAT, *(getattr(self, f.name) for f in fields(self)))
+
+    @classmethod
+    def parse(cls, payload: bytes) -> Message:
+        size = struct.calcsize(cls.FORMAT)
+        if len(payload) != size:
+            raise ProtocolError(f"{cls.__name__} payload must be {size} bytes; got {len(payload)}")
+        return cls(*struct.unpack(cls.FORMAT, payload))
+
+
+@dataclass(frozen=True)
+class Hello(Message):
+    """Handshake, both ways: the host sends its version (limits zero); the board answers with its
+    version, capability flags and limits."""
+
+    TYPE = 0x01
+    FORMAT = "<BIfffIH"
+    version: int
+    capabilities: int = 0
+    max_amplitude: float = 0.0
+    min_frequency: float = 0.0
+    max_frequency: float = 0.0
+    sample_rate: int = 0
+    watchdog_ms: int = 0
+
+
+@dataclass(frozen=True)
+class SetChannel(Message):
+    """One motor channel (0..3 = X1, X2, Y1, Y2): overall amplitude, base frequency [Hz] and the
+    amplitude and phase [rad] of the 1st, 2nd and 2/3 harmonics of ``cos``."""
+
+    TYPE = 0x10
+    FORMAT = "<Bff6f"
+    channel: int
+    amplitude: float
+    frequency: float
+    h1_amplitude: float = 1.0
+    h1_phase: float = 0.0
+    h2_amplitude: float = 0.0
+    h2_phase: float = 0.0
+    h23_amplitude: float = 0.0
+    h23_phase: float = 0.0
+
+
+@dataclass(frozen=True)
+class SetEnvelope(Message):
+    """Raised-cosine envelope of the next pulses: attack, sustain, decay [s]."""
+
+    TYPE = 0x11
+    FORMAT = "<fff"
+    attack: float
+    sustain: float
+    decay: float
+
+
+@dataclass(frozen=True)
+class Pulse(Message):
+    """Play one envelope with the current channels; the board answers PULSE_DONE(id) at its end."""
+
+    TYPE = 0x12
+    FORMAT = "<I"
+    id: int
+
+
+@dataclass(frozen=True)
+class PulseDone(Message):
+    """Board -> host: pulse ``id`` ended; ``sample`` is the sample counter at its end."""
+
+    TYPE = 0x13
+    FORMAT = "<II"
+    id: int
+    sample: int
+
+
+@dataclass(frozen=True)
+class Stop(Message):
+    """Every motor off now."""
+
+    TYPE = 0x14
+
+
+@dataclass(frozen=True)
+class Heartbeat(Message):
+    """Host -> board, at least every watchdog period."""
+
+    TYPE = 0x15
+
+
+@dataclass(frozen=True)
+class GetStatus(Message):
+    """Host -> board: ask for STATUS."""
+
+    TYPE = 0x16
+
+
+@dataclass(frozen=True)
+class Status(Message):
+    """Board -> host: state, fault flags, and counters (pulses played, samples taken, frames
+    rejected for a bad CRC or layout)."""
+
+    TYPE = 0x17
+    FORMAT = "<BHIII"
+    state: int
+    faults: int
+    pulses: int
+    samples: int
+    rejected: int
+
+    WATCHDOG_TRIPPED: ClassVar[int] = 1
+    LIMIT_REFUSED: ClassVar[int] = 2
+    SAMPLES_DROPPED: ClassVar[int] = 4
+
+
+@dataclass(frozen=True)
+class SetWatchdog(Message):
+    """Host -> board: the watchdog period [ms] (1..60000)."""
+
+    TYPE = 0x18
+    FORMAT = "<H"
+    milliseconds: int
+
+
+@dataclass(frozen=True)
+class Samples(Message):
+    """Board -> host: ``count`` samples of the four accelerometer channels (a1x, a1y, a2x, a2y),
+    signed 11-bit values in int16, starting at sample ``first`` (so gaps are detectable)."""
+
+    TYPE = 0x20
+    first: int
+    values: tuple[tuple[int, int, int, int], ...]
+
+    def payload(self) -> bytes:
+        flat = [v for row in self.values for v in row]
+        return struct.pack(f"<IH{len(flat)}h", self.first, len(self.values), *flat)
+
+    @classmethod
+    def parse(cls, payload: bytes) -> Message:
+        if len(payload) < 6:
+            raise ProtocolError(f"Samples payload must be at least 6 bytes; got {len(payload)}")
+        first, count = struct.unpack_from("<IH", payload)
+        if len(payload) != 6 + 8 * count:
+            raise ProtocolError(
+                f"Samples payload for {count} samples must be {6 + 8 * count} bytes; got {len(payload)}"
+            )
+        flat = struct.unpack_from(f"<{4 * count}h", payload, 6)
+        return cls(first, tuple(tuple(flat[4 * i : 4 * i + 4]) for i in range(count)))
+
+
+@dataclass(frozen=True)
+class Ack(Message):
+    """Board -> host: command ``seq`` accepted."""
+
+    TYPE = 0x30
+    FORMAT = "<H"
+    seq: int
+
+
+@dataclass(frozen=True)
+class Nack(Message):
+    """Board -> host: command ``seq`` refused, with a :class:`NackCode`."""
+
+    TYPE = 0x31
+    FORMAT = "<HB"
+    seq: int
+    code: int
+
+
+_TYPES: dict[int, type[Message]] = {
+    cls.TYPE: cls
+    for cls in (
+        Hello, SetChannel, SetEnvelope, Pulse, PulseDone, Stop, Heartbeat, GetStatus, Status,
+        SetWatchdog, Samples, Ack, Nack,
+    )
+}  # fmt: skip
+
+
+def encode(message: Message, seq: int) -> bytes:
+    """The wire bytes of ``message`` with sequence number ``seq``: COBS(frame) + b"\\x00"."""
+    payload = message.payload()
+    if len(payload) > MAX_PAYLOAD:
+        raise ProtocolError(f"payload of {len(payload)} bytes exceeds {MAX_PAYLOAD}")
+    if not 0 <= seq <= 0xFFFF:
+        raise ProtocolError(f"seq must be in [0, 65535]; got {seq}")
+    body = _HEADER.pack(VERSION, message.TYPE, seq, len(payload)) + payload
+    crc = binascii.crc_hqx(body, 0xFFFF)
+    return bytes(cobs.encode(body + struct.pack("<H", crc))) + b"\x00"
+
+
+def decode_frame(frame: bytes) -> tuple[int, Message]:
+    """``(seq, message)`` of one COBS-encoded frame without its zero delimiter."""
+    try:
+        body = cobs.decode(frame)
+    except cobs.DecodeError as error:
+        raise ProtocolError(f"bad COBS encoding: {error}") from error
+    if len(body) < _HEADER.size + 2:
+        raise ProtocolError(f"frame of {len(body)} bytes is shorter than header and CRC (8)")
+    (crc,) = struct.unpack_from("<H", body, len(body) - 2)
+    if binascii.crc_hqx(body[:-2], 0xFFFF) != crc:
+        raise ProtocolError("CRC mismatch")
+    version, kind, seq, length = _HEADER.unpack_from(body)
+    if version != VERSION:
+        raise ProtocolError(f"protocol version {version}; this side speaks {VERSION}")
+    if length != len(body) - _HEADER.size - 2:
+        raise ProtocolError(f"length field {length} disagrees with the frame ({len(body) - 8} payload bytes)")
+    cls = _TYPES.get(kind)
+    if cls is None:
+        raise ProtocolError(f"unknown message type 0x{kind:02x}")
+    return seq, cls.parse(body[_HEADER.size : -2])
+
+
+class Decoder:
+    """Streaming decoder: feed it bytes as they arrive; it returns the complete valid messages and
+    counts the frames it had to drop (``rejected``) with the last reason (``last_error``). Garbage
+    never raises: the next zero byte resynchronises the stream."""
+
+    def __init__(self, max_frame: int = 2 * MAX_PAYLOAD) -> None:
+        self._buffer = bytearray()
+        self._max = max_frame
+        self.rejected = 0
+        self.last_error: str | None = None
+
+    def feed(self, data: bytes) -> list[tuple[int, Message]]:
+        out: list[tuple[int, Message]] = []
+        self._buffer.extend(data)
+        while True:
+            end = self._buffer.find(0)
+            if end < 0:
+                if len(self._buffer) > self._max:  # a lost delimiter: drop and wait for the next
+                    self._buffer.clear()
+                    self._reject("frame longer than the maximum without a delimiter")
+                return out
+            frame = bytes(self._buffer[:end])
+            del self._buffer[: end + 1]
+            if not frame:
+                continue
+            try:
+                out.append(decode_frame(frame))
+            except ProtocolError as error:
+                self._reject(str(error))
+
+    def _reject(self, reason: str) -> None:
+        self.rejected += 1
+        self.last_error = reason
