@@ -8,5 +8,6 @@ Needs the ``board`` extra: ``pip install 'upm[board]'``.
 from __future__ import annotations
 
 from . import protocol
+from .client import Board, BoardTimeout, CommandRefused, VersionMismatch
 
-__all__ = ["protocol"]
+__all__ = ["Board", "BoardTimeout", "CommandRefused", "VersionMismatch", "protocol"]

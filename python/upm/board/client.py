@@ -1,0 +1,296 @@
+"""``Board``: the host driver for protocol v1 over any pyserial URL (``docs/protocol.md``).
+
+A reader thread decodes everything the board sends (replies, samples, pulse completions, status)
+and a heartbeat thread keeps the board's watchdog fed. Commands carry sequence numbers and are
+resent on timeout; NACKs raise ``CommandRefused``. Used as a context manager the board always gets
+STOP on the way out, whether the block ends normally, by an exception or by Ctrl-C.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from types import TracebackType
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .._errors import BoardError
+from . import protocol as p
+
+__all__ = ["Board", "BoardTimeout", "CommandRefused", "VersionMismatch"]
+
+
+class BoardTimeout(BoardError):
+    """The board did not answer in time (after the retries)."""
+
+
+class VersionMismatch(BoardError):
+    """The board speaks another protocol version."""
+
+
+class CommandRefused(BoardError):
+    """The board answered NACK; ``code`` is the :class:`~upm.board.protocol.NackCode`."""
+
+    def __init__(self, message: str, code: int) -> None:
+        super().__init__(message)
+        self.code = code
+
+
+class Board:
+    """A connection to a board (or the emulator).
+
+    Parameters
+    ----------
+    url : str
+        Any pyserial URL: ``/dev/ttyACM0``, ``/dev/pts/3``, ``socket://127.0.0.1:5555``, ``loop://``.
+    timeout : float
+        Seconds to wait for each answer before resending.
+    retries : int
+        Resends before `BoardTimeout`.
+    heartbeat : float
+        Seconds between heartbeats (keep it well under the board's watchdog).
+    """
+
+    def __init__(self, url: str, *, timeout: float = 0.25, retries: int = 3, heartbeat: float = 0.05) -> None:
+        try:
+            import serial
+        except ImportError as error:  # pragma: no cover - depends on the environment
+            raise ImportError("upm.board needs pyserial: pip install 'upm[board]'") from error
+        try:
+            self._port = serial.serial_for_url(url, baudrate=921600, timeout=0.005)
+        except (serial.SerialException, ValueError) as error:
+            raise BoardError(f"cannot open {url!r}: {error}") from error
+        self.url, self.timeout, self.retries, self.heartbeat = url, timeout, retries, heartbeat
+        self._decoder = p.Decoder()
+        self._lock = threading.Lock()
+        self._changed = threading.Condition()
+        self._replies: dict[int, p.Message] = {}
+        self._done: dict[int, int] = {}
+        self._status: p.Status | None = None
+        self._hello: p.Hello | None = None
+        self._chunks: list[NDArray[np.int16]] = []
+        self._next_sample: int | None = None
+        self.first_sample: int | None = None
+        self.gaps = 0
+        self.info: p.Hello | None = None
+        self._seq = 0
+        self._open = True
+        self._error: BaseException | None = None
+        self._reader = threading.Thread(target=self._read_loop, name="upm-board-reader", daemon=True)
+        self._reader.start()
+        self._beater = threading.Thread(target=self._beat_loop, name="upm-board-heartbeat", daemon=True)
+        try:
+            self.info = self.hello()
+        except BaseException:
+            self.close(stop=False)
+            raise
+        self._beater.start()
+
+    # -- threads ---------------------------------------------------------------------------
+    def _read_loop(self) -> None:
+        while self._open:
+            try:
+                data = self._port.read(65536)
+            except Exception as error:  # the port went away
+                self._error = error
+                with self._changed:
+                    self._changed.notify_all()
+                return
+            if not data:
+                continue
+            for _, message in self._decoder.feed(data):
+                self._dispatch(message)
+
+    def _dispatch(self, message: p.Message) -> None:
+        with self._changed:
+            if isinstance(message, (p.Ack, p.Nack)):
+                self._replies[message.seq] = message
+            elif isinstance(message, p.Samples):
+                if self._next_sample is not None and message.first != self._next_sample:
+                    self.gaps += 1
+                if self.first_sample is None:
+                    self.first_sample = message.first
+                self._next_sample = message.first + len(message.values)
+                self._chunks.append(np.array(message.values, dtype=np.int16).reshape(-1, 4))
+            elif isinstance(message, p.PulseDone):
+                self._done[message.id] = message.sample
+            elif isinstance(message, p.Status):
+                self._status = message
+            elif isinstance(message, p.Hello):
+                self._hello = message
+            self._changed.notify_all()
+
+    def _beat_loop(self) -> None:
+        while self._open:
+            time.sleep(self.heartbeat)
+            if self._open:
+                try:
+                    self._write(p.Heartbeat())
+                except BoardError:
+                    return
+
+    # -- sending ---------------------------------------------------------------------------
+    def _write(self, message: p.Message, seq: int | None = None) -> int:
+        with self._lock:
+            if seq is None:
+                self._seq = (self._seq + 1) & 0xFFFF
+                seq = self._seq
+            try:
+                self._port.write(p.encode(message, seq))
+            except Exception as error:
+                raise BoardError(f"writing to {self.url!r} failed: {error}") from error
+        return seq
+
+    def _wait(self, ready: Any, what: str) -> Any:
+        deadline = time.monotonic() + self.timeout
+        with self._changed:
+            while True:
+                value = ready()
+                if value is not None:
+                    return value
+                if self._error is not None:
+                    raise BoardError(f"the link to {self.url!r} failed: {self._error}")
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return None
+                self._changed.wait(left)
+
+    def _command(self, message: p.Message) -> None:
+        seq = self._write(message)
+        for attempt in range(self.retries + 1):
+            reply = self._wait(lambda: self._replies.pop(seq, None), type(message).__name__)
+            if isinstance(reply, p.Ack):
+                return
+            if isinstance(reply, p.Nack):
+                known = reply.code in p.NackCode._value2member_map_
+                name = p.NackCode(reply.code).name if known else f"code {reply.code}"
+                raise CommandRefused(f"the board refused {message}: {name}", reply.code)
+            if attempt < self.retries:
+                self._write(message, seq)  # same seq: the board answers a resend without acting twice
+        raise BoardTimeout(
+            f"no answer to {type(message).__name__} from {self.url!r} after {self.retries} resends"
+        )
+
+    # -- commands --------------------------------------------------------------------------
+    def hello(self) -> p.Hello:
+        """Handshake; returns the board's version, capabilities and limits."""
+        self._hello = None
+        for _ in range(self.retries + 1):
+            self._write(p.Hello(p.VERSION))
+            reply = self._wait(lambda: self._hello, "HELLO")
+            if reply is not None:
+                if reply.sample_rate == 0:
+                    raise BoardError(
+                        f"{self.url!r} answered HELLO with a host's HELLO: an echo (loopback), not a board"
+                    )
+                if reply.version != p.VERSION:
+                    raise VersionMismatch(f"the board speaks protocol {reply.version}; this host {p.VERSION}")
+                return reply  # type: ignore[no-any-return]
+        raise BoardTimeout(f"no HELLO from {self.url!r}: is a board (or `upm emulate`) there?")
+
+    def set_channel(
+        self,
+        channel: int,
+        amplitude: float,
+        frequency: float,
+        *,
+        h1: tuple[float, float] = (1.0, 0.0),
+        h2: tuple[float, float] = (1.0, math.pi / 2),
+        h23: tuple[float, float] = (0.0, 0.0),
+    ) -> None:
+        """Motor ``channel`` (0..3 = X1, X2, Y1, Y2): force ``amplitude [h1 cos(wt + p1) +
+        h2 cos(2wt + p2) + h23 cos(2wt/3 + p23)]``; default the thesis's ``cos wt - sin 2wt`` (5.9).
+        Checked against the board's limits before sending."""
+        info = self.info
+        if not 0 <= channel <= 3:
+            raise BoardError(f"channel must be 0..3 (X1, X2, Y1, Y2); got {channel}")
+        peak = abs(amplitude) * (abs(h1[0]) + abs(h2[0]) + abs(h23[0]))
+        if info is not None and peak > info.max_amplitude:
+            raise BoardError(f"amplitude peak {peak:g} exceeds the board's limit {info.max_amplitude:g}")
+        if info is not None and not info.min_frequency <= frequency <= info.max_frequency:
+            raise BoardError(
+                f"frequency must be in [{info.min_frequency:g}, {info.max_frequency:g}] Hz; got {frequency:g}"
+            )
+        self._command(p.SetChannel(channel, amplitude, frequency, *h1, *h2, *h23))
+
+    def set_motors(self, amplitudes: Any, frequency: float) -> None:
+        """All four channels at once with the default waveform (5.9)."""
+        for k, a in enumerate(np.asarray(amplitudes, dtype=np.float64).reshape(4)):
+            self.set_channel(k, float(a), frequency)
+
+    def set_envelope(self, attack: float, sustain: float, decay: float) -> None:
+        """Raised-cosine envelope of the next pulses [s]."""
+        self._command(p.SetEnvelope(attack, sustain, decay))
+
+    def set_watchdog(self, milliseconds: int) -> None:
+        """The board's watchdog period [ms]."""
+        self._command(p.SetWatchdog(milliseconds))
+
+    def pulse(self, pulse_id: int = 0, *, wait: bool = True, timeout: float | None = None) -> int | None:
+        """Play one envelope; with ``wait``, block until it ends and return the sample counter at
+        its end (from PULSE_DONE, or from STATUS if that frame was lost)."""
+        self._done.pop(pulse_id, None)
+        before = self.status().pulses if wait else 0
+        self._command(p.Pulse(pulse_id))
+        if not wait:
+            return None
+        deadline = time.monotonic() + (timeout if timeout is not None else 600.0)
+        while time.monotonic() < deadline:
+            with self._changed:
+                self._changed.wait_for(lambda: pulse_id in self._done or self._error is not None, timeout=0.5)
+                if pulse_id in self._done:
+                    return self._done.pop(pulse_id)
+            status = self.status()  # PULSE_DONE may have been lost on the wire
+            if status.state != p.State.PULSING and status.pulses > before:
+                return int(status.samples)
+            if status.state not in (p.State.PULSING, p.State.IDLE):
+                raise BoardError(f"pulse {pulse_id} was cut short: board state {p.State(status.state).name}")
+        raise BoardTimeout(f"pulse {pulse_id} did not finish in time")
+
+    def stop(self) -> None:
+        """Every motor off now."""
+        self._command(p.Stop())
+
+    def status(self) -> p.Status:
+        """The board's state, fault flags and counters."""
+        for _ in range(self.retries + 1):
+            self._status = None
+            self._command(p.GetStatus())
+            status = self._wait(lambda: self._status, "STATUS")
+            if status is not None:
+                return status  # type: ignore[no-any-return]
+        raise BoardTimeout(f"no STATUS from {self.url!r} after {self.retries} requests")
+
+    def samples(self) -> tuple[int | None, NDArray[np.int16]]:
+        """Everything received since the last call: ``(index of the first sample, (T, 4) counts)``."""
+        with self._changed:
+            chunks, self._chunks = self._chunks, []
+            first, self.first_sample = self.first_sample, None
+        if not chunks:
+            return first, np.zeros((0, 4), dtype=np.int16)
+        return first, np.concatenate(chunks)
+
+    # -- lifetime --------------------------------------------------------------------------
+    def close(self, stop: bool = True) -> None:
+        """Send STOP (best effort), then close the link."""
+        if stop and self._open:
+            try:
+                self._write(p.Stop())
+            except BoardError:
+                pass
+        self._open = False
+        try:
+            self._port.close()
+        except Exception:  # pragma: no cover - closing a dead port
+            pass
+
+    def __enter__(self) -> Board:
+        return self
+
+    def __exit__(
+        self, kind: type[BaseException] | None, value: BaseException | None, traceback: TracebackType | None
+    ) -> None:
+        self.close(stop=True)

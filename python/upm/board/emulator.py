@@ -1,0 +1,308 @@
+"""A board that speaks protocol v1 (``docs/protocol.md``) and drives ``upm.plant.SimulatedUPM``.
+
+``BoardEmulator`` is the board's logic, free of I/O: feed it received bytes and the time, and it
+returns the bytes to send (replies, 5 kHz accelerometer samples, PULSE_DONE, watchdog STATUS).
+``serve`` runs it on a pseudo-terminal (printing the path to open) or a TCP port;
+``python -m upm.board.emulator`` and ``upm emulate`` start it in its own process. Faults can be
+injected on the outgoing bytes (drop, duplicate, corrupt, delay) for tests.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import random
+import select
+import socket
+import sys
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..plant import Channel, Envelope, SimulatedUPM
+from . import protocol as p
+
+__all__ = ["BoardEmulator", "Faults", "Limits", "main", "serve"]
+
+SAMPLES_PER_FRAME = 127
+
+
+@dataclass(frozen=True)
+class Limits:
+    """What the board accepts (advertised in HELLO)."""
+
+    max_amplitude: float = 200.0
+    min_frequency: float = 5.0
+    max_frequency: float = 400.0
+
+
+@dataclass(frozen=True)
+class Faults:
+    """Faults injected on outgoing frames, each with the given probability (seeded)."""
+
+    drop: float = 0.0
+    duplicate: float = 0.0
+    corrupt: float = 0.0
+    delay: float = 0.0
+    seed: int = 0
+
+
+class BoardEmulator:
+    """The board's state machine (no I/O). Times are seconds on any monotonic clock."""
+
+    def __init__(
+        self,
+        plant: SimulatedUPM | None = None,
+        limits: Limits = Limits(),
+        watchdog_ms: int = 250,
+        faults: Faults = Faults(),
+    ) -> None:
+        self.plant = plant if plant is not None else SimulatedUPM()
+        self.limits = limits
+        self.watchdog = watchdog_ms / 1000.0
+        self.faults = faults
+        self._rng = random.Random(faults.seed)
+        self.decoder = p.Decoder()
+        self.channels = [Channel() for _ in range(4)]
+        self.envelope = Envelope()
+        self.state = p.State.IDLE
+        self.flags = 0
+        self.pulses = 0
+        self.t0: float | None = None
+        self.produced = 0
+        self.last_rx: float | None = None
+        self.pulse: tuple[int, int, int] | None = None  # (id, first sample, last sample)
+        self.pulse_velocity: list[np.ndarray] = []
+        self._seq = 0
+        self._last: tuple[int, list[p.Message]] | None = None
+
+    # -- replies ---------------------------------------------------------------------------
+    def _send(self, message: p.Message) -> bytes:
+        self._seq = (self._seq + 1) & 0xFFFF
+        frame = p.encode(message, self._seq)
+        f = self.faults
+        if f.drop and self._rng.random() < f.drop:
+            return b""
+        if f.corrupt and self._rng.random() < f.corrupt:
+            k = self._rng.randrange(len(frame) - 1)
+            frame = frame[:k] + bytes([frame[k] ^ (1 << self._rng.randrange(8)) or 1]) + frame[k + 1 :]
+        if f.duplicate and self._rng.random() < f.duplicate:
+            frame = frame + frame
+        return frame
+
+    def _status(self) -> p.Status:
+        return p.Status(int(self.state), self.flags, self.pulses, self.produced, self.decoder.rejected)
+
+    def _hello(self) -> p.Hello:
+        lim = self.limits
+        return p.Hello(p.VERSION, 0b1, lim.max_amplitude, lim.min_frequency, lim.max_frequency,
+                       int(self.plant.sample_rate), round(self.watchdog * 1000))  # fmt: skip
+
+    def _check(self, message: p.Message) -> p.NackCode | None:
+        lim = self.limits
+        if isinstance(message, p.Hello):
+            return None if message.version == p.VERSION else p.NackCode.VERSION
+        if isinstance(message, p.SetChannel):
+            if not 0 <= message.channel <= 3:
+                return p.NackCode.BAD_CHANNEL
+            harmonics = (message.h1_amplitude, message.h2_amplitude, message.h23_amplitude)
+            peak = abs(message.amplitude) * sum(abs(h) for h in harmonics)
+            values = (message.amplitude, message.frequency, *harmonics)
+            if not all(math.isfinite(v) for v in values) or peak > lim.max_amplitude:
+                return p.NackCode.OUT_OF_LIMITS
+            if not lim.min_frequency <= message.frequency <= lim.max_frequency:
+                return p.NackCode.OUT_OF_LIMITS
+        if isinstance(message, p.SetEnvelope):
+            times = (message.attack, message.sustain, message.decay)
+            if not all(math.isfinite(v) and v >= 0 for v in times) or sum(times) <= 0 or sum(times) > 600:
+                return p.NackCode.OUT_OF_LIMITS
+        if isinstance(message, p.SetWatchdog) and not 1 <= message.milliseconds <= 60000:
+            return p.NackCode.OUT_OF_LIMITS
+        if isinstance(message, p.Pulse) and self.state == p.State.PULSING:
+            return p.NackCode.BAD_STATE
+        if isinstance(message, (p.Ack, p.Nack, p.Samples, p.Status, p.PulseDone)):
+            return p.NackCode.UNKNOWN_TYPE
+        return None
+
+    def _act(self, message: p.Message) -> list[p.Message]:
+        if isinstance(message, p.Hello):
+            return [self._hello()]
+        if isinstance(message, p.SetChannel):
+            m = message
+            harmonics = (m.h1_amplitude, m.h1_phase, m.h2_amplitude, m.h2_phase, m.h23_amplitude, m.h23_phase)
+            self.channels[m.channel] = Channel(m.amplitude, m.frequency, *harmonics)
+        elif isinstance(message, p.SetEnvelope):
+            self.envelope = Envelope(message.attack, message.sustain, message.decay)
+        elif isinstance(message, p.SetWatchdog):
+            self.watchdog = message.milliseconds / 1000.0
+        elif isinstance(message, p.Pulse):
+            n = round(self.envelope.duration * self.plant.sample_rate)
+            self.pulse = (message.id, self.produced, self.produced + n)
+            self.pulse_velocity = []
+            self.state = p.State.PULSING
+        elif isinstance(message, p.Stop):
+            self._end_pulse()
+            self.state = p.State.STOPPED
+        elif isinstance(message, p.GetStatus):
+            return [self._status()]
+        return []
+
+    def receive(self, data: bytes, now: float) -> bytes:
+        """Handle received bytes; returns the replies' bytes."""
+        out = bytearray()
+        for seq, message in self.decoder.feed(data):
+            self.last_rx = now
+            if self.t0 is None:
+                self.t0 = now
+            if self.state == p.State.WATCHDOG and not isinstance(message, p.Heartbeat):
+                self.state = p.State.IDLE
+            if isinstance(message, p.Heartbeat):
+                continue
+            if self._last is not None and self._last[0] == seq:  # a resend: answer, do not act again
+                for m in self._last[1]:
+                    out += self._send(m)
+                continue
+            code = self._check(message)
+            replies: list[p.Message] = []
+            if code is not None:
+                if code == p.NackCode.OUT_OF_LIMITS:
+                    self.flags |= p.Status.LIMIT_REFUSED
+                replies.append(p.Nack(seq, int(code)))
+            else:
+                extra = self._act(message)
+                if not isinstance(message, p.Hello):
+                    replies.append(p.Ack(seq))
+                replies += extra
+            self._last = (seq, replies)
+            for m in replies:
+                out += self._send(m)
+        return bytes(out)
+
+    def _end_pulse(self) -> None:
+        if self.pulse is not None and self.pulse_velocity and len(self.plant.parts):
+            self.plant.settle_parts(np.concatenate(self.pulse_velocity))
+        self.pulse = None
+        self.pulse_velocity = []
+
+    def tick(self, now: float) -> bytes:
+        """Produce the samples due by ``now``, PULSE_DONE, and the watchdog."""
+        out = bytearray()
+        if self.t0 is None:
+            return b""
+        if (
+            self.last_rx is not None
+            and now - self.last_rx > self.watchdog
+            and self.state != p.State.WATCHDOG
+            and self.state != p.State.STOPPED
+        ):
+            self._end_pulse()
+            self.state = p.State.WATCHDOG
+            self.flags |= p.Status.WATCHDOG_TRIPPED
+            out += self._send(self._status())
+        fs = self.plant.sample_rate
+        due = int((now - self.t0) * fs) - self.produced
+        if due > 10 * SAMPLES_PER_FRAME * 4:  # a stall: skip ahead and say so
+            self.flags |= p.Status.SAMPLES_DROPPED
+            self.produced += due - SAMPLES_PER_FRAME
+            due = SAMPLES_PER_FRAME
+        while due > 0:
+            n = min(due, SAMPLES_PER_FRAME)
+            idx = self.produced + np.arange(n)
+            if self.state == p.State.PULSING and self.pulse is not None:
+                pid, start, end = self.pulse
+                n = min(n, end - self.produced) if end > self.produced else 0
+                idx = idx[:n]
+                t = idx / fs
+                env = self.envelope((idx - start) / fs)
+                acc, vel = self.plant.plate_state(self.plant.forces(self.channels, t, env))
+                self.pulse_velocity.append(vel)
+                counts = self.plant.sensor_counts(acc, vel)
+            else:
+                acc_zero = np.zeros((n, 3))
+                counts = self.plant.sensor_counts(acc_zero, acc_zero)
+            if n > 0:
+                rows = tuple(tuple(int(v) for v in row) for row in counts)
+                out += self._send(p.Samples(self.produced, rows))  # type: ignore[arg-type]
+                self.produced += n
+                due -= n
+            if self.state == p.State.PULSING and self.pulse is not None and self.produced >= self.pulse[2]:
+                pid = self.pulse[0]
+                self._end_pulse()
+                self.state = p.State.IDLE
+                self.pulses += 1
+                out += self._send(p.PulseDone(pid, self.produced))
+        return bytes(out)
+
+
+def serve(emulator: BoardEmulator, *, tcp: int | None = None, announce=print) -> None:  # type: ignore[no-untyped-def]
+    """Run ``emulator`` on a new pseudo-terminal (default) or TCP ``port`` until killed."""
+    if tcp is None:
+        import tty
+
+        master, slave = os.openpty()
+        tty.setraw(slave)
+        announce(os.ttyname(slave))
+        fd_in = fd_out = master
+        sock = None
+    else:
+        server = socket.create_server(("127.0.0.1", tcp))
+        announce(f"socket://127.0.0.1:{server.getsockname()[1]}")
+        sock, _ = server.accept()
+        sock.setblocking(False)
+        fd_in = fd_out = sock.fileno()
+    delay = emulator.faults.delay
+    pending: list[tuple[float, bytes]] = []
+    while True:
+        ready, _, _ = select.select([fd_in], [], [], 0.002)
+        now = time.monotonic()
+        out = bytearray()
+        if ready:
+            try:
+                data = os.read(fd_in, 65536) if sock is None else sock.recv(65536)
+            except (BlockingIOError, InterruptedError):
+                data = b""
+            if sock is not None and data == b"":
+                return  # the host closed the connection
+            out += emulator.receive(data, now)
+        out += emulator.tick(now)
+        if out:
+            pending.append((now + delay, bytes(out)))
+        while pending and pending[0][0] <= now:
+            chunk = pending.pop(0)[1]
+            try:
+                os.write(fd_out, chunk) if sock is None else sock.sendall(chunk)
+            except (BlockingIOError, OSError):
+                pass  # nobody is reading the pty: the bytes are lost, as on a wire
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="upm emulate", description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--tcp", type=int, default=None, help="serve on this TCP port (0: any) instead of a pty"
+    )
+    parser.add_argument("--watchdog-ms", type=int, default=250)
+    parser.add_argument("--drop", type=float, default=0.0, help="probability of dropping an outgoing frame")
+    parser.add_argument("--duplicate", type=float, default=0.0)
+    parser.add_argument("--corrupt", type=float, default=0.0)
+    parser.add_argument("--delay", type=float, default=0.0, help="seconds added to every outgoing chunk")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--snr-db", type=float, default=60.0)
+    args = parser.parse_args(argv)
+    faults = Faults(args.drop, args.duplicate, args.corrupt, args.delay, args.seed)
+    plant = SimulatedUPM(snr_db=args.snr_db, seed=args.seed)
+    emulator = BoardEmulator(plant, watchdog_ms=args.watchdog_ms, faults=faults)
+
+    def announce(where: str) -> None:
+        print(where, flush=True)
+
+    try:
+        serve(emulator, tcp=args.tcp, announce=announce)
+    except KeyboardInterrupt:
+        pass
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,199 @@
+"""``SimulatedUPM``: the embedded default device (SPEC §6, thesis 5.2).
+
+Four motor channels (``X1, X2, Y1, Y2``), each ``amplitude [h1 cos(wt + p1) + h2 cos(2wt + p2) +
+h23 cos(2wt/3 + p23)]`` under a raised-cosine envelope, push the plate (5.8); the plate moves as
+mass and inertia far above its suspension's resonances (5.10), or through per-axis springs and
+dampers (5.26) when ``axes`` are given; two 2-axis accelerometers at ``sensor`` and ``-sensor``
+read its acceleration (centripetal term included) as signed 11-bit counts with noise; the parts
+on it follow through the exact integrator (``upm.simulate``). The board emulator drives it; the
+vision and closed-loop issues add its camera.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._arrays import as_float
+from ._errors import ParameterError, ShapeError
+from .actuation import Axis, Plate
+from .motion import PlateMotion
+from .sim import simulate
+
+__all__ = ["Channel", "Envelope", "SimulatedUPM"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One motor's waveform: force ``amplitude [h1 cos(wt + p1) + h2 cos(2wt + p2) + h23 cos(2wt/3 +
+    p23)]`` with ``w = 2 pi frequency``. The thesis's ``cos wt - sin 2wt`` (5.9) is the default."""
+
+    amplitude: float = 0.0
+    frequency: float = 35.0
+    h1_amplitude: float = 1.0
+    h1_phase: float = 0.0
+    h2_amplitude: float = 1.0
+    h2_phase: float = math.pi / 2
+    h23_amplitude: float = 0.0
+    h23_phase: float = 0.0
+
+    def force(self, t: FloatArray) -> FloatArray:
+        w = 2 * math.pi * self.frequency
+        shape = (
+            self.h1_amplitude * np.cos(w * t + self.h1_phase)
+            + self.h2_amplitude * np.cos(2 * w * t + self.h2_phase)
+            + self.h23_amplitude * np.cos(2 * w * t / 3 + self.h23_phase)
+        )
+        out: FloatArray = self.amplitude * shape
+        return out
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """Raised-cosine attack, sustain, decay [s]."""
+
+    attack: float = 0.02
+    sustain: float = 0.2
+    decay: float = 0.02
+
+    @property
+    def duration(self) -> float:
+        return self.attack + self.sustain + self.decay
+
+    def __call__(self, t: FloatArray) -> FloatArray:
+        a, s, d = self.attack, self.sustain, self.decay
+        e = np.zeros_like(t)
+        rise = (t >= 0) & (t < a)
+        e[rise] = 0.5 - 0.5 * np.cos(np.pi * t[rise] / a)
+        e[(t >= a) & (t <= a + s)] = 1.0
+        fall = (t > a + s) & (t <= a + s + d)
+        e[fall] = 0.5 - 0.5 * np.cos(np.pi * (a + s + d - t[fall]) / d)
+        return e
+
+
+@dataclass
+class SimulatedUPM:
+    """A simulated plate with four motors, two accelerometers and parts on it.
+
+    Parameters
+    ----------
+    plate : Plate
+        Mass [kg], inertia [kg m^2] and motor lever arm [m] (default: a 16" honeycomb plate,
+        3 kg, 0.04 kg m^2, 0.2 m).
+    axes : (Axis, Axis, Axis), optional
+        Suspension of x, y and rotation (5.26); default none (the inertial regime of 5.10).
+    sensor : (2,) array_like
+        Position of the first accelerometer [m]; the second is at ``-sensor``.
+    full_scale : float
+        Accelerometer range [m/s^2] mapped onto the signed 11-bit counts -1024..1023.
+    snr_db : float or None
+        Sensor noise relative to ``full_scale`` (None: none).
+    parts : (M, 2) array_like
+        Part positions [m]; ``mu``, ``mu_s`` their friction.
+    """
+
+    plate: Plate = field(default_factory=lambda: Plate(3.0, 0.04, 0.2))
+    axes: tuple[Axis, Axis, Axis] | None = None
+    sensor: tuple[float, float] = (-0.18, -0.18)
+    full_scale: float = 200.0
+    snr_db: float | None = 60.0
+    sample_rate: float = 5000.0
+    parts: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
+    mu: float = 0.3
+    mu_s: float | None = None
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        self.parts = np.array(as_float("parts", self.parts), dtype=np.float64).reshape(-1, 2)
+        if not (self.full_scale > 0 and self.sample_rate > 0):
+            raise ParameterError("full_scale and sample_rate must be > 0")
+        self._rng = np.random.default_rng(self.seed)
+        self._state = np.zeros((3, 2))  # per axis (position, velocity) of the suspension model
+
+    def forces(self, channels: list[Channel], t: FloatArray, envelope: FloatArray) -> FloatArray:
+        """Motor forces ``(T, 4)`` at times ``t`` under envelope values ``envelope``."""
+        if len(channels) != 4:
+            raise ShapeError(f"channels must hold 4 motors (X1, X2, Y1, Y2); got {len(channels)}")
+        return np.stack([c.force(t) for c in channels], axis=1) * envelope[:, None]
+
+    def plate_state(self, forces: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Plate acceleration and velocity ``(T, 3)`` (``d/dt`` and ``(u1, u2, u3)``) for motor
+        forces sampled at ``sample_rate``, continuing from the previous call."""
+        m = forces
+        lever = self.plate.lever
+        wrench = np.stack(
+            [m[:, 0] - m[:, 1], m[:, 2] - m[:, 3], lever * ((m[:, 2] + m[:, 3]) - (m[:, 0] + m[:, 1]))],
+            axis=1,
+        )
+        inertia = np.array([self.plate.mass, self.plate.mass, self.plate.inertia])
+        dt = 1.0 / self.sample_rate
+        if self.axes is None:  # the inertial regime (5.10): velocity is the integral of force / mass
+            acc = wrench / inertia
+            vel = self._state[:, 1] + np.cumsum(acc, axis=0) * dt
+            self._state[:, 1] = vel[-1] if len(vel) else self._state[:, 1]
+            return acc, vel
+        acc = np.empty_like(wrench)
+        vel = np.empty_like(wrench)
+        for k in range(3):
+            q, v = self._state[k]
+            axis = None if self.axes is None else self.axes[k]
+            b = 0.0 if axis is None else axis.damping
+            s = 0.0 if axis is None else axis.stiffness
+            for n in range(len(wrench)):
+                a = (wrench[n, k] - b * v - s * q) / inertia[k]
+                v += a * dt  # semi-implicit Euler, at the sample rate
+                q += v * dt
+                acc[n, k], vel[n, k] = a, v
+            self._state[k] = (q, v)
+        return acc, vel
+
+    def sensor_counts(self, acc: FloatArray, vel: FloatArray) -> NDArray[np.int16]:
+        """Both accelerometers' readings ``(T, 4)`` = ``(a1x, a1y, a2x, a2y)`` in 11-bit counts."""
+        out = []
+        for sign in (1.0, -1.0):
+            x, y = sign * self.sensor[0], sign * self.sensor[1]
+            ax = acc[:, 0] - acc[:, 2] * y - vel[:, 2] ** 2 * x
+            ay = acc[:, 1] + acc[:, 2] * x - vel[:, 2] ** 2 * y
+            out += [ax, ay]
+        a = np.stack(out, axis=1)
+        if self.snr_db is not None:
+            a = a + self._rng.normal(0.0, self.full_scale * 10 ** (-self.snr_db / 20), a.shape)
+        return np.clip(np.round(a / self.full_scale * 1024), -1024, 1023).astype(np.int16)
+
+    def run(self, channels: list[Channel], envelope: Envelope, rest: float = 0.0) -> NDArray[np.int16]:
+        """Play one pulse (then ``rest`` [s] of stillness); the parts move through the exact
+        integrator; returns the accelerometer record ``(T, 4)`` in counts."""
+        n = round((envelope.duration + rest) * self.sample_rate)
+        t = np.arange(n) / self.sample_rate
+        acc, vel = self.plate_state(self.forces(channels, t, envelope(t)))
+        self.settle_parts(vel)
+        return self.sensor_counts(acc, vel)
+
+    def settle_parts(self, velocity: FloatArray) -> None:
+        """Move the parts under a recorded plate velocity ``(T, 3)`` sampled at ``sample_rate``,
+        then let them slide to rest on the still plate (exact integrator)."""
+        if not len(self.parts) or not len(velocity):
+            return
+        n = len(velocity)
+        t = np.arange(n + 1) / self.sample_rate
+        u = np.vstack([velocity, np.zeros((1, 3))])
+        coast = 2.0 * n / self.sample_rate * ((self.mu_s or self.mu) / self.mu) + 0.01
+        motion = PlateMotion.sequence(
+            [PlateMotion.from_samples(t, u[:, 0], u[:, 1], u[:, 2]), PlateMotion.rest(coast)]
+        )
+        result = simulate(motion, self.parts, duration=motion.duration or 0.0, dt=0.5 / self.sample_rate,
+                          mu=self.mu, mu_s=self.mu_s, record_every=10**9)  # fmt: skip
+        self.parts = result.positions[-1].copy()
+
+    def idle(self, n: int) -> NDArray[np.int16]:
+        """``n`` samples of a plate at rest (noise only)."""
+        return self.sensor_counts(np.zeros((n, 3)), np.zeros((n, 3)))
+
+    def move_parts(self, parts: ArrayLike) -> None:
+        """Place the parts [m]."""
+        self.parts = np.array(as_float("parts", parts), dtype=np.float64).reshape(-1, 2)
