@@ -178,3 +178,72 @@ def test_no_board_is_a_clear_timeout(tmp_path):
         Board("loop://", timeout=0.05, retries=1)
     with pytest.raises(upm.BoardError, match="cannot open"):
         Board(str(tmp_path / "no-such-tty"))
+
+
+def test_parts_on_the_emulated_plate_follow_the_pulse():
+    # Parts on the plant move when a pulse ends: tangentially about the commanded centre, in the
+    # direction of the time-asymmetric drive's force, as upm.simulate has them.
+    parts = np.array([[0.1, 0.0], [0.0, 0.12]])
+    plant = SimulatedUPM(snr_db=None, parts=parts.copy(), mu=0.3)
+    board = BoardEmulator(plant)
+    motors = PLATE.motors_for_rotation((0.0, 0.0), omega=2.0 * 2 * np.pi * F)
+    frames = [protocol.Hello(1), protocol.SetEnvelope(0.02, 0.2, 0.02)]
+    frames += [protocol.SetChannel(k, float(m), F, 1.0, 0.0, 1.0, np.pi / 2) for k, m in enumerate(motors)]
+    frames += [protocol.Pulse(1)]
+    for seq, message in enumerate(frames):
+        board.receive(protocol.encode(message, seq + 1), 0.0)
+    decoder = protocol.Decoder()
+    done = []
+    for k in range(1, 60):
+        done += [m for _, m in decoder.feed(board.tick(k * 0.005)) if isinstance(m, protocol.PulseDone)]
+        board.receive(protocol.encode(protocol.Heartbeat(), 100 + k), k * 0.005)
+    assert done and done[0].id == 1
+    moved = plant.parts - parts
+    tangent = np.stack([-parts[:, 1], parts[:, 0]], axis=1) / np.hypot(*parts.T)[:, None]
+    along = np.einsum("ij,ij->i", moved, tangent)
+    assert np.all(np.abs(along) > 1e-4)  # they moved (0.1 mm or more) ...
+    assert np.all(
+        np.abs(along) > 5 * np.abs(np.einsum("ij,ij->i", moved, parts / np.hypot(*parts.T)[:, None]))
+    )
+    assert np.sign(along[0]) == np.sign(along[1])  # ... both the same way round the centre
+
+
+def test_upm_emulate_command():
+    exe = os.path.join(os.path.dirname(sys.executable), "upm")
+    proc = subprocess.Popen([exe, "emulate", "--tcp", "0"], stdout=subprocess.PIPE, text=True)
+    try:
+        url = proc.stdout.readline().strip()
+        with Board(url) as board:
+            assert board.info.watchdog_ms == 250
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+def test_plant_run_records_the_pulse_and_moves_the_parts():
+    from upm.plant import Channel, Envelope
+
+    plant = SimulatedUPM(snr_db=None, parts=[[0.1, 0.0]])
+    motors = PLATE.motors_for_rotation((0.0, 0.0), omega=2.0 * 2 * np.pi * F)
+    counts = plant.run([Channel(float(m), F) for m in motors], Envelope(0.02, 0.1, 0.02), rest=0.3)
+    assert counts.shape == (round(0.44 * 5000), 4) and counts.dtype == np.int16
+    # Strong during the pulse; after it the flexures (3 Hz) bring the plate home.
+    peak = np.abs(counts[:700]).max()
+    assert peak > 50 and np.abs(counts[-200:]).max() <= 0.01 * peak
+    assert abs(plant.parts[0, 1]) > 1e-4  # moved tangentially
+    rot = act.cor_from_accelerometers(counts[150:550, :2], counts[150:550, 2:], SENSOR, 5000.0, F)
+    assert np.hypot(*rot.center) < 1e-3
+
+
+def test_a_stalled_board_shows_as_a_gap_and_the_link_recovers():
+    proc, path = start_emulator("--stall-after", "0.3", "--stall-for", "0.3")
+    try:
+        with Board(path, timeout=0.1, retries=8) as board:
+            time.sleep(0.9)
+            _, counts = board.samples()
+            assert board.gaps >= 1  # the samples' counters jump over the silence
+            assert len(counts) < 0.8 * 5000 * 0.9
+            assert board.status().state == protocol.State.IDLE  # talking again
+    finally:
+        proc.kill()
+        proc.wait()

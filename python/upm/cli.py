@@ -78,21 +78,21 @@ def demo(out: Path, plots: bool = True) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["emulate"]:  # its own options: hand them over untouched
+        from .board import emulator
+
+        return emulator.main(argv[1:])
     parser = argparse.ArgumentParser(prog="upm", description="Vibratory planar manipulation.")
     parser.add_argument("--version", action="version", version=f"upm {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
-    e = commands.add_parser(
-        "emulate", help="a board emulator on a pseudo-terminal or TCP port", add_help=False
+    commands.add_parser(
+        "emulate", help="a board emulator on a pseudo-terminal or TCP port (see: upm emulate --help)"
     )
-    e.add_argument("rest", nargs=argparse.REMAINDER)
     d = commands.add_parser("demo", help="the two-harmonic feeding table and Fig. 3.6")
     d.add_argument("--out", type=Path, default=Path("out"), help="directory for figures (default: out)")
     d.add_argument("--no-plots", action="store_true", help="print the tables only")
     args = parser.parse_args(argv)
-    if args.command == "emulate":
-        from .board import emulator
-
-        return emulator.main(args.rest)
     if args.command == "demo":
         return demo(args.out, plots=not args.no_plots)
     return 2  # pragma: no cover - argparse rejects unknown commands

@@ -4,7 +4,7 @@
 returns the bytes to send (replies, 5 kHz accelerometer samples, PULSE_DONE, watchdog STATUS).
 ``serve`` runs it on a pseudo-terminal (printing the path to open) or a TCP port;
 ``python -m upm.board.emulator`` and ``upm emulate`` start it in its own process. Faults can be
-injected on the outgoing bytes (drop, duplicate, corrupt, delay) for tests.
+injected on the outgoing bytes (drop, duplicate, corrupt, delay, stall) for tests.
 """
 
 from __future__ import annotations
@@ -47,6 +47,9 @@ class Faults:
     corrupt: float = 0.0
     delay: float = 0.0
     seed: int = 0
+    stall_after: float | None = None
+    """Seconds after the first frame when the board stops talking for ``stall_for`` seconds."""
+    stall_for: float = 0.0
 
 
 class BoardEmulator:
@@ -269,6 +272,11 @@ def serve(emulator: BoardEmulator, *, tcp: int | None = None, announce=print) ->
         out += emulator.tick(now)
         if out:
             pending.append((now + delay, bytes(out)))
+        f = emulator.faults
+        if f.stall_after is not None and emulator.t0 is not None:
+            since = now - emulator.t0 - f.stall_after
+            if 0 <= since < f.stall_for:
+                pending.clear()  # stalled: what the board says is lost
         while pending and pending[0][0] <= now:
             chunk = pending.pop(0)[1]
             try:
@@ -287,10 +295,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--duplicate", type=float, default=0.0)
     parser.add_argument("--corrupt", type=float, default=0.0)
     parser.add_argument("--delay", type=float, default=0.0, help="seconds added to every outgoing chunk")
+    parser.add_argument(
+        "--stall-after", type=float, default=None, help="seconds after connection to go silent"
+    )
+    parser.add_argument("--stall-for", type=float, default=0.0, help="seconds of silence")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--snr-db", type=float, default=60.0)
     args = parser.parse_args(argv)
-    faults = Faults(args.drop, args.duplicate, args.corrupt, args.delay, args.seed)
+    faults = Faults(
+        args.drop, args.duplicate, args.corrupt, args.delay, args.seed, args.stall_after, args.stall_for
+    )
     plant = SimulatedUPM(snr_db=args.snr_db, seed=args.seed)
     emulator = BoardEmulator(plant, watchdog_ms=args.watchdog_ms, faults=faults)
 
