@@ -26,6 +26,20 @@ def as_float(name: str, value: ArrayLike, *, finite: bool = True) -> FloatArray:
     return array
 
 
+def vector(name: str, value: ArrayLike, n: int) -> FloatArray:
+    """``value`` as a finite float64 vector of shape ``(n,)``; `ShapeError` naming ``name`` otherwise."""
+    v = as_float(name, value)
+    if v.shape != (n,):
+        raise ShapeError(f"{name} must have shape ({n},); got {v.shape}")
+    return v
+
+
+def point(name: str, value: ArrayLike) -> tuple[float, float]:
+    """``value`` as a finite 2-vector, as the binding takes it."""
+    x, y = vector(name, value, 2)
+    return float(x), float(y)
+
+
 def as_int(name: str, value: Any) -> int:
     """``value`` as a Python int; `ParameterError` if it is not an integer."""
     try:

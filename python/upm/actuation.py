@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import _core
-from ._arrays import as_float
+from ._arrays import as_float, vector
 from ._errors import ParameterError, ResonanceWarning, ShapeError
 
 __all__ = [
@@ -47,23 +47,16 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 
-def _vec(name: str, value: ArrayLike, n: int) -> FloatArray:
-    v = as_float(name, value)
-    if v.shape != (n,):
-        raise ShapeError(f"{name} must have shape ({n},); got {v.shape}")
-    return v
-
-
 def wrench(motors: ArrayLike, lever: float) -> FloatArray:
     """``(fx, fy, tau)`` of motor amplitudes ``(X1, X2, Y1, Y2)`` at lever arm ``lever`` [m] (5.8)."""
-    x1, x2, y1, y2 = _vec("motors", motors, 4)
+    x1, x2, y1, y2 = vector("motors", motors, 4)
     return np.array([x1 - x2, y1 - y2, lever * ((y1 + y2) - (x1 + x2))])
 
 
 def center_of_rotation(u: ArrayLike) -> tuple[FloatArray, float]:
     """Centre of rotation [m] and angular rate of a plate velocity ``(u1, u2, u3)`` (4.6, 5.7):
     ``c = (-u2/u3, u1/u3)``. A pure translation raises `ParameterError` (its centre is at infinity)."""
-    c, w = _core.center_of_rotation(tuple(_vec("u", u, 3)))
+    c, w = _core.center_of_rotation(tuple(vector("u", u, 3)))
     return np.array(c), float(w)
 
 
@@ -84,20 +77,20 @@ class Plate:
 
     def velocity_amplitudes(self, motors: ArrayLike) -> FloatArray:
         """``(fx/M, fy/M, tau/I)``: the plate velocity per unit of ``(1/w)[sin wt + cos(2wt)/2]`` (5.10)."""
-        m = _vec("motors", motors, 4)
+        m = vector("motors", motors, 4)
         return np.array(_core.velocity_amplitudes(self.mass, self.inertia, self.lever, tuple(m)))
 
     def motors_for(self, u: ArrayLike, limit: float | None = None) -> FloatArray:
         """Motor amplitudes giving velocity amplitudes ``u``: minimum norm over the four motors,
         shifted along ``(1, 1, 1, 1)`` (which moves nothing) to keep every ``|motor| <= limit``.
         `ParameterError` when no shift can."""
-        out = _core.motors_for(self.mass, self.inertia, self.lever, tuple(_vec("u", u, 3)), limit)
+        out = _core.motors_for(self.mass, self.inertia, self.lever, tuple(vector("u", u, 3)), limit)
         return np.array(out)
 
     def motors_for_rotation(self, center: ArrayLike, omega: float, limit: float | None = None) -> FloatArray:
         """Motor amplitudes placing the centre of rotation at ``center`` [m] with angular-rate
         amplitude ``omega`` [rad/s per unit waveform] (5.7, 5.16)."""
-        cx, cy = _vec("center", center, 2)
+        cx, cy = vector("center", center, 2)
         if not (math.isfinite(omega) and omega != 0):
             raise ParameterError(f"omega must be finite and non-zero; got {omega}")
         return self.motors_for((omega * cy, -omega * cx, omega), limit)
@@ -248,7 +241,7 @@ def cor_from_accelerometers(
     for name, rec in (("first", a), ("second", b)):
         if rec.ndim != 2 or rec.shape[1] != 2:
             raise ShapeError(f"{name} must have shape (T, 2); got {rec.shape}")
-    x, y = _vec("r1", r1, 2)
+    x, y = vector("r1", r1, 2)
     c, w, residual = _core.cor_from_accelerometers(
         a, b, (float(x), float(y)), float(sample_rate), float(frequency), [float(h) for h in harmonics]
     )
@@ -279,7 +272,7 @@ def synthetic_accelerometers(
     t = np.arange(round(duration * sample_rate)) / sample_rate
     shape = (np.sin(w * t) + 0.5 * np.cos(2 * w * t)) / w  # velocity per unit amplitude
     dshape = np.cos(w * t) - np.sin(2 * w * t)  # its derivative
-    p1 = _vec("r1", r1, 2)
+    p1 = vector("r1", r1, 2)
     rng = np.random.default_rng(seed)
     records = []
     for p in (p1, -p1):
@@ -347,7 +340,7 @@ class CorMap:
         """Motor amplitudes placing the centre at ``center`` with rotation control
         ``(Y1+Y2) - (X1+X2) = strength``: the minimum-norm amplitudes (as every row of Table 5.1
         is), shifted to respect ``limit``; `ParameterError` when out of reach."""
-        c = _vec("center", center, 2)
+        c = vector("center", center, 2)
         d = np.linalg.solve(self.matrix, c - self.offset) * strength
         return np.array(_core.motors_for(1.0, 1.0, 1.0, (float(d[0]), float(d[1]), float(strength)), limit))
 

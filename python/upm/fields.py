@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import _core
-from ._arrays import as_float
+from ._arrays import as_float, point
 from ._errors import ParameterError, ShapeError
 from .motion import PlateMotion
 
@@ -26,13 +26,6 @@ def _points(name: str, points: ArrayLike) -> tuple[NDArray[np.float64], tuple[in
     if p.ndim == 0 or p.shape[-1] != 2:
         raise ShapeError(f"{name} must have shape (..., 2); got {p.shape}")
     return np.ascontiguousarray(p.reshape(-1, 2)), p.shape[:-1]
-
-
-def _vector(name: str, value: ArrayLike) -> tuple[float, float]:
-    v = as_float(name, value)
-    if v.shape != (2,):
-        raise ShapeError(f"{name} must have shape (2,); got {v.shape}")
-    return float(v[0]), float(v[1])
 
 
 def _tol(tol: float) -> float:
@@ -50,13 +43,13 @@ def rotation_field(points: ArrayLike, center: ArrayLike) -> NDArray[np.float64]:
     Returns an array of shape ``(..., 2)`` like ``points``.
     """
     p, lead = _points("points", points)
-    return np.asarray(_core.rotation_field(p, _vector("center", center))).reshape(*lead, 2)
+    return np.asarray(_core.rotation_field(p, point("center", center))).reshape(*lead, 2)
 
 
 def rotation_curl(points: ArrayLike, center: ArrayLike) -> Any:
     """Curl of :func:`rotation_field`, ``1 / |P - C|`` [1/m] (4.11); ``inf`` at the centre."""
     p, lead = _points("points", points)
-    out = np.asarray(_core.rotation_curl(p, _vector("center", center))).reshape(lead)
+    out = np.asarray(_core.rotation_curl(p, point("center", center))).reshape(lead)
     return float(out) if out.ndim == 0 else out
 
 
@@ -73,9 +66,7 @@ def jet_field(
     Returns an array of shape ``(..., 2)`` like ``points``.
     """
     p, lead = _points("points", points)
-    out = _core.jet_field(
-        p, _vector("center", center), _vector("direction", direction), float(rho), _tol(tol)
-    )
+    out = _core.jet_field(p, point("center", center), point("direction", direction), float(rho), _tol(tol))
     return np.asarray(out).reshape(*lead, 2)
 
 

@@ -18,18 +18,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from . import _core
-from ._arrays import as_float
+from ._arrays import as_float, point
 from ._errors import ParameterError, ShapeError
 from .waveforms import Waveform
 
 __all__ = ["PlateMotion"]
-
-
-def _vector(name: str, value: ArrayLike) -> tuple[float, float]:
-    v = as_float(name, value)
-    if v.shape != (2,):
-        raise ShapeError(f"{name} must have shape (2,); got {v.shape}")
-    return float(v[0]), float(v[1])
 
 
 def _scalar_waveform(waveform: Any) -> _core.WaveformBatch:
@@ -64,12 +57,12 @@ class PlateMotion:
     @classmethod
     def translation(cls, direction: ArrayLike, waveform: Waveform) -> PlateMotion:
         """Translation along ``direction`` (normalised) with speed ``waveform(t)`` [m/s]."""
-        return cls(_core.PlateMotion.translation(_vector("direction", direction), _scalar_waveform(waveform)))
+        return cls(_core.PlateMotion.translation(point("direction", direction), _scalar_waveform(waveform)))
 
     @classmethod
     def rotation(cls, center: ArrayLike, waveform: Waveform) -> PlateMotion:
         """Rotation about ``center`` [m] at angular rate ``waveform(t)`` [rad/s]."""
-        return cls(_core.PlateMotion.rotation(_vector("center", center), _scalar_waveform(waveform)))
+        return cls(_core.PlateMotion.rotation(point("center", center), _scalar_waveform(waveform)))
 
     @classmethod
     def jet(
@@ -83,8 +76,8 @@ class PlateMotion:
         """
         return cls(
             _core.PlateMotion.jet(
-                _vector("center", center),
-                _vector("direction", direction),
+                point("center", center),
+                point("direction", direction),
                 float(rho),
                 float(amplitude),
                 float(frequency),

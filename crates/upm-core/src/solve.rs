@@ -87,11 +87,16 @@ pub struct Solution {
 impl Solution {
     /// `s_max / s_min` (infinite when `s_min = 0`).
     pub fn condition_number(&self) -> f64 {
-        match (self.singular_values.first(), self.singular_values.last()) {
-            (Some(&hi), Some(&lo)) if lo > 0.0 => hi / lo,
-            (Some(_), Some(_)) => f64::INFINITY,
-            _ => f64::NAN,
-        }
+        condition(&self.singular_values)
+    }
+}
+
+/// `s_max / s_min` of descending singular values: infinite when `s_min = 0`, NaN when empty.
+fn condition(singular_values: &[f64]) -> f64 {
+    match (singular_values.first(), singular_values.last()) {
+        (Some(&hi), Some(&lo)) if lo > 0.0 => hi / lo,
+        (Some(_), Some(_)) => f64::INFINITY,
+        _ => f64::NAN,
     }
 }
 
@@ -421,10 +426,7 @@ pub struct Plan {
 impl Plan {
     /// `s_max / s_min` of the system (4.2.5).
     pub fn condition_number(&self) -> f64 {
-        match (self.singular_values.first(), self.singular_values.last()) {
-            (Some(&hi), Some(&lo)) if lo > 0.0 => hi / lo,
-            _ => f64::INFINITY,
-        }
+        condition(&self.singular_values)
     }
 }
 

@@ -6,6 +6,7 @@ use pyo3::prelude::*;
 use upm_core::actuation::{self as act, Axis, Plate};
 
 use crate::errors::{core, detached, shape_error, Failure};
+use crate::pairs;
 
 fn plate(py: Python<'_>, mass: f64, inertia: f64, lever: f64) -> PyResult<Plate> {
     core(py, Plate::new(mass, inertia, lever))
@@ -135,17 +136,6 @@ pub fn positive_force<'py>(
     Ok(PyArray1::from_vec(py, out))
 }
 
-fn records(py: Python<'_>, name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f64; 2]>> {
-    let a = a.as_array();
-    if a.shape()[1] != 2 {
-        return Err(shape_error(
-            py,
-            format!("{name} must have shape (T, 2); got {:?}", a.shape()),
-        ));
-    }
-    Ok(a.rows().into_iter().map(|r| [r[0], r[1]]).collect())
-}
-
 /// `(center, omega coefficients, rms residual)` from two accelerometer records (5.11–5.12).
 #[pyfunction]
 pub fn cor_from_accelerometers<'py>(
@@ -157,8 +147,8 @@ pub fn cor_from_accelerometers<'py>(
     frequency: f64,
     multiples: Vec<f64>,
 ) -> PyResult<([f64; 2], Bound<'py, PyArray1<f64>>, f64)> {
-    let a = records(py, "first", &first)?;
-    let b = records(py, "second", &second)?;
+    let a = pairs(py, "first", &first)?;
+    let b = pairs(py, "second", &second)?;
     let rot = detached(py, || {
         act::cor_from_accelerometers(&a, &b, r1, sample_rate, frequency, &multiples)
             .map_err(Failure::from)

@@ -44,6 +44,22 @@ fn same_len(py: Python<'_>, what: &str, lens: &[(&str, usize)]) -> PyResult<usiz
     Ok(n)
 }
 
+/// An `(N, 2)` float64 array as a list of points; `ShapeError` naming `name` otherwise.
+pub(crate) fn pairs(
+    py: Python<'_>,
+    name: &str,
+    a: &PyReadonlyArray2<'_, f64>,
+) -> PyResult<Vec<[f64; 2]>> {
+    let a = a.as_array();
+    if a.shape()[1] != 2 {
+        return Err(shape_error(
+            py,
+            format!("{name} must have shape (N, 2); got {:?}", a.shape()),
+        ));
+    }
+    Ok(a.rows().into_iter().map(|r| [r[0], r[1]]).collect())
+}
+
 fn to_2d<'py>(
     py: Python<'py>,
     flat: Vec<f64>,

@@ -8,7 +8,7 @@ use upm_core::sim::{self, Config, Parts, Trajectory};
 use upm_core::{Error, Waveform};
 
 use crate::errors::{core, detached, shape_error, Failure};
-use crate::WaveformBatch;
+use crate::{pairs, WaveformBatch};
 
 /// A plate motion program (see `upm.PlateMotion`).
 #[pyclass(frozen, module = "upm._core")]
@@ -142,17 +142,6 @@ impl PlateMotion {
     fn displacement(&self, py: Python<'_>) -> PyResult<[f64; 3]> {
         detached(py, || self.inner.displacement().map_err(Failure::from))
     }
-}
-
-fn pairs(py: Python<'_>, name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f64; 2]>> {
-    let a = a.as_array();
-    if a.shape()[1] != 2 {
-        return Err(shape_error(
-            py,
-            format!("{name} must have shape (M, 2); got {:?}", a.shape()),
-        ));
-    }
-    Ok(a.rows().into_iter().map(|r| [r[0], r[1]]).collect())
 }
 
 /// Flattened `(t, positions, velocities, stuck, left_time)` of several trajectories of equal size.

@@ -8,21 +8,7 @@ use upm_core::{field, Error};
 
 use crate::errors::{batch, detached, shape_error, Failure};
 use crate::motion::PlateMotion;
-
-fn point_list(
-    py: Python<'_>,
-    name: &str,
-    a: &PyReadonlyArray2<'_, f64>,
-) -> PyResult<Vec<[f64; 2]>> {
-    let a = a.as_array();
-    if a.shape()[1] != 2 {
-        return Err(shape_error(
-            py,
-            format!("{name} must have shape (K, 2); got {:?}", a.shape()),
-        ));
-    }
-    Ok(a.rows().into_iter().map(|r| [r[0], r[1]]).collect())
-}
+use crate::pairs;
 
 /// `(B, K, 2)` as B lists of points.
 fn stacks(
@@ -150,10 +136,10 @@ pub fn solve<'py>(
     damping: f64,
     max_strength: Option<f64>,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let p = point_list(py, "parts", &parts)?;
-    let t = point_list(py, "targets", &targets)?;
-    let c = point_list(py, "centers", &centers)?;
-    let q = point_list(py, "curl_points", &curl_points)?;
+    let p = pairs(py, "parts", &parts)?;
+    let t = pairs(py, "targets", &targets)?;
+    let c = pairs(py, "centers", &centers)?;
+    let q = pairs(py, "curl_points", &curl_points)?;
     let k = curls.as_array().to_vec();
     let opts = options(rcond, damping, max_strength);
     let plan = detached(py, || {
@@ -213,8 +199,8 @@ pub fn priorities<'py>(
     parts: PyReadonlyArray2<'py, f64>,
     centers: PyReadonlyArray2<'py, f64>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let p = point_list(py, "parts", &parts)?;
-    let c = point_list(py, "centers", &centers)?;
+    let p = pairs(py, "parts", &parts)?;
+    let c = pairs(py, "centers", &centers)?;
     let k = strengths.as_array().to_vec();
     if k.len() != c.len() {
         return Err(shape_error(
@@ -235,8 +221,8 @@ pub fn flow_error<'py>(
     order: Vec<usize>,
     exact: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let p = point_list(py, "parts", &parts)?;
-    let c = point_list(py, "centers", &centers)?;
+    let p = pairs(py, "parts", &parts)?;
+    let c = pairs(py, "centers", &centers)?;
     let k = strengths.as_array().to_vec();
     let out = detached(py, || {
         if exact {
@@ -266,7 +252,7 @@ pub fn rotation_field<'py>(
     points: PyReadonlyArray2<'py, f64>,
     center: [f64; 2],
 ) -> PyResult<Bound<'py, PyAny>> {
-    let p = point_list(py, "points", &points)?;
+    let p = pairs(py, "points", &points)?;
     field_out(
         py,
         p.iter()
@@ -282,7 +268,7 @@ pub fn rotation_curl<'py>(
     points: PyReadonlyArray2<'py, f64>,
     center: [f64; 2],
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let p = point_list(py, "points", &points)?;
+    let p = pairs(py, "points", &points)?;
     Ok(PyArray1::from_vec(
         py,
         p.iter().map(|&x| field::rotation_curl(x, center)).collect(),
@@ -299,7 +285,7 @@ pub fn jet_field<'py>(
     rho: f64,
     tol: f64,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let p = point_list(py, "points", &points)?;
+    let p = pairs(py, "points", &points)?;
     let out = batch(py, p.len(), |i| {
         field::jet_field(p[i], center, direction, rho, tol)
     })?;
@@ -315,8 +301,8 @@ pub fn average_field<'py>(
     part_velocity: PyReadonlyArray2<'py, f64>,
     tol: f64,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let p = point_list(py, "points", &points)?;
-    let v = point_list(py, "part_velocity", &part_velocity)?;
+    let p = pairs(py, "points", &points)?;
+    let v = pairs(py, "part_velocity", &part_velocity)?;
     if v.len() != p.len() {
         return Err(shape_error(
             py,

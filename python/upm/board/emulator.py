@@ -223,8 +223,7 @@ class BoardEmulator:
                 self.pulse_velocity.append(vel)
                 counts = self.plant.sensor_counts(acc, vel)
             else:
-                acc_zero = np.zeros((n, 3))
-                counts = self.plant.sensor_counts(acc_zero, acc_zero)
+                counts = self.plant.idle(n)
             if n > 0:
                 rows = tuple(tuple(int(v) for v in row) for row in counts)
                 out += self._send(p.Samples(self.produced, rows))  # type: ignore[arg-type]
