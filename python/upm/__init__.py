@@ -21,6 +21,7 @@ from ._errors import (
     ResonanceWarning,
     ShapeError,
     UpmError,
+    VisionError,
 )
 from .feeding import feed_rate, force_table, mean_force, theorem1_force
 from .fields import average_field, jet_field, rotation_curl, rotation_field
@@ -60,6 +61,7 @@ __all__ = [
     "SimResult",
     "TwoHarmonic",
     "UpmError",
+    "VisionError",
     "Waveform",
     "__version__",
     "actuation",

@@ -12,6 +12,7 @@ __all__ = [
     "ResonanceWarning",
     "ShapeError",
     "UpmError",
+    "VisionError",
 ]
 
 
@@ -52,3 +53,7 @@ class ResonanceWarning(UserWarning):
 
 class BoardError(UpmError):
     """The board link failed: a timeout, a protocol violation, a refused command (subclasses)."""
+
+
+class VisionError(UpmError):
+    """The camera frame is unusable or does not show what was looked for (the message says what)."""

@@ -5,14 +5,16 @@ h23 cos(2wt/3 + p23)]`` under a raised-cosine envelope, push the plate (5.8); th
 mass and inertia far above its suspension's resonances (5.10), or through per-axis springs and
 dampers (5.26) when ``axes`` are given; two 2-axis accelerometers at ``sensor`` and ``-sensor``
 read its acceleration (centripetal term included) as signed 11-bit counts with noise; the parts
-on it follow through the exact integrator (``upm.simulate``). The board emulator drives it; the
-vision and closed-loop issues add its camera.
+on it follow through the exact integrator (``upm.simulate``). The board emulator drives it;
+:meth:`SimulatedUPM.camera` is its overhead camera (frames rendered by ``upm.vision.synthetic``).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -22,6 +24,9 @@ from ._errors import ParameterError, ShapeError
 from .actuation import Axis, Plate
 from .motion import PlateMotion
 from .sim import simulate
+
+if TYPE_CHECKING:
+    from .vision.synthetic import Camera, VirtualCamera
 
 __all__ = ["Channel", "Envelope", "SimulatedUPM"]
 
@@ -202,6 +207,16 @@ class SimulatedUPM:
     def idle(self, n: int) -> NDArray[np.int16]:
         """``n`` samples of a plate at rest (noise only)."""
         return self.sensor_counts(np.zeros((n, 3)), np.zeros((n, 3)))
+
+    def camera(self, labels: Sequence[str] | str = "penny", camera: Camera | None = None, seed: int = 0,
+               **options: Any) -> VirtualCamera:  # fmt: skip
+        """The overhead camera: a :class:`upm.vision.synthetic.VirtualCamera` whose ``read()``
+        renders the parts where they are now (``labels`` per part; ``camera`` a
+        :class:`upm.vision.synthetic.Camera`; ``options`` go to :func:`upm.vision.synthetic.render`).
+        Needs OpenCV (``upm[vision]``)."""
+        from .vision import synthetic
+
+        return synthetic.VirtualCamera(self, camera or synthetic.Camera(), labels, dict(options), seed)
 
     def move_parts(self, parts: ArrayLike) -> None:
         """Place the parts [m]."""

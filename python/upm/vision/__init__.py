@@ -1,0 +1,33 @@
+"""Vision for the closed loop (SPEC §8, thesis 5.2.4): find the plate, find and label the parts,
+track them; :mod:`upm.vision.synthetic` renders test frames with exact ground truth.
+
+Needs OpenCV: ``pip install upm[vision]`` (``opencv-python-headless``).
+"""
+
+from __future__ import annotations
+
+try:
+    import cv2  # noqa: F401
+except ImportError as error:  # pragma: no cover - depends on the environment
+    raise ImportError(
+        "upm.vision needs OpenCV: pip install 'upm[vision]' (opencv-python-headless)"
+    ) from error
+
+from .._errors import VisionError
+from .parts import THESIS_PALETTE, Palette, Parts, find_parts
+from .table import PLATE_SIZE, Table, find_table, plate_corners
+from .tracker import Tracker, Tracks
+
+__all__ = [
+    "PLATE_SIZE",
+    "THESIS_PALETTE",
+    "Palette",
+    "Parts",
+    "Table",
+    "Tracker",
+    "Tracks",
+    "VisionError",
+    "find_parts",
+    "find_table",
+    "plate_corners",
+]

@@ -1,0 +1,377 @@
+"""Synthetic camera frames of a plate with parts on it, with exact ground truth.
+
+A pinhole camera above the plate (:class:`Camera`) sees a dark background, the light plate and
+the parts through a perspective homography. :func:`render` draws them with 4 x 4 supersampling
+(edges are area-weighted, so centres are unbiased to about 0.01 px), then applies a smooth
+lighting gradient with vignetting, a Gaussian lens blur, optional occluders (an arm reaching in)
+and Gaussian noise in grey levels. The returned :class:`Truth` holds the plate corners and the part
+centres in camera pixels (the projection of each part's centre), their labels and the fraction
+of each part left visible.
+
+:class:`VirtualCamera` reads frames of a :class:`upm.plant.SimulatedUPM` (or of any object with
+``parts``) like an OpenCV ``VideoCapture``.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import cv2
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .._arrays import as_float, check_range
+from .._errors import ParameterError, ShapeError
+from .table import PLATE_SIZE, plate_corners, project
+
+__all__ = ["COLORS", "Camera", "Frame", "Truth", "VirtualCamera", "render"]
+
+FloatArray = NDArray[np.float64]
+
+#: Nominal colours (BGR, 0–255) under uniform light: the chips are as bright as the plate in grey
+#: (``0.299 R + 0.587 G + 0.114 B``), so only their colour sets them apart.
+COLORS: dict[str, tuple[float, float, float]] = {
+    "background": (25.0, 25.0, 25.0),
+    "plate": (150.0, 150.0, 150.0),
+    "penny": (45.0, 85.0, 140.0),
+    "red": (110.0, 125.0, 220.0),
+    "blue": (235.0, 165.0, 80.0),
+    "occluder": (60.0, 55.0, 50.0),
+}
+
+#: Part radii [m]: a US penny (19.05 mm across) and a poker chip (39 mm).
+RADII: dict[str, float] = {"penny": 0.009525, "red": 0.0195, "blue": 0.0195}
+
+_SS = 4  # supersampling factor per axis
+_SHIFT = 4  # fractional bits of cv2.fillPoly's coordinates
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A pinhole camera looking down at a square plate.
+
+    Parameters
+    ----------
+    size : (int, int)
+        Image width and height [px].
+    plate_size : float
+        Side of the plate [m] (default 16 in, the thesis's plate).
+    fill : float
+        Fraction of the image height the plate spans when seen straight down.
+    tilt, yaw : float
+        Rotation of the camera about the plate's x axis and about its optical axis [rad]; keep
+        ``|yaw| < pi/4`` so the plate's x axis stays the image's rightward side.
+    shift : (float, float)
+        Offset of the plate's image from the image centre [px].
+    height : float
+        Height of the camera above the plate [m] (perspective strength).
+    """
+
+    size: tuple[int, int] = (640, 480)
+    plate_size: float = PLATE_SIZE
+    fill: float = 0.8
+    tilt: float = 0.08
+    yaw: float = 0.03
+    shift: tuple[float, float] = (0.0, 0.0)
+    height: float = 1.2
+
+    def __post_init__(self) -> None:
+        w, h = self.size
+        if not (isinstance(w, int) and isinstance(h, int) and w >= 32 and h >= 32):
+            raise ParameterError(f"size must be two integers >= 32 (width, height) [px]; got {self.size}")
+        for name in ("plate_size", "fill", "height"):
+            check_range(name, as_float(name, getattr(self, name)), low=0.0, low_open=True)
+        check_range("tilt", as_float("tilt", self.tilt), low=-1.0, high=1.0)
+        check_range("yaw", as_float("yaw", self.yaw), low=-math.pi / 4, high=math.pi / 4, low_open=True,
+                    high_open=True)  # fmt: skip
+
+    @property
+    def camera_from_plate(self) -> FloatArray:
+        """The homography ``(3, 3)`` from plate coordinates [m] to camera pixels."""
+        w, h = self.size
+        f = self.fill * h * self.height / self.plate_size
+        k = np.array([[f, 0.0, w / 2 + self.shift[0]], [0.0, f, h / 2 + self.shift[1]], [0.0, 0.0, 1.0]])
+        # camera axes seen from above: x along the plate's x, y along the plate's -y, z down
+        down = np.diag([1.0, -1.0, -1.0])
+        ct, st, cy, sy = math.cos(self.tilt), math.sin(self.tilt), math.cos(self.yaw), math.sin(self.yaw)
+        tilt = np.array([[1.0, 0.0, 0.0], [0.0, ct, -st], [0.0, st, ct]])
+        yaw = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
+        r = yaw @ tilt @ down
+        t = np.array([0.0, 0.0, self.height])
+        m = k @ np.column_stack([r[:, 0], r[:, 1], t])
+        return np.asarray(m / m[2, 2], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Truth:
+    """Ground truth of a rendered frame (camera pixels: x right, y down, pixel centres at integers)."""
+
+    corners: FloatArray
+    """Plate corners ``(4, 2)`` [px], in the order of :func:`upm.vision.plate_corners`."""
+    centers: FloatArray
+    """Part centres ``(M, 2)`` [px]: the projections of the parts' centres."""
+    positions: FloatArray
+    """Part centres ``(M, 2)`` on the plate [m]."""
+    labels: tuple[str, ...]
+    visible: FloatArray
+    """Fraction ``(M,)`` of each part's image not hidden by an occluder or the image border."""
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A rendered frame: ``image`` (H, W, 3) BGR uint8 (or (H, W) grey) and its :class:`Truth`."""
+
+    image: NDArray[np.uint8]
+    truth: Truth
+
+
+def _circle(radius: float, n: int = 96) -> FloatArray:
+    a = np.linspace(0.0, 2.0 * math.pi, n, endpoint=False)
+    return radius * np.column_stack([np.cos(a), np.sin(a)])
+
+
+def _inset(polygon: FloatArray, delta: float) -> FloatArray:
+    """The convex ``polygon`` with every side moved inwards by ``delta``."""
+    edges = np.roll(polygon, -1, axis=0) - polygon
+    lengths = np.linalg.norm(edges, axis=1)
+    keep = lengths > 1e-9
+    p, e = polygon[keep], edges[keep] / lengths[keep, None]
+    x, y = polygon[:, 0], polygon[:, 1]
+    orientation = np.sign(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) or 1.0
+    inward = orientation * np.column_stack([-e[:, 1], e[:, 0]])
+    q = p + delta * inward  # a point on each moved side
+    prev_q, prev_e = np.roll(q, 1, axis=0), np.roll(e, 1, axis=0)
+    # vertex i = intersection of moved side i - 1 and moved side i
+    cross = prev_e[:, 0] * e[:, 1] - prev_e[:, 1] * e[:, 0]
+    d = q - prev_q
+    t = np.where(
+        np.abs(cross) > 1e-12, (d[:, 0] * e[:, 1] - d[:, 1] * e[:, 0]) / np.where(cross == 0, 1, cross), 0
+    )
+    moved = prev_q + t[:, None] * prev_e + np.where(np.abs(cross) > 1e-12, 0, 1)[:, None] * (q - prev_q)
+    return np.asarray(moved, dtype=np.float64)
+
+
+def _coverage(shape: tuple[int, int], polygon: FloatArray) -> tuple[tuple[int, int], NDArray[np.float32]]:
+    """Area coverage in [0, 1] of the convex ``polygon`` [px] over the pixels of its bounding box
+    (clipped to an image of ``shape``); returns the box's top-left corner and the coverage.
+
+    ``cv2.fillPoly`` sets every subpixel whose centre lies within half a subpixel of the polygon
+    (rounded ends), so the polygon is first moved inwards by that half subpixel."""
+    polygon = _inset(polygon, 0.5 / _SS)
+    h, w = shape
+    x0 = max(math.floor(polygon[:, 0].min()) - 1, 0)
+    y0 = max(math.floor(polygon[:, 1].min()) - 1, 0)
+    x1 = min(math.ceil(polygon[:, 0].max()) + 2, w)
+    y1 = min(math.ceil(polygon[:, 1].max()) + 2, h)
+    if x1 <= x0 or y1 <= y0:
+        return (0, 0), np.zeros((0, 0), np.float32)
+    mask = np.zeros(((y1 - y0) * _SS, (x1 - x0) * _SS), np.uint8)
+    # pixel (i, j) of the supersampled box has its centre at ((i + 0.5) / SS - 0.5) + origin
+    fine = ((polygon - (x0, y0) + 0.5) * _SS - 0.5) * (1 << _SHIFT)
+    cv2.fillPoly(mask, [np.round(fine).astype(np.int32)], 255, cv2.LINE_8, _SHIFT)
+    small = cv2.resize(mask, (x1 - x0, y1 - y0), interpolation=cv2.INTER_AREA)
+    return (x0, y0), small.astype(np.float32) / 255.0
+
+
+def _blend(image: NDArray[np.float32], origin: tuple[int, int], cover: NDArray[np.float32],
+           color: Sequence[float]) -> None:  # fmt: skip
+    x0, y0 = origin
+    h, w = cover.shape
+    if h == 0:
+        return
+    roi = image[y0 : y0 + h, x0 : x0 + w]
+    roi += cover[..., None] * (np.asarray(color, np.float32) - roi)
+
+
+@functools.lru_cache(maxsize=8)
+def _lighting(size: tuple[int, int], gradient: float, vignette: float) -> NDArray[np.float32]:
+    w, h = size
+    y, x = np.mgrid[0:h, 0:w].astype(np.float32)
+    u, v = (x - w / 2) / (w / 2), (y - h / 2) / (h / 2)
+    gain = (1.0 + gradient * (0.8 * u + 0.6 * v) / 2 - vignette * (u * u + v * v) / 2).astype(np.float32)
+    gain.flags.writeable = False
+    return np.asarray(gain[..., None], dtype=np.float32)
+
+
+@functools.lru_cache(maxsize=8)
+def _empty_plate(
+    camera: Camera, background: tuple[float, ...], plate: tuple[float, ...]
+) -> NDArray[np.float32]:
+    """The frame without parts (cached: it is the same for every frame of a camera)."""
+    w, h = camera.size
+    image = np.empty((h, w, 3), np.float32)
+    image[:] = np.asarray(background, np.float32)
+    corners = project(camera.camera_from_plate, plate_corners(camera.plate_size))
+    _blend(image, *_coverage((h, w), corners), plate)
+    image.flags.writeable = False
+    return image
+
+
+def _area(polygon: FloatArray) -> float:
+    x, y = polygon[:, 0], polygon[:, 1]
+    return 0.5 * abs(float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)))
+
+
+def render(
+    camera: Camera,
+    positions: ArrayLike,
+    labels: Sequence[str] | str = "penny",
+    *,
+    radius: float | ArrayLike | None = None,
+    angles: ArrayLike | None = None,
+    shapes: Mapping[str, ArrayLike] | None = None,
+    colors: Mapping[str, Sequence[float]] | None = None,
+    noise: float = 5.0,
+    blur: float = 0.7,
+    gradient: float = 0.25,
+    vignette: float = 0.15,
+    occluders: Sequence[ArrayLike] = (),
+    grey: bool = False,
+    rng: np.random.Generator | int | None = 0,
+) -> Frame:
+    """Render one camera frame of the plate with parts at ``positions``.
+
+    Parameters
+    ----------
+    camera : Camera
+        The camera and the plate's size.
+    positions : (M, 2) array_like
+        Part centres on the plate [m].
+    labels : str or sequence of M str
+        Part kinds: ``"penny"``, ``"red"``, ``"blue"`` (chips) or any key of ``colors``.
+    radius : float or (M,) array_like, optional
+        Part radii [m]; default from the kind (penny 9.5 mm, chip 19.5 mm).
+    angles : (M,) array_like, optional
+        Part orientations [rad] (for ``shapes``).
+    shapes : mapping of label to (K, 2) array_like, optional
+        Convex outlines [m] in the part's frame (centroid at the origin) for labels drawn as
+        polygons instead of disks.
+    colors : mapping of name to BGR, optional
+        Overrides of :data:`COLORS` (also ``"plate"``, ``"background"``, ``"occluder"``).
+    noise : float
+        Standard deviation of the Gaussian pixel noise [grey levels].
+    blur : float
+        Standard deviation of the Gaussian lens blur [px] (0: none).
+    gradient, vignette : float
+        Relative brightness change across the image and darkening towards its corners.
+    occluders : sequence of (K, 2) array_like
+        Polygons in camera pixels drawn over everything (an arm, a hand).
+    grey : bool
+        Return a single-channel grey frame.
+    rng : numpy.random.Generator or int or None
+        Source of the noise.
+    """
+    pos = as_float("positions", positions)
+    if pos.ndim != 2 or pos.shape[1] != 2:
+        raise ShapeError(f"positions must have shape (M, 2) [m]; got {pos.shape}")
+    m = len(pos)
+    kinds = (labels,) * m if isinstance(labels, str) else tuple(labels)
+    if len(kinds) != m:
+        raise ShapeError(f"labels must hold one label per part ({m}); got {len(kinds)}")
+    palette = {**COLORS, **(colors or {})}
+    unknown = sorted({k for k in kinds if k not in palette})
+    if unknown:
+        raise ParameterError(f"labels {unknown} have no colour; known: {sorted(palette)} (or pass colors=)")
+    if radius is None:
+        missing = sorted({k for k in kinds if k not in RADII and k not in (shapes or {})})
+        if missing:
+            raise ParameterError(f"radius is needed for labels {missing}")
+        radii = np.array([RADII.get(k, 0.0) for k in kinds])
+    else:
+        radii = np.broadcast_to(as_float("radius", radius), (m,)).copy()
+        check_range("radius", radii, low=0.0, low_open=True)
+    ang = np.zeros(m) if angles is None else np.broadcast_to(as_float("angles", angles), (m,))
+    check_range("noise", as_float("noise", noise), low=0.0)
+    check_range("blur", as_float("blur", blur), low=0.0)
+    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+
+    w, h = camera.size
+    hom = camera.camera_from_plate
+    corners = project(hom, plate_corners(camera.plate_size))
+    image = _empty_plate(camera, tuple(palette["background"]), tuple(palette["plate"])).copy()
+
+    covers = []
+    for k in range(m):
+        local = as_float(f"shapes[{kinds[k]!r}]", shapes[kinds[k]]) if shapes and kinds[k] in shapes else None
+        if local is None:
+            local = _circle(float(radii[k]))
+        elif local.ndim != 2 or local.shape[1] != 2 or len(local) < 3:
+            raise ShapeError(f"shapes[{kinds[k]!r}] must have shape (K >= 3, 2) [m]; got {local.shape}")
+        c, s = math.cos(ang[k]), math.sin(ang[k])
+        outline = project(hom, local @ np.array([[c, s], [-s, c]]) + pos[k])
+        origin, cover = _coverage((h, w), outline)
+        covers.append((origin, cover, _area(outline)))
+        _blend(image, origin, cover, palette[kinds[k]])
+
+    occl = np.zeros((h, w), np.float32) if len(occluders) else None
+    for i, poly in enumerate(occluders):
+        p = as_float(f"occluders[{i}]", poly)
+        if p.ndim != 2 or p.shape[1] != 2 or len(p) < 3:
+            raise ShapeError(f"occluders[{i}] must have shape (K >= 3, 2) [px]; got {p.shape}")
+        (x0, y0), cov = _coverage((h, w), p)
+        if cov.size and occl is not None:
+            view = occl[y0 : y0 + cov.shape[0], x0 : x0 + cov.shape[1]]
+            np.maximum(view, cov, out=view)
+    if occl is not None:
+        image += occl[..., None] * (np.asarray(palette["occluder"], np.float32) - image)
+
+    visible = np.zeros(m)
+    for k, ((x0, y0), cov, area) in enumerate(covers):
+        if cov.size and area > 0:
+            seen = cov if occl is None else cov * (1.0 - occl[y0 : y0 + cov.shape[0], x0 : x0 + cov.shape[1]])
+            visible[k] = min(float(seen.sum()) / area, 1.0)
+
+    image *= _lighting(camera.size, float(gradient), float(vignette))
+    if blur > 0:
+        image = np.asarray(cv2.GaussianBlur(image, (0, 0), blur), np.float32)
+    if grey:
+        image = np.asarray(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), np.float32)
+    if noise > 0:
+        image += gen.standard_normal(image.shape, dtype=np.float32) * np.float32(noise)
+    out = np.clip(image + np.float32(0.5), 0, 255).astype(np.uint8)  # rounds: values are >= 0
+    truth = Truth(
+        corners=corners,
+        centers=project(hom, pos) if m else np.zeros((0, 2)),
+        positions=pos.copy(),
+        labels=kinds,
+        visible=visible,
+    )
+    return Frame(out, truth)
+
+
+class _HasParts(Protocol):
+    parts: Any
+
+
+@dataclass
+class VirtualCamera:
+    """Frames of a simulated plate, read like an OpenCV ``VideoCapture``.
+
+    ``read()`` renders the current ``source.parts`` (e.g. a :class:`upm.plant.SimulatedUPM`) and
+    returns ``(True, image)``; :attr:`last` keeps the latest :class:`Frame` with its truth.
+    """
+
+    source: _HasParts
+    camera: Camera = field(default_factory=Camera)
+    labels: Sequence[str] | str = "penny"
+    options: dict[str, Any] = field(default_factory=dict)
+    seed: int = 0
+    last: Frame | None = None
+
+    def __post_init__(self) -> None:
+        self._rng = np.random.default_rng(self.seed)
+
+    def read(self) -> tuple[bool, NDArray[np.uint8]]:
+        self.last = render(self.camera, np.asarray(self.source.parts).reshape(-1, 2), self.labels,
+                           rng=self._rng, **self.options)  # fmt: skip
+        return True, self.last.image
+
+    def isOpened(self) -> bool:
+        return True
+
+    def release(self) -> None:
+        """Nothing to release (the VideoCapture interface)."""
