@@ -271,9 +271,10 @@ def refine(diff: F32, centres: FloatArray, origins: FloatArray, radius: float,
 
     def gather(values: F32, at: NDArray[np.intp]) -> F32:
         """The (2 reach + 1)^2 window of every part centred on pixel ``at``."""
-        views = np.lib.stride_tricks.sliding_window_view(values, (2 * reach + 1, 2 * reach + 1), axis=(1, 2))
-        out = views[np.arange(n), at[:, 1] - reach, at[:, 0] - reach]  # (N, [C,] W, W)
-        return np.moveaxis(out, 1, -1) if out.ndim == 4 else out
+        w = 2 * reach + 1
+        return np.stack(
+            [values[i, y - reach : y - reach + w, x - reach : x - reach + w] for i, (x, y) in enumerate(at)]
+        )
 
     if direction is None:
         inner = (off[None, :] ** 2 + off[:, None] ** 2 < np.float32((0.6 * radius) ** 2)).astype(np.float32)
@@ -290,10 +291,11 @@ def refine(diff: F32, centres: FloatArray, origins: FloatArray, radius: float,
     pairs = np.argwhere((dist < 2.0 * radius + 6.0) & ~np.eye(n, dtype=bool))
     area = np.zeros(n)
     around = np.zeros(n)
-    for _ in range(iterations):
+    for step in range(iterations):
         at = np.clip(np.rint(c).astype(np.intp), lo, hi)
         win = gather(cover, at)  # (N, W, W)
-        around = np.einsum("nyx,yx->n", win, ring).astype(np.float64)
+        if step == iterations - 1:
+            around = np.einsum("nyx,yx->n", win, ring).astype(np.float64)
         if len(pairs):  # parts with a touching neighbour: keep their side of the bisector
             pi, pj = pairs[:, 0], pairs[:, 1]
             world = c + org
