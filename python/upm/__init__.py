@@ -40,6 +40,7 @@ from .solvers import (
     solve_rotations,
     solve_rotations_batch,
 )
+from .sweeps import sweep
 from .waveforms import BangBang, Harmonics, TwoHarmonic, Waveform
 
 __all__ = [
@@ -85,6 +86,7 @@ __all__ = [
     "solve_rotations",
     "solve_rotations_batch",
     "sustain_for_displacement",
+    "sweep",
     "theorem1_force",
     "theory",
 ]

@@ -113,6 +113,7 @@ def simulate(
     g: float,
     plate_size: float | None,
     record_every: int,
+    threads: int | None = None,
 ) -> tuple[_F, _F, _F, NDArray[np.bool_], _F, _F, _F]: ...
 
 _I = NDArray[np.int64]

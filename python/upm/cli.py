@@ -1,14 +1,16 @@
-"""The ``upm`` command line: ``upm demo`` and ``upm --version``."""
+"""The ``upm`` command line: ``upm demo``, ``upm sweep``, ``upm emulate`` and ``upm --version``."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from . import __version__, theory
+from ._errors import ParameterError, UpmError
 from .feeding import feed_rate, mean_force
 from .waveforms import TwoHarmonic
 
@@ -77,6 +79,89 @@ def demo(out: Path, plots: bool = True) -> int:
     return 0
 
 
+def _axis(name: str, spec: Any) -> Any:
+    """A grid axis from TOML: a list, or a table ``{start, stop, num[, log]}``."""
+    if isinstance(spec, dict):
+        unknown = set(spec) - {"start", "stop", "num", "log"}
+        if unknown or not {"start", "stop", "num"} <= set(spec):
+            raise ParameterError(f"grid.{name} must be a list or {{start, stop, num[, log]}}; got {spec}")
+        space = np.geomspace if spec.get("log", False) else np.linspace
+        return space(float(spec["start"]), float(spec["stop"]), int(spec["num"]))
+    return spec
+
+
+def sweep_command(config: Path | None, listing: bool, n_jobs: int | None, quiet: bool) -> int:
+    """``upm sweep CONFIG.toml`` and ``upm sweep --list``."""
+    from .sweeps import SCENARIOS, sweep
+
+    if listing or config is None:
+        for s in SCENARIOS.values():
+            print(f"{s.name}: {s.doc}")
+            needs = ", ".join(s.required)
+            optional = ", ".join(f"{k}={v}" for k, v in s.defaults.items())
+            print(f"    parameters: {needs}; defaults: {optional}")
+            for k, unit in s.outputs.items():
+                print(f"    -> {k}: {unit}")
+        if config is None and not listing:
+            print("\nusage: upm sweep CONFIG.toml  (keys: target, [grid], [fixed], store, n_jobs, backend, "
+                  "scheduler, chunk, plot)")  # fmt: skip
+        return 0
+    import importlib
+    import tomllib
+
+    try:
+        spec = tomllib.loads(config.read_text())
+    except (OSError, tomllib.TOMLDecodeError) as error:
+        raise ParameterError(f"cannot read sweep config {str(config)!r}: {error}") from error
+    allowed = {
+        "target",
+        "grid",
+        "fixed",
+        "store",
+        "n_jobs",
+        "backend",
+        "scheduler",
+        "chunk",
+        "plot",
+        "resume",
+    }
+    unknown = set(spec) - allowed
+    if unknown:
+        raise ParameterError(f"unknown keys {sorted(unknown)} in {config}; allowed: {sorted(allowed)}")
+    if "target" not in spec or "grid" not in spec:
+        raise ParameterError(f"{config} needs target = ... and a [grid] table")
+    target: Any = spec["target"]
+    if isinstance(target, str) and ":" in target:  # "package.module:function"
+        module, _, attr = target.partition(":")
+        target = getattr(importlib.import_module(module), attr)
+    grid = {k: _axis(k, v) for k, v in spec["grid"].items()}
+    name = spec["target"].split(":")[-1]
+    store = Path(spec.get("store", f"out/{name}.zarr"))
+    store.parent.mkdir(parents=True, exist_ok=True)
+    ds = sweep(
+        target,
+        grid,
+        n_jobs=n_jobs if n_jobs is not None else spec.get("n_jobs"),
+        backend=spec.get("backend", "threads"),
+        client=spec.get("scheduler"),
+        store=store,
+        resume=spec.get("resume", True),
+        progress=not quiet,
+        chunk=spec.get("chunk"),
+        **spec.get("fixed", {}),
+    )
+    print(ds)
+    print(f"wrote {store}")
+    if "plot" in spec:
+        from . import plot
+
+        out = Path(spec["plot"])
+        out.parent.mkdir(parents=True, exist_ok=True)
+        plot.sweep(ds).savefig(out, dpi=120)
+        print(f"wrote {out}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["emulate"]:  # its own options: hand them over untouched
@@ -92,9 +177,24 @@ def main(argv: list[str] | None = None) -> int:
     d = commands.add_parser("demo", help="the two-harmonic feeding table and Fig. 3.6")
     d.add_argument("--out", type=Path, default=Path("out"), help="directory for figures (default: out)")
     d.add_argument("--no-plots", action="store_true", help="print the tables only")
+    s = commands.add_parser(
+        "sweep", help="a parameter sweep from a TOML file; --list: the built-in scenarios"
+    )
+    s.add_argument("config", nargs="?", type=Path, help="the sweep's TOML file")
+    s.add_argument("--list", action="store_true", help="list the built-in scenarios and their parameters")
+    s.add_argument(
+        "--n-jobs", type=int, default=None, help="threads (default: the file's, else one per core)"
+    )
+    s.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     if args.command == "demo":
         return demo(args.out, plots=not args.no_plots)
+    if args.command == "sweep":
+        try:
+            return sweep_command(args.config, args.list, args.n_jobs, args.quiet)
+        except UpmError as error:
+            print(f"upm sweep: {error}", file=sys.stderr)
+            return 2
     return 2  # pragma: no cover - argparse rejects unknown commands
 
 

@@ -9,13 +9,14 @@ from numpy.typing import ArrayLike
 
 from . import theory
 from ._arrays import as_float
+from ._errors import ParameterError
 from .feeding import feed_rate, mean_force
 from .waveforms import Harmonics, TwoHarmonic
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["feed_rate_map", "feeding_versus_b", "field"]
+__all__ = ["feed_rate_map", "feeding_versus_b", "field", "sweep"]
 
 
 def _pyplot() -> Any:
@@ -157,5 +158,57 @@ def field(
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title(f"Force / $\\mu m g$: {title}")
+    figure: Figure = fig
+    return figure
+
+
+def sweep(ds: Any, var: str | None = None, *, x: str | None = None, y: str | None = None) -> Figure:
+    """A sweep's result (:func:`upm.sweep`) at a glance: a line plot over one dimension, a heat
+    map over two (``y`` down the rows, ``x`` along the columns; by default the first two
+    dimensions); further dimensions are fixed at their first value and named in the title.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset or xarray.DataArray
+        The sweep's result.
+    var : str, optional
+        The variable to show (default: the first).
+    x, y : str, optional
+        Dimensions for the axes.
+    """
+    plt = _pyplot()
+    da = ds if var is None and not hasattr(ds, "data_vars") else ds[var or next(iter(ds.data_vars))]
+    dims = list(da.dims)
+    if not dims:
+        raise ParameterError(f"{da.name!r} has no dimensions to plot")
+    for d in (x, y):
+        if d is not None and d not in dims:
+            raise ParameterError(f"{d!r} is not a dimension of {da.name!r}; its dimensions: {dims}")
+    rest = [d for d in dims if d not in (x, y)]
+    if len(dims) == 1:
+        keep = dims
+    else:
+        rows = y if y is not None else rest.pop(0)
+        cols = x if x is not None else rest.pop(0)
+        keep = [rows, cols]
+    fixed = {d: da[d].values[0] if d in da.coords else 0 for d in dims if d not in keep}
+    da = da.isel({d: 0 for d in fixed})
+    title = f"{da.name}" + ("" if not fixed else " at " + ", ".join(f"{d}={v}" for d, v in fixed.items()))
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
+    if len(keep) == 1:
+        d = keep[0]
+        ax.plot(da[d].values if d in da.coords else np.arange(da.sizes[d]), da.values, "o-")
+        ax.set_xlabel(d)
+        ax.set_ylabel(str(da.name))
+    else:
+        rows, cols = keep
+        grid = da.transpose(rows, cols)
+        xs = grid[cols].values if cols in grid.coords else np.arange(grid.sizes[cols])
+        ys = grid[rows].values if rows in grid.coords else np.arange(grid.sizes[rows])
+        mesh = ax.pcolormesh(xs, ys, grid.values, shading="nearest", cmap="viridis")
+        fig.colorbar(mesh, ax=ax, label=str(da.attrs.get("description", da.name)))
+        ax.set_xlabel(cols)
+        ax.set_ylabel(rows)
+    ax.set_title(title)
     figure: Figure = fig
     return figure

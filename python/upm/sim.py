@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import _core
-from ._arrays import as_float
+from ._arrays import as_float, as_int
 from ._errors import ParameterError, ShapeError
 from .motion import PlateMotion
 
@@ -110,6 +110,7 @@ def _run(
     g: float,
     plate_size: float | None,
     record_every: int,
+    threads: int | None = None,
 ) -> tuple[Any, ...]:
     if not all(isinstance(m, PlateMotion) for m in motions):
         raise ParameterError("motion must be a upm.PlateMotion")
@@ -133,6 +134,7 @@ def _run(
         g=float(g),
         plate_size=None if plate_size is None else float(plate_size),
         record_every=int(record_every),
+        threads=None if threads is None else as_int("threads", threads),
     )
 
 
@@ -196,16 +198,21 @@ def simulate_batch(
     g: float = 9.81,
     plate_size: float | None = None,
     record_every: int = 1,
+    threads: int | None = None,
 ) -> SimResult:
     """:func:`simulate` for ``B`` independent worlds (one motion each, the same parts), in parallel.
 
     Every array of the result but ``t`` gains a leading axis ``B``. Results are bitwise identical
-    to ``B`` separate calls and to any thread count.
+    to ``B`` separate calls and to any thread count. ``threads``: run on a pool of that many
+    threads (default: rayon's global pool, one thread per core); :func:`upm.sweep` runs each
+    chunk on one and parallelises over chunks.
     """
     ms = list(motions)
     if not ms:
         raise ParameterError("motions must contain at least one upm.PlateMotion")
+    if threads is not None and (as_int("threads", threads) < 1):
+        raise ParameterError(f"threads must be an integer >= 1; got {threads!r}")
     t, pos, vel, stuck, angles, spins, left = _run(
-        ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every
+        ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads
     )
     return SimResult(t, pos, vel, stuck, angles, spins, ~np.isnan(left), left)

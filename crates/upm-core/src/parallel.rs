@@ -49,10 +49,44 @@ where
     Ok(out)
 }
 
+/// Runs `f` on a dedicated pool of `threads` threads (every rayon call inside uses it), or on the
+/// global pool when `threads` is `None`. Results do not depend on the choice (see above).
+pub fn with_threads<R, F>(threads: Option<usize>, f: F) -> Result<R>
+where
+    R: Send,
+    F: FnOnce() -> R + Send,
+{
+    match threads {
+        None => Ok(f()),
+        Some(0) => Err(crate::Error::parameter("threads", "must be >= 1")),
+        Some(n) => {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .map_err(|e| crate::Error::parameter("threads", format!("no pool of {n}: {e}")))?;
+            Ok(pool.install(f))
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::Error;
+
+    #[test]
+    fn with_threads_uses_a_pool_of_that_size() {
+        assert_eq!(
+            with_threads(Some(1), rayon::current_num_threads).unwrap(),
+            1
+        );
+        assert_eq!(
+            with_threads(Some(3), rayon::current_num_threads).unwrap(),
+            3
+        );
+        assert!(with_threads(Some(0), || ()).is_err());
+        assert_eq!(with_threads(None, || 7).unwrap(), 7);
+    }
 
     #[test]
     fn identical_for_one_and_two_threads() {

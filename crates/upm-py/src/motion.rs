@@ -189,7 +189,7 @@ fn to_arrays<'py>(
 
 /// Simulates point and disk parts under each of `motions` (B worlds); arrays carry a batch axis.
 #[pyfunction]
-#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every))]
+#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -206,6 +206,7 @@ pub fn simulate<'py>(
     g: f64,
     plate_size: Option<f64>,
     record_every: usize,
+    threads: Option<usize>,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let parts = Parts {
         position: pairs(py, "positions", &positions)?,
@@ -233,9 +234,11 @@ pub fn simulate<'py>(
     }
     let runs = detached(py, || {
         // Every world advances one block at a time; Ctrl-C is honoured between blocks.
-        sim::simulate_worlds(&motions, &parts, &cfg, |_| {
-            Python::attach(|py| py.check_signals()).map_err(Failure::from)
-        })
+        upm_core::parallel::with_threads(threads, || {
+            sim::simulate_worlds(&motions, &parts, &cfg, |_| {
+                Python::attach(|py| py.check_signals()).map_err(Failure::from)
+            })
+        })?
     })?;
     to_arrays(py, runs, m)
 }

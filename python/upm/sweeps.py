@@ -1,0 +1,628 @@
+"""Parameter sweeps: labelled, resumable, parallel, ready for a cluster.
+
+:func:`sweep` evaluates a target (a built-in scenario, or any function of keyword parameters) on
+every point of a grid and returns an :class:`xarray.Dataset` with one dimension per grid axis.
+The grid is cut into hyper-rectangular chunks (``chunk`` points each, whole trailing axes first);
+chunks run on a pool of threads (the built-in scenarios call the Rust core on one thread per
+chunk, GIL released) or on a Dask cluster, and each finished chunk is written to a Zarr store
+(``store=``) together with a mark that it is done, so that a crashed or interrupted sweep
+restarted with ``resume=True`` computes only what is missing. Results do not depend on the
+backend or the number of threads: every chunk is computed independently.
+
+Needs the ``sweep`` extra: ``pip install 'upm[sweep]'`` (xarray, zarr, dask[distributed], tqdm).
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import hashlib
+import importlib
+import inspect
+import json
+import math
+import os
+import shutil
+import warnings
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ._arrays import as_float, as_int
+from ._errors import ParameterError, RankWarning
+from .feeding import feed_rate, mean_force
+from .fields import jet_field
+from .motion import PlateMotion
+from .sim import simulate_batch
+from .solvers import flow_error, ring_centers, solve_displacements
+from .waveforms import TwoHarmonic
+
+__all__ = ["SCENARIOS", "Scenario", "sweep"]
+
+FloatArray = NDArray[np.float64]
+Outputs = dict[str, NDArray[Any]]
+
+_G = 9.81
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A built-in sweep target, vectorised over the points of a chunk.
+
+    ``ranges`` lists every parameter with its allowed interval; those in ``defaults`` may be
+    left out (the others must be a grid axis or fixed); ``outputs`` are the dataset's variables
+    with their units; ``integers`` the parameters that must be whole numbers.
+    """
+
+    name: str
+    doc: str
+    ranges: dict[str, tuple[float, float]]
+    defaults: dict[str, float]
+    outputs: dict[str, str]
+    run: Callable[[dict[str, FloatArray]], Outputs] = field(repr=False)
+    chunk: int = 64
+    integers: tuple[str, ...] = ()
+    check: Callable[[Callable[[str], NDArray[Any]]], None] | None = field(default=None, repr=False)
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        return tuple(self.ranges)
+
+    @property
+    def required(self) -> tuple[str, ...]:
+        return tuple(k for k in self.ranges if k not in self.defaults)
+
+
+def _two_harmonic_peak(b: FloatArray, phi: FloatArray) -> FloatArray:
+    """``max_t |cos t + 2 b cos(2t + phi)|``, the acceleration peak of ``sin t + b sin(2t + phi)``."""
+    t = np.linspace(0.0, 2.0 * np.pi, 4096, endpoint=False)
+    a = np.cos(t)[None, :] + 2.0 * b[:, None] * np.cos(2.0 * t[None, :] + phi[:, None])
+    return np.asarray(np.abs(a).max(axis=1), dtype=np.float64)
+
+
+def _feed_rate(p: dict[str, FloatArray]) -> Outputs:
+    b, phi, gamma = p["b"], p["phi"], p["gamma"]
+    f, mu = p["frequency"], p["mu"]
+    # settle for 1.5 gamma + 20 periods unless told: the part's velocity relaxes to the steady
+    # state over about gamma / 4 periods (the viscous model 3.12), slower the stronger the drive
+    periods = np.where(p["periods"] > 0, p["periods"], 20 + np.ceil(1.5 * gamma)).astype(np.int64)
+    average, steps = int(p["average"][0]), int(p["steps"][0])
+    keys = np.column_stack([f, mu, periods, p["average"], p["steps"]])
+    if len(np.unique(keys, axis=0)) > 1:  # one simulate_batch call per (f, mu, periods, ...)
+        out: Outputs = {}
+        for key in np.unique(keys, axis=0):
+            sel = np.all(keys == key, axis=1)
+            part = _feed_rate(
+                {k: v[sel] for k, v in p.items()} | {"periods": periods[sel].astype(np.float64)}
+            )
+            for name, value in part.items():
+                out.setdefault(name, np.empty(len(b), value.dtype))[sel] = value
+        return out
+    periods_ = int(periods[0])
+    w = 2.0 * np.pi * f[0]
+    amplitude = gamma * mu[0] * _G / (w * _two_harmonic_peak(b, phi))
+    motions = [
+        PlateMotion.translation((1.0, 0.0), TwoHarmonic(bi, pi, amplitude=ai, frequency=f[0]))
+        for bi, pi, ai in zip(b, phi, amplitude, strict=True)
+    ]
+    run = simulate_batch(motions, [[0.0, 0.0]], duration=periods_ / f[0], dt=1.0 / (f[0] * steps), mu=mu[0],
+                         record_every=steps, threads=1)  # fmt: skip
+    x = run.positions[:, :, 0, 0]
+    drive = TwoHarmonic(b, phi)
+    return {
+        "feed_rate": (x[:, -1] - x[:, -1 - average]) * f[0] / average / amplitude,
+        "feed_rate_qs": np.asarray(feed_rate(drive), dtype=np.float64),
+        "force_at_rest": np.asarray(mean_force(drive, part_velocity=0.0), dtype=np.float64),
+        "amplitude": amplitude,
+    }
+
+
+def _jet_focus(p: dict[str, FloatArray]) -> Outputs:
+    directions = int(p["directions"][0])
+    angles = np.linspace(0.0, 2.0 * np.pi, directions, endpoint=False)
+    unit = np.column_stack([np.cos(angles), np.sin(angles)])
+    s = np.linspace(0.0, 4.0, 161)  # radii in units of rho
+    f0, half = np.empty(len(p["rho"])), np.empty(len(p["rho"]))
+    for i, rho in enumerate(p["rho"]):
+        pts = (s[:, None, None] * rho * unit[None]).reshape(-1, 2)
+        mag = np.linalg.norm(jet_field(pts, center=(0.0, 0.0), direction=(0.0, 1.0), rho=float(rho)), axis=1)
+        profile = mag.reshape(len(s), directions).mean(axis=1)
+        f0[i] = profile[0]
+        below = np.nonzero(profile < profile[0] / 2)[0]
+        if not len(below):
+            half[i] = np.nan
+            continue
+        k = below[0]
+        frac = (profile[k - 1] - profile[0] / 2) / (profile[k - 1] - profile[k])
+        half[i] = (s[k - 1] + frac * (s[k] - s[k - 1])) * rho
+    return {"force_at_center": f0, "half_force_radius": half, "half_force_radius_over_rho": half / p["rho"]}
+
+
+def _rotation_accuracy(p: dict[str, FloatArray]) -> Outputs:
+    n = len(p["spacing"])
+    residual, flow, cond = np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        m, trials = int(p["parts"][i]), int(p["trials"][i])
+        step, spacing = p["step"][i], p["spacing"][i]
+        centers = ring_centers(int(p["n_centers"][i]), float(p["radius"][i]))
+        rng = np.random.default_rng(int(p["seed"][i]))
+        res, err, cn = [], [], []
+        for _ in range(trials):
+            parts = np.column_stack([(np.arange(m) - (m - 1) / 2) * spacing, rng.normal(0.0, spacing / 4, m)])
+            a = rng.uniform(0.0, 2.0 * np.pi, m)
+            steps = step * np.column_stack([np.cos(a), np.sin(a)])
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RankWarning)
+                plan = solve_displacements(parts, steps, centers)
+            res.append(np.linalg.norm(plan.predicted_steps - steps, axis=1).max() / step)
+            err.append(np.linalg.norm(flow_error(plan, exact=True), axis=1).max() / step)
+            cn.append(plan.condition_number)
+        residual[i], flow[i], cond[i] = np.mean(res), np.mean(err), np.median(cn)
+    return {"residual": residual, "flow_error": flow, "condition": cond}
+
+
+def _check_feed_rate(values: Callable[[str], NDArray[Any]]) -> None:
+    periods, average = values("periods"), values("average")
+    if np.any((periods > 0) & (periods <= average.max())):
+        raise ParameterError(
+            f"feed_rate measures over the last `average` = {average.max()} periods: `periods` must "
+            f"exceed it (or be 0: automatic); got {periods[(periods > 0) & (periods <= average.max())][0]}"
+        )
+
+
+def _check_rotation_accuracy(values: Callable[[str], NDArray[Any]]) -> None:
+    if values("n_centers").min() < 2 * values("parts").max():
+        raise ParameterError(
+            f"rotation_accuracy needs n_centers >= 2 parts (the system 5.3 has 2 rows per part); got "
+            f"n_centers down to {values('n_centers').min()} with parts up to {values('parts').max()}"
+        )
+
+
+SCENARIOS: dict[str, Scenario] = {
+    s.name: s
+    for s in (
+        Scenario(
+            "feed_rate",
+            "A point part on a plate driven by v = A (sin wt + b sin(2wt + phi)) with peak acceleration "
+            "gamma mu g: its steady feed rate from the exact stick-slip integrator (measured over "
+            "the last `average` periods of `periods`; 0: 20 + 1.5 gamma, long enough to settle), "
+            "beside the quasi-static limit (the median of v, 3.16-3.17) and the force at rest.",
+            ranges={
+                "b": (0.0, 10.0),
+                "phi": (-10.0, 10.0),
+                "gamma": (0.0, 1e3),
+                "frequency": (1e-3, 1e5),
+                "mu": (1e-3, 10.0),
+                "periods": (0, 1e6),
+                "average": (1, 1e5),
+                "steps": (8, 1e5),
+            },
+            defaults={"frequency": 35.0, "mu": 0.3, "periods": 0, "average": 10, "steps": 400},
+            outputs={
+                "feed_rate": "steady feed rate / A (exact integrator)",
+                "feed_rate_qs": "median of v / A (quasi-static limit)",
+                "force_at_rest": "mean force on a part held still / (mu m g)",
+                "amplitude": "A [m/s]",
+            },
+            run=_feed_rate,
+            check=_check_feed_rate,
+            integers=("periods", "average", "steps"),
+        ),
+        Scenario(
+            "jet_focus",
+            "The jet's force at its centre and the radius at which the force (averaged over "
+            "directions) falls to half of it, versus rho (6.4).",
+            ranges={"rho": (1e-9, 10.0), "directions": (1, 360)},
+            defaults={"directions": 12},
+            outputs={
+                "force_at_center": "force / (mu m g)",
+                "half_force_radius": "m",
+                "half_force_radius_over_rho": "1",
+            },
+            run=_jet_focus,
+            chunk=4,
+            integers=("directions",),
+        ),
+        Scenario(
+            "rotation_accuracy",
+            "Displacement plans (5.3) for parts in a row at a given spacing with a ring of "
+            "n_centers centres: first-order residual and exact flow error relative to the step "
+            "(5.28-5.30), and the condition number, averaged over random steps.",
+            ranges={
+                "spacing": (1e-9, 10.0),
+                "n_centers": (1, 10_000),
+                "parts": (1, 1000),
+                "step": (1e-12, 1.0),
+                "radius": (1e-9, 100.0),
+                "trials": (1, 10_000),
+                "seed": (0, 2**63 - 1),
+            },
+            defaults={"parts": 4, "step": 0.0005, "radius": 0.2, "trials": 8, "seed": 0},
+            outputs={
+                "residual": "max |predicted - wanted| / step",
+                "flow_error": "max |exact error of the sequence| / step",
+                "condition": "condition number of (5.3)",
+            },
+            run=_rotation_accuracy,
+            check=_check_rotation_accuracy,
+            chunk=8,
+            integers=("n_centers", "parts", "trials", "seed"),
+        ),
+    )
+}
+
+
+# -- the grid and its chunks ----------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Plan:
+    name: str
+    axes: dict[str, NDArray[Any]]
+    fixed: dict[str, Any]
+    chunk_shape: tuple[int, ...]
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(len(v) for v in self.axes.values())
+
+    @property
+    def grid_chunks(self) -> tuple[int, ...]:
+        return tuple(math.ceil(n / c) for n, c in zip(self.shape, self.chunk_shape, strict=True))
+
+    def chunks(self) -> Iterator[tuple[int, tuple[slice, ...]]]:
+        for flat, index in enumerate(np.ndindex(*self.grid_chunks)):
+            yield (
+                flat,
+                tuple(
+                    slice(i * c, min((i + 1) * c, n))
+                    for i, c, n in zip(index, self.chunk_shape, self.shape, strict=True)
+                ),
+            )
+
+    def points(self, region: tuple[slice, ...]) -> dict[str, NDArray[Any]]:
+        values = [v[s] for v, s in zip(self.axes.values(), region, strict=True)]
+        mesh = np.meshgrid(*values, indexing="ij")
+        return {k: m.ravel() for k, m in zip(self.axes, mesh, strict=True)}
+
+    def fingerprint(self) -> str:
+        spec = {
+            "target": self.name,
+            "axes": {k: np.asarray(v).tolist() for k, v in self.axes.items()},
+            "fixed": {k: repr(v) for k, v in sorted(self.fixed.items())},
+            "chunk": list(self.chunk_shape),
+        }
+        return hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()
+
+
+def _chunk_shape(shape: tuple[int, ...], points: int) -> tuple[int, ...]:
+    """Whole trailing axes first, until a chunk holds about ``points`` points."""
+    out = []
+    room = max(points, 1)
+    for n in reversed(shape):
+        c = max(1, min(n, room))
+        out.append(c)
+        room = max(1, room // c)
+    return tuple(reversed(out))
+
+
+def _check_axis(name: str, values: Any, allowed: tuple[float, float] | None, integer: bool) -> NDArray[Any]:
+    a = np.asarray(values)
+    if a.ndim == 0:
+        a = a.reshape(1)
+    if a.ndim != 1:
+        raise ParameterError(f"grid axis {name!r} must be a 1-D sequence of values; got shape {a.shape}")
+    if a.size == 0:
+        raise ParameterError(f"grid axis {name!r} is empty; give it at least one value")
+    if a.dtype.kind in "US":
+        return a
+    v = as_float(f"grid axis {name!r}", a)
+    if allowed is not None:
+        lo, hi = allowed
+        bad = np.nonzero((v < lo) | (v > hi))[0]
+        if len(bad):
+            raise ParameterError(
+                f"grid axis {name!r} must lie in [{lo:g}, {hi:g}]; got {v[bad[0]]} at index {bad[0]}"
+            )
+    if integer:
+        if np.any(v != np.round(v)):
+            raise ParameterError(f"grid axis {name!r} must hold integers; got {v.tolist()}")
+        return v.astype(np.int64)
+    return v if a.dtype.kind == "f" else a
+
+
+def _plan(target: str | Callable[..., Any], grid: Mapping[str, Any], fixed: dict[str, Any],
+          chunk: int | None) -> tuple[_Plan, Scenario | None]:  # fmt: skip
+    if not isinstance(grid, Mapping) or not grid:
+        raise ParameterError("grid must be a non-empty mapping of parameter name -> values")
+    scenario = None
+    if isinstance(target, str):
+        if target not in SCENARIOS:
+            raise ParameterError(f"unknown scenario {target!r}; built in: {', '.join(SCENARIOS)}")
+        scenario = SCENARIOS[target]
+        allowed = scenario.parameters
+        for name in [*grid, *fixed]:
+            if name not in allowed:
+                raise ParameterError(
+                    f"unknown parameter {name!r} for scenario {target!r}; allowed: {', '.join(allowed)}"
+                )
+        axes = {k: _check_axis(k, v, scenario.ranges[k], k in scenario.integers) for k, v in grid.items()}
+        for k, v in fixed.items():
+            _check_axis(k, [v], scenario.ranges[k], k in scenario.integers)
+        missing = [k for k in scenario.required if k not in grid and k not in fixed]
+        if missing:
+            raise ParameterError(f"scenario {target!r} needs {missing} as grid axes or fixed parameters")
+        if scenario.check is not None:
+            merged = {**scenario.defaults, **fixed}
+            scenario.check(lambda k: np.asarray(axes[k]) if k in axes else np.asarray([merged[k]]))
+        name = target
+        default_chunk = scenario.chunk
+    elif callable(target):
+        sig = inspect.signature(target)
+        kinds = {p.kind for p in sig.parameters.values()}
+        takes_any = inspect.Parameter.VAR_KEYWORD in kinds
+        for k in [*grid, *fixed]:
+            if not takes_any and k not in sig.parameters:
+                raise ParameterError(
+                    f"unknown parameter {k!r}: {getattr(target, '__name__', 'target')} takes "
+                    f"{', '.join(sig.parameters) or 'no parameters'}"
+                )
+        missing = [
+            p.name
+            for p in sig.parameters.values()
+            if p.default is inspect.Parameter.empty
+            and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
+            and p.name not in grid
+            and p.name not in fixed
+        ]
+        if missing:
+            raise ParameterError(f"parameters {missing} of the target are neither grid axes nor fixed")
+        axes = {k: _check_axis(k, v, None, False) for k, v in grid.items()}
+        # the function's name identifies the sweep in a store (an instance: its class's name)
+        named = target if hasattr(target, "__qualname__") else type(target)
+        name = f"{named.__module__}.{named.__qualname__}"
+        default_chunk = 16
+    else:
+        raise ParameterError(f"target must be a scenario name or a function; got {target!r}")
+    points = default_chunk if chunk is None else as_int("chunk", chunk)
+    if points < 1:
+        raise ParameterError(f"chunk must be >= 1 points; got {points}")
+    shape = tuple(len(v) for v in axes.values())
+    return _Plan(name, axes, dict(fixed), _chunk_shape(shape, points)), scenario
+
+
+# -- running one chunk (also on Dask workers: plain arguments only) ---------------------------
+
+
+def run_chunk(
+    target: str | Callable[..., Any], points: dict[str, NDArray[Any]], fixed: dict[str, Any]
+) -> Outputs:
+    """Evaluate ``target`` on the points of one chunk: ``{output: (n, ...) array}``."""
+    n = len(next(iter(points.values())))
+    if isinstance(target, str):
+        scenario = SCENARIOS[target]
+        params = {k: np.full(n, v) for k, v in {**scenario.defaults, **fixed}.items()}
+        params.update({k: np.asarray(v) for k, v in points.items()})
+        return {k: np.asarray(v) for k, v in scenario.run(params).items()}
+    rows: list[dict[str, Any]] = []
+    for i in range(n):
+        value = target(**{k: _scalar(v[i]) for k, v in points.items()}, **fixed)
+        rows.append(dict(value) if isinstance(value, Mapping) else {"result": value})
+    names = list(rows[0])
+    for i, row in enumerate(rows):
+        if list(row) != names:
+            raise ParameterError(
+                f"the target returned outputs {list(row)} at point {i} but {names} at point 0"
+            )
+    return {k: np.stack([np.asarray(r[k]) for r in rows]) for k in names}
+
+
+def _scalar(v: Any) -> Any:
+    return v.item() if isinstance(v, np.generic) else v
+
+
+# -- storage ----------------------------------------------------------------------------------
+
+
+class _Store:
+    """A Zarr store holding the sweep's variables and one ``_done`` flag per chunk."""
+
+    def __init__(self, path: Path, plan: _Plan, resume: bool) -> None:
+        import zarr
+
+        self.path, self.plan = path, plan
+        self.done = np.zeros(plan.grid_chunks, bool)
+        self.group: Any = None
+        if path.exists() and resume:
+            try:
+                group = zarr.open_group(str(path), mode="r+")
+                found = group.attrs.get("upm_sweep")
+            except Exception as error:
+                raise ParameterError(
+                    f"store {str(path)!r} exists but is not a readable Zarr store: {error}"
+                ) from error
+            if found != plan.fingerprint():
+                raise ParameterError(
+                    f"store {str(path)!r} holds a different sweep (target, grid, fixed parameters or chunks "
+                    "differ); pass resume=False to overwrite it, or another store"
+                )
+            self.group = group
+            flags: Any = group["_done"]
+            self.done = np.asarray(flags[...], dtype=bool)
+        elif path.exists():
+            shutil.rmtree(path)
+
+    def create(self, first: Outputs) -> None:
+        """Lay out the store from the first chunk's outputs (their dtypes and trailing shapes)."""
+        if self.group is not None:
+            return
+        import xarray as xr
+
+        da: Any = importlib.import_module("dask.array")  # untyped
+
+        plan = self.plan
+        dims = list(plan.axes)
+        data = {}
+        for k, v in first.items():
+            extra = v.shape[1:]
+            chunks = (*plan.chunk_shape, *extra)
+            fill = np.nan if v.dtype.kind in "fc" else 0
+            data[k] = (dims + [f"{k}_{j}" for j in range(len(extra))], da.full((*plan.shape, *extra), fill,
+                       dtype=v.dtype, chunks=chunks))  # fmt: skip
+        data["_done"] = ([f"_chunk_{d}" for d in dims], da.zeros(plan.grid_chunks, dtype=bool, chunks=1))
+        ds = xr.Dataset(data, coords=dict(plan.axes))
+        ds.attrs["upm_sweep"] = plan.fingerprint()
+        ds.attrs["target"] = plan.name
+        ds.attrs["fixed"] = json.dumps({k: repr(v) for k, v in plan.fixed.items()})
+        ds.to_zarr(str(self.path), mode="w", compute=False, consolidated=False)
+        import zarr
+
+        self.group = zarr.open_group(str(self.path), mode="r+")
+
+    def write(self, index: tuple[int, ...], region: tuple[slice, ...], block: Outputs) -> None:
+        for k, v in block.items():
+            self.group[k][region] = v
+        self.group["_done"][index] = True  # after the data: a chunk cut short is computed again
+        self.done[index] = True
+
+
+# -- the sweep --------------------------------------------------------------------------------
+
+
+def sweep(
+    target: str | Callable[..., Any],
+    grid: Mapping[str, Any],
+    *,
+    n_jobs: int | None = None,
+    backend: str = "threads",
+    client: Any = None,
+    store: str | os.PathLike[str] | None = None,
+    resume: bool = True,
+    progress: bool = True,
+    chunk: int | None = None,
+    **fixed: Any,
+) -> Any:
+    """Evaluate ``target`` over every point of ``grid``; an :class:`xarray.Dataset`.
+
+    Parameters
+    ----------
+    target : str or callable
+        A built-in scenario (``"feed_rate"``, ``"jet_focus"``, ``"rotation_accuracy"``; see
+        :data:`SCENARIOS`, ``upm sweep --list``) or a function of keyword parameters returning
+        a scalar, an array, or a mapping of output names to scalars/arrays.
+    grid : mapping of str to 1-D sequence
+        One axis per parameter, in the order of the result's dimensions.
+    n_jobs : int, optional
+        Threads running chunks (default: one per core). Ignored by ``backend="dask"``.
+    backend : {"threads", "dask"}
+        Where chunks run: a local thread pool, or the Dask cluster of ``client``.
+    client : dask.distributed.Client or str, optional
+        The client (or scheduler address) for ``backend="dask"``. Workers receive the scenario
+        name or the (pickled) function and plain NumPy parameters.
+    store : path, optional
+        A Zarr store (a directory, e.g. ``"feed.zarr"``) written chunk by chunk as they finish.
+    resume : bool
+        Reuse a store of the same sweep: chunks marked done are not computed again. ``False``
+        overwrites the store.
+    progress : bool
+        Show a progress bar with ETA (tqdm, on stderr).
+    chunk : int, optional
+        Points per chunk (default: the scenario's, 16 for functions).
+    **fixed
+        Parameters held fixed (for scenarios: overriding their defaults).
+
+    Returns
+    -------
+    xarray.Dataset
+        One variable per output, dimensions = the grid's axes (plus ``<output>_<k>`` for array
+        outputs), coordinates = the grid's values; ``attrs["target"]`` and ``attrs["fixed"]``.
+
+    Raises
+    ------
+    ParameterError
+        Before any work: an empty axis, an unknown parameter, a non-finite or out-of-range value,
+        a store holding another sweep.
+    """
+    import xarray as xr
+    from tqdm.auto import tqdm
+
+    plan, scenario = _plan(target, grid, fixed, chunk)
+    if backend not in ("threads", "dask"):
+        raise ParameterError(f"backend must be 'threads' or 'dask'; got {backend!r}")
+    workers = (os.cpu_count() or 1) if n_jobs is None else as_int("n_jobs", n_jobs)
+    if workers < 1:
+        raise ParameterError(f"n_jobs must be >= 1; got {n_jobs}")
+    if backend == "dask" and client is None:
+        raise ParameterError(
+            "backend='dask' needs client= (a dask.distributed.Client or a scheduler address)"
+        )
+    sink = _Store(Path(store), plan, resume) if store is not None else None
+    results: Outputs = {}
+    done = sink.done.copy() if sink is not None else np.zeros(plan.grid_chunks, bool)
+    pending = [(i, r) for i, r in plan.chunks() if not done[np.unravel_index(i, plan.grid_chunks)]]
+    total = int(np.prod(plan.shape))
+    bar = tqdm(total=total, disable=not progress, unit="pt", desc=f"sweep {plan.name.rsplit('.', 1)[-1]}")
+    bar.update(total - sum(int(np.prod([s.stop - s.start for s in r])) for _, r in pending))
+    runner = target if scenario is None else scenario.name
+
+    def finish(flat: int, region: tuple[slice, ...], out: Outputs) -> None:
+        block_shape = tuple(s.stop - s.start for s in region)
+        if sink is not None:
+            sink.create(out)
+        blocks = {k: v.reshape(*block_shape, *v.shape[1:]) for k, v in out.items()}
+        for k, block in blocks.items():
+            if k not in results:
+                fill = np.nan if block.dtype.kind in "fc" else 0
+                results[k] = np.full((*plan.shape, *block.shape[len(block_shape) :]), fill, block.dtype)
+            results[k][region] = block
+        if sink is not None:
+            sink.write(tuple(int(i) for i in np.unravel_index(flat, plan.grid_chunks)), region, blocks)
+        bar.update(int(np.prod(block_shape)))
+
+    try:
+        if backend == "threads":
+            with cf.ThreadPoolExecutor(max_workers=workers) as pool:
+                futures = {
+                    pool.submit(run_chunk, runner, plan.points(r), plan.fixed): (i, r) for i, r in pending
+                }
+                try:
+                    for fut in cf.as_completed(futures):
+                        finish(*futures[fut], fut.result())
+                except BaseException:
+                    pool.shutdown(wait=False, cancel_futures=True)
+                    raise
+        else:
+            distributed: Any = importlib.import_module("distributed")  # untyped
+            dask_client = client if isinstance(client, distributed.Client) else distributed.Client(client)
+            jobs: dict[Any, tuple[int, tuple[slice, ...]]] = {
+                dask_client.submit(run_chunk, runner, plan.points(r), plan.fixed, pure=False): (i, r)
+                for i, r in pending
+            }
+            try:
+                for job in distributed.as_completed(list(jobs)):
+                    finish(*jobs[job], job.result())
+            except BaseException:
+                for job in jobs:
+                    job.cancel()
+                raise
+    finally:
+        bar.close()
+
+    if sink is not None:
+        ds = xr.open_zarr(str(sink.path), consolidated=False).drop_vars("_done").load()
+    else:
+        dims = list(plan.axes)
+        ds = xr.Dataset(
+            {k: (dims + [f"{k}_{j}" for j in range(v.ndim - len(dims))], v) for k, v in results.items()},
+            coords=dict(plan.axes),
+        )
+        ds.attrs["target"] = plan.name
+        ds.attrs["fixed"] = json.dumps({k: repr(v) for k, v in plan.fixed.items()})
+    if scenario is not None:
+        for k, unit in scenario.outputs.items():
+            if k in ds:
+                ds[k].attrs["description"] = unit
+    return ds
