@@ -58,6 +58,7 @@ bench: $(VENV)/.built ## side-by-side benchmarks (ours vs the peer, ratios print
 	$(PY) bench/theory.py
 	$(PY) bench/solvers.py
 	$(PY) bench/vision.py
+	$(PY) bench/sweeps.py
 	$(PY) -m pip install --quiet 'mujoco>=3.1'
 	$(PY) bench/integrator.py --mujoco
 

@@ -483,9 +483,11 @@ class _Store:
         self.group = zarr.open_group(str(self.path), mode="r+")
 
     def write(self, index: tuple[int, ...], region: tuple[slice, ...], block: Outputs) -> None:
+        if not hasattr(self, "_arrays"):  # opened once: every lookup reads metadata from disk
+            self._arrays = {k: self.group[k] for k in [*block, "_done"]}
         for k, v in block.items():
-            self.group[k][region] = v
-        self.group["_done"][index] = True  # after the data: a chunk cut short is computed again
+            self._arrays[k][region] = v
+        self._arrays["_done"][index] = True  # after the data: a chunk cut short is computed again
         self.done[index] = True
 
 
