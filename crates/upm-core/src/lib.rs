@@ -21,6 +21,7 @@
 #![deny(missing_docs)]
 
 pub mod actuation;
+pub mod centroid;
 pub mod disk;
 pub mod error;
 pub mod field;

@@ -8,6 +8,7 @@ mod actuation;
 mod errors;
 mod motion;
 mod solve;
+mod vision;
 
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -60,7 +61,7 @@ pub(crate) fn pairs(
     Ok(a.rows().into_iter().map(|r| [r[0], r[1]]).collect())
 }
 
-fn to_2d<'py>(
+pub(crate) fn to_2d<'py>(
     py: Python<'py>,
     flat: Vec<f64>,
     rows: usize,
@@ -344,6 +345,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<WaveformBatch>()?;
     m.add_class::<motion::PlateMotion>()?;
     m.add_function(wrap_pyfunction!(motion::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(vision::coverage_centroids, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::motors_for, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::velocity_amplitudes, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::center_of_rotation, m)?)?;

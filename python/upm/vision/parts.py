@@ -22,6 +22,7 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .. import _core
 from .._arrays import as_float, check_range
 from .._errors import VisionError
 from .table import Table, check_frame, project
@@ -256,30 +257,15 @@ def refine(diff: F32, centres: FloatArray, origins: FloatArray, radius: float,
     most about 0.6 in a packed cluster, near 1 inside anything larger than a part).
     """
     n, size = diff.shape[0], diff.shape[1]
-    reach = math.ceil(radius + 3.5)
-    off = np.arange(-reach, reach + 1, dtype=np.float32)
-    rho2 = off[None, :] ** 2 + off[:, None] ** 2
-    disk = (rho2 <= np.float32((radius + 2.0) ** 2)).astype(np.float32)
-    ring = ((rho2 > np.float32((radius + 1.5) ** 2)) & (rho2 <= np.float32((radius + 3.5) ** 2))).astype(
-        np.float32
-    )
-    ring /= ring.sum()
-    moments = np.stack([disk, disk * off[None, :], disk * off[:, None]])  # area, x, y
-    org = origins.astype(np.float64)
-    c = centres - org  # in each part's own window
-    lo, hi = reach, size - 1 - reach
-
-    def gather(values: F32, at: NDArray[np.intp]) -> F32:
-        """The (2 reach + 1)^2 window of every part centred on pixel ``at``."""
-        w = 2 * reach + 1
-        return np.stack(
-            [values[i, y - reach : y - reach + w, x - reach : x - reach + w] for i, (x, y) in enumerate(at)]
-        )
-
     if direction is None:
+        reach = math.ceil(radius + 3.5)
+        off = np.arange(-reach, reach + 1, dtype=np.float32)
         inner = (off[None, :] ** 2 + off[:, None] ** 2 < np.float32((0.6 * radius) ** 2)).astype(np.float32)
-        at = np.clip(np.rint(c).astype(np.intp), lo, hi)
-        patches = gather(diff, at)  # (N, W, W, C)
+        at = np.clip(np.rint(centres - origins).astype(np.intp), reach, size - 1 - reach)
+        w = 2 * reach + 1
+        patches = np.stack(
+            [diff[i, y - reach : y - reach + w, x - reach : x - reach + w] for i, (x, y) in enumerate(at)]
+        )
         direction = np.einsum("nyxc,yx->nc", patches, inner) / max(float(inner.sum()), 1.0)
     d = np.asarray(direction, np.float32)
     norm2 = np.maximum((d * d).sum(axis=1), 1e-6)
@@ -287,36 +273,12 @@ def refine(diff: F32, centres: FloatArray, origins: FloatArray, radius: float,
     cover = np.maximum(np.matmul(flat, (d / norm2[:, None])[:, :, None]), np.float32(0)).reshape(
         n, size, size
     )
-    dist = np.linalg.norm(centres[:, None] - centres[None], axis=2)
-    pairs = np.argwhere((dist < 2.0 * radius + 6.0) & ~np.eye(n, dtype=bool))
-    area = np.zeros(n)
-    around = np.zeros(n)
-    for step in range(iterations):
-        at = np.clip(np.rint(c).astype(np.intp), lo, hi)
-        win = gather(cover, at)  # (N, W, W)
-        if step == iterations - 1:
-            around = np.einsum("nyx,yx->n", win, ring).astype(np.float64)
-        if len(pairs):  # parts with a touching neighbour: keep their side of the bisector
-            pi, pj = pairs[:, 0], pairs[:, 1]
-            world = c + org
-            v = (world[pj] - world[pi]).astype(np.float32)
-            base = (at[pi] - c[pi]).astype(np.float32)  # window pixel offsets relative to the centre
-            limit = 0.5 * (v * v).sum(axis=1) - (base * v).sum(axis=1)
-            side = (
-                off[None, None, :] * v[:, 0, None, None] + off[None, :, None] * v[:, 1, None, None]
-                < limit[:, None, None]
-            )
-            _, starts, group = np.unique(pi, return_index=True, return_inverse=True)
-            rank = np.arange(len(pi)) - starts[group]  # k-th neighbour of its part
-            for k in range(int(rank.max()) + 1):
-                sel = rank == k
-                win[pi[sel]] *= side[sel]
-        m = np.einsum("nyx,kyx->nk", win, moments).astype(np.float64)
-        area = m[:, 0]
-        ok = area > 1e-3
-        mean = m[:, 1:] / np.where(ok, area, 1.0)[:, None]
-        c = np.where(ok[:, None], at + np.clip(mean, -radius / 2, radius / 2), c)
-    return c + org, d.astype(np.float64), area, around
+    # the centroid iterations: upm_core::centroid (the per-pixel loop, once per part and frame)
+    c, area, around = _core.coverage_centroids(
+        np.ascontiguousarray(cover), np.ascontiguousarray(origins, dtype=np.float64),
+        np.ascontiguousarray(centres, dtype=np.float64), float(radius), int(iterations),
+    )  # fmt: skip
+    return c, d.astype(np.float64), area, around
 
 
 def detect(top: NDArray[np.uint8], background: F32, rect: Rectifier, min_contrast: float,
