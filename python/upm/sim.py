@@ -210,8 +210,6 @@ def simulate_batch(
     ms = list(motions)
     if not ms:
         raise ParameterError("motions must contain at least one upm.PlateMotion")
-    if threads is not None and (as_int("threads", threads) < 1):
-        raise ParameterError(f"threads must be an integer >= 1; got {threads!r}")
     t, pos, vel, stuck, angles, spins, left = _run(
         ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads
     )

@@ -77,10 +77,14 @@ class Scenario:
         return tuple(k for k in self.ranges if k not in self.defaults)
 
 
-def _two_harmonic_peak(b: FloatArray, phi: FloatArray) -> FloatArray:
-    """``max_t |cos t + 2 b cos(2t + phi)|``, the acceleration peak of ``sin t + b sin(2t + phi)``."""
+def _peak_acceleration(cos: FloatArray, sin: FloatArray) -> FloatArray:
+    """``max_t |v'(t)|`` of the unit-frequency series ``v = sum_k cos_k cos(kt) + sin_k sin(kt)``
+    (rows of coefficients, k = 1, 2, ...), sampled at 4096 points a period. (Waveform.acceleration
+    would build one Rust waveform per sample for a batch of drives.)"""
     t = np.linspace(0.0, 2.0 * np.pi, 4096, endpoint=False)
-    a = np.cos(t)[None, :] + 2.0 * b[:, None] * np.cos(2.0 * t[None, :] + phi[:, None])
+    k = np.arange(1, cos.shape[1] + 1)
+    kt = k[:, None] * t[None, :]
+    a = (sin * k) @ np.cos(kt) - (cos * k) @ np.sin(kt)
     return np.asarray(np.abs(a).max(axis=1), dtype=np.float64)
 
 
@@ -103,23 +107,23 @@ def _feed_rate(p: dict[str, FloatArray]) -> Outputs:
                 out.setdefault(name, np.empty(len(b), value.dtype))[sel] = value
         return out
     periods_ = int(periods[0])
-    w = 2.0 * np.pi * f[0]
-    amplitude = gamma * mu[0] * _G / (w * _two_harmonic_peak(b, phi))
-    # the motions straight from their series coefficients (as TwoHarmonic.coefficients): the
-    # Python-side checks of TwoHarmonic per point would hold the GIL for ~10% of the work
-    cos = np.column_stack([np.zeros_like(b), amplitude * b * np.sin(phi)])
-    sin = np.column_stack([amplitude, amplitude * b * np.cos(phi)])
+    drive = TwoHarmonic(b, phi)  # unit amplitude and angular frequency, all points at once
+    cos, sin = drive.coefficients()
+    amplitude = gamma * mu[0] * _G / (2.0 * np.pi * f[0] * _peak_acceleration(cos, sin))
+    # one motion per point straight from its scaled coefficients: a TwoHarmonic per point would
+    # hold the GIL (its Python-side checks) for ~10% of the work
     freq = np.full(1, f[0])
     motions = [
         PlateMotion(
-            _core.PlateMotion.translation((1.0, 0.0), _core.WaveformBatch.harmonics(c[None], s_[None], freq))
+            _core.PlateMotion.translation(
+                (1.0, 0.0), _core.WaveformBatch.harmonics(a * c[None], a * s_[None], freq)
+            )
         )
-        for c, s_ in zip(cos, sin, strict=True)
+        for a, c, s_ in zip(amplitude, cos, sin, strict=True)
     ]
     run = simulate_batch(motions, [[0.0, 0.0]], duration=periods_ / f[0], dt=1.0 / (f[0] * steps), mu=mu[0],
                          record_every=steps, threads=1)  # fmt: skip
     x = run.positions[:, :, 0, 0]
-    drive = TwoHarmonic(b, phi)
     return {
         "feed_rate": (x[:, -1] - x[:, -1 - average]) * f[0] / average / amplitude,
         "feed_rate_qs": np.asarray(feed_rate(drive), dtype=np.float64),
@@ -297,6 +301,10 @@ class _Plan:
         mesh = np.meshgrid(*values, indexing="ij")
         return {k: m.ravel() for k, m in zip(self.axes, mesh, strict=True)}
 
+    def attrs(self) -> dict[str, str]:
+        """The dataset's attributes: the target's name and the fixed parameters."""
+        return {"target": self.name, "fixed": json.dumps({k: repr(v) for k, v in self.fixed.items()})}
+
     def fingerprint(self) -> str:
         spec = {
             "target": self.name,
@@ -465,7 +473,8 @@ class _Store:
             shutil.rmtree(path)
 
     def create(self, first: Outputs) -> None:
-        """Lay out the store from the first chunk's outputs (their dtypes and trailing shapes)."""
+        """Lay out the store from the first chunk's output blocks (their dtypes and the shapes
+        after the grid's axes)."""
         if self.group is not None:
             return
         import xarray as xr
@@ -476,16 +485,14 @@ class _Store:
         dims = list(plan.axes)
         data = {}
         for k, v in first.items():
-            extra = v.shape[1:]
+            extra = v.shape[len(dims) :]
             chunks = (*plan.chunk_shape, *extra)
             fill = np.nan if v.dtype.kind in "fc" else 0
             data[k] = (dims + [f"{k}_{j}" for j in range(len(extra))], da.full((*plan.shape, *extra), fill,
                        dtype=v.dtype, chunks=chunks))  # fmt: skip
         data["_done"] = ([f"_chunk_{d}" for d in dims], da.zeros(plan.grid_chunks, dtype=bool, chunks=1))
-        ds = xr.Dataset(data, coords=dict(plan.axes))
+        ds = xr.Dataset(data, coords=dict(plan.axes), attrs=plan.attrs())
         ds.attrs["upm_sweep"] = plan.fingerprint()
-        ds.attrs["target"] = plan.name
-        ds.attrs["fixed"] = json.dumps({k: repr(v) for k, v in plan.fixed.items()})
         ds.to_zarr(str(self.path), mode="w", compute=False, consolidated=False)
         import zarr
 
@@ -581,16 +588,16 @@ def sweep(
 
     def finish(flat: int, region: tuple[slice, ...], out: Outputs) -> None:
         block_shape = tuple(s.stop - s.start for s in region)
-        if sink is not None:
-            sink.create(out)
         blocks = {k: v.reshape(*block_shape, *v.shape[1:]) for k, v in out.items()}
-        for k, block in blocks.items():
-            if k not in results:
-                fill = np.nan if block.dtype.kind in "fc" else 0
-                results[k] = np.full((*plan.shape, *block.shape[len(block_shape) :]), fill, block.dtype)
-            results[k][region] = block
-        if sink is not None:
+        if sink is not None:  # the result is read back from the store at the end (resumed chunks too)
+            sink.create(blocks)
             sink.write(tuple(int(i) for i in np.unravel_index(flat, plan.grid_chunks)), region, blocks)
+        else:
+            for k, block in blocks.items():
+                if k not in results:
+                    fill = np.nan if block.dtype.kind in "fc" else 0
+                    results[k] = np.full((*plan.shape, *block.shape[len(block_shape) :]), fill, block.dtype)
+                results[k][region] = block
         bar.update(int(np.prod(block_shape)))
 
     try:
@@ -607,7 +614,8 @@ def sweep(
                     raise
         else:
             distributed: Any = importlib.import_module("distributed")  # untyped
-            dask_client = client if isinstance(client, distributed.Client) else distributed.Client(client)
+            own = not isinstance(client, distributed.Client)  # an address: connect, and close after
+            dask_client = distributed.Client(client) if own else client
             jobs: dict[Any, tuple[int, tuple[slice, ...]]] = {
                 dask_client.submit(run_chunk, runner, plan.points(r), plan.fixed, pure=False): (i, r)
                 for i, r in pending
@@ -619,6 +627,9 @@ def sweep(
                 for job in jobs:
                     job.cancel()
                 raise
+            finally:
+                if own:
+                    dask_client.close()
     finally:
         bar.close()
 
@@ -629,9 +640,8 @@ def sweep(
         ds = xr.Dataset(
             {k: (dims + [f"{k}_{j}" for j in range(v.ndim - len(dims))], v) for k, v in results.items()},
             coords=dict(plan.axes),
+            attrs=plan.attrs(),
         )
-        ds.attrs["target"] = plan.name
-        ds.attrs["fixed"] = json.dumps({k: repr(v) for k, v in plan.fixed.items()})
     if scenario is not None:
         for k, unit in scenario.outputs.items():
             if k in ds:

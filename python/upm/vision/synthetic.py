@@ -134,14 +134,19 @@ def _circle(radius: float, n: int = 96) -> FloatArray:
     return radius * np.column_stack([np.cos(a), np.sin(a)])
 
 
+def _signed_area(polygon: FloatArray) -> float:
+    """Shoelace area [px^2], positive for counter-clockwise vertices (x right, y up)."""
+    x, y = polygon[:, 0], polygon[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
 def _inset(polygon: FloatArray, delta: float) -> FloatArray:
     """The convex ``polygon`` with every side moved inwards by ``delta``."""
     edges = np.roll(polygon, -1, axis=0) - polygon
     lengths = np.linalg.norm(edges, axis=1)
     keep = lengths > 1e-9
     p, e = polygon[keep], edges[keep] / lengths[keep, None]
-    x, y = polygon[:, 0], polygon[:, 1]
-    orientation = np.sign(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) or 1.0
+    orientation = np.sign(_signed_area(polygon)) or 1.0
     inward = orientation * np.column_stack([-e[:, 1], e[:, 0]])
     q = p + delta * inward  # a point on each moved side
     prev_q, prev_e = np.roll(q, 1, axis=0), np.roll(e, 1, axis=0)
@@ -209,11 +214,6 @@ def _empty_plate(
     _blend(image, *_coverage((h, w), corners), plate)
     image.flags.writeable = False
     return image
-
-
-def _area(polygon: FloatArray) -> float:
-    x, y = polygon[:, 0], polygon[:, 1]
-    return 0.5 * abs(float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)))
 
 
 def render(
@@ -304,7 +304,7 @@ def render(
         c, s = math.cos(ang[k]), math.sin(ang[k])
         outline = project(hom, local @ np.array([[c, s], [-s, c]]) + pos[k])
         origin, cover = _coverage((h, w), outline)
-        covers.append((origin, cover, _area(outline)))
+        covers.append((origin, cover, abs(_signed_area(outline))))
         _blend(image, origin, cover, palette[kinds[k]])
 
     occl = np.zeros((h, w), np.float32) if len(occluders) else None
