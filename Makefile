@@ -31,8 +31,9 @@ help: ## list the targets
 install: $(VENV)/.built ## create .venv, install the dependencies, build the extension (release)
 
 .PHONY: demo
-demo: $(VENV)/.built ## the main job: two-harmonic feeding table, figures in out/
-	$(PY) -m upm.cli demo --out out
+demo: $(VENV)/.built ## the main job: 8 chips sorted by colour through the full loop (camera, vision, jets, board protocol, emulator); figures in out/
+	$(PY) -m upm.cli demo sort8 --board --out out
+	$(PY) -m upm.cli figures --out out/figures
 
 .PHONY: test
 test: $(VENV)/.built ## every check: cargo test, clippy, pytest, ruff, mypy + stubtest

@@ -26,7 +26,8 @@ from ._errors import (
 from .feeding import feed_rate, force_table, mean_force, theorem1_force
 from .fields import average_field, jet_field, rotation_curl, rotation_field
 from .motion import PlateMotion
-from .planning import jet_plan, plan_to_motion, sustain_for_displacement
+from .planning import jet_plan, jet_pulses, plan_pulses, plan_to_motion, sustain_for_displacement, trim_rests
+from .pulses import Pulse
 from .sim import Disk, Point, SimResult, simulate, simulate_batch
 from .solvers import (
     DisplacementPlan,
@@ -55,6 +56,7 @@ __all__ = [
     "PlanWarning",
     "PlateMotion",
     "Point",
+    "Pulse",
     "RankWarning",
     "ResonanceWarning",
     "RotationPlan",
@@ -74,7 +76,9 @@ __all__ = [
     "grid_centers",
     "jet_field",
     "jet_plan",
+    "jet_pulses",
     "mean_force",
+    "plan_pulses",
     "plan_to_motion",
     "ring_centers",
     "rotation_curl",
@@ -89,4 +93,5 @@ __all__ = [
     "sweep",
     "theorem1_force",
     "theory",
+    "trim_rests",
 ]

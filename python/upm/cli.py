@@ -1,4 +1,5 @@
-"""The ``upm`` command line: ``upm demo``, ``upm sweep``, ``upm emulate`` and ``upm --version``."""
+"""The ``upm`` command line: ``upm demo [NAME]``, ``upm figures``, ``upm sweep``, ``upm emulate`` and
+``upm --version``."""
 
 from __future__ import annotations
 
@@ -77,6 +78,39 @@ def demo(out: Path, plots: bool = True) -> int:
             fig.savefig(out / name, dpi=120)
             print(f"wrote {out / name}")
     return 0
+
+
+def figures(out: Path) -> list[Path]:
+    """The thesis's analytic figures (3.5, 3.6, 4.7, 6.2, 6.9) from the library, into ``out``."""
+    from . import plot
+    from .solvers import corner_centers, solve_rotations
+
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    # Fig. 4.7 left: 4 rotations about the square's corners (4.2.1); right: 3 rotations, zero force and
+    # curl -0.05 at the part (4.2.3), a clockwise whirlpool. Known answers in SPEC §4.
+    centers = corner_centers((-1.0, -0.5, 1.0, 0.5))
+    parts = np.array([[0.5, 0.0], [-0.75, 0.25]])
+    left = solve_rotations(parts, [[0.01, 0.01], [-0.01, 0.0]], centers, mu_m_g=0.1)
+    right = solve_rotations([[0.5, 0.0]], [[0.0, 0.0]], centers[:3], curls=[-0.05], mu_m_g=0.1)
+    plt = plot._pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(10.5, 4.6), layout="constrained")
+    plot.field(
+        "plan", (-1.2, -1.2, 1.2, 1.2), strengths=left.strengths, centers=centers, parts=parts, ax=axes[0]
+    )
+    plot.field("plan", (-1.2, -1.2, 1.2, 1.2), strengths=right.strengths, centers=centers[:3],
+               parts=[[0.5, 0.0]], ax=axes[1])  # fmt: skip
+    axes[0].set_title(f"Fig. 4.7 left: K = {np.round(left.strengths, 3)}", fontsize=9)
+    axes[1].set_title(f"Fig. 4.7 right: K = {np.round(right.strengths, 3)}", fontsize=9)
+    jet = plot.field("jet", (-2.0, -2.0, 2.0, 2.0), rho=1.0, direction=(0.0, 1.0), resolution=25)
+    jet.axes[0].add_patch(plt.Circle((0, 0), 2.0, fill=False, ls=":", color="0.3"))
+    jet.axes[0].set_title("Fig. 6.2: the jet (6.4), rho = 1; dotted: radius 2 rho", fontsize=10)
+    for name, f in (("fig3_5.png", plot.bang_bang_feed_rate()), ("fig3_6.png", plot.feeding_versus_b()),
+                    ("fig4_7.png", fig), ("fig6_2.png", jet), ("fig6_9.png", plot.theorem1())):  # fmt: skip
+        f.savefig(out / name, dpi=120)
+        plt.close(f)
+        written.append(out / name)
+    return written
 
 
 def _axis(name: str, spec: Any) -> Any:
@@ -162,6 +196,10 @@ def sweep_command(config: Path | None, listing: bool, n_jobs: int | None, quiet:
     return 0
 
 
+def _demo_names() -> list[str]:
+    return ["trajectory2", "sort10", "racetrack", "corners", "plus", "bowtie", "sort8"]
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["emulate"]:  # its own options: hand them over untouched
@@ -174,9 +212,22 @@ def main(argv: list[str] | None = None) -> int:
     commands.add_parser(
         "emulate", help="a board emulator on a pseudo-terminal or TCP port (see: upm emulate --help)"
     )
-    d = commands.add_parser("demo", help="the two-harmonic feeding table and Fig. 3.6")
-    d.add_argument("--out", type=Path, default=Path("out"), help="directory for figures (default: out)")
-    d.add_argument("--no-plots", action="store_true", help="print the tables only")
+    d = commands.add_parser(
+        "demo", help="a thesis experiment through the closed loop (NAME), or the feeding table ('feeding')"
+    )
+    d.add_argument(
+        "name", nargs="?", default="feeding", help="feeding, list, or a demo: " + ", ".join(_demo_names())
+    )
+    d.add_argument("--out", type=Path, default=Path("out"), help="directory for outputs (default: out)")
+    d.add_argument("--no-plots", action="store_true", help="feeding: print the tables only")
+    d.add_argument(
+        "--board", action="store_true", help="run the plate in a board emulator process (protocol v1)"
+    )
+    d.add_argument("--quick", action="store_true", help="a short version")
+    d.add_argument("--mp4", action="store_true", help="also write animation.mp4 (needs imageio-ffmpeg)")
+    d.add_argument("--seed", type=int, default=1)
+    fg = commands.add_parser("figures", help="the thesis's analytic figures (3.5, 3.6, 4.7, 6.2, 6.9)")
+    fg.add_argument("--out", type=Path, default=Path("out/figures"))
     s = commands.add_parser(
         "sweep", help="a parameter sweep from a TOML file; --list: the built-in scenarios"
     )
@@ -188,7 +239,26 @@ def main(argv: list[str] | None = None) -> int:
     s.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     if args.command == "demo":
-        return demo(args.out, plots=not args.no_plots)
+        if args.name == "feeding":
+            return demo(args.out, plots=not args.no_plots)
+        if args.name == "list":
+            from .demos import DEMOS
+
+            for entry in DEMOS.values():
+                print(f"{entry.name:12s} {entry.figure:14s} {entry.summary}")
+            return 0
+        from .demos import run_demo
+
+        try:
+            run_demo(args.name, args.out, board=args.board, quick=args.quick, seed=args.seed, mp4=args.mp4)
+        except UpmError as error:
+            print(f"upm demo: {error}", file=sys.stderr)
+            return 2
+        return 0
+    if args.command == "figures":
+        for path in figures(args.out):
+            print(f"wrote {path}")
+        return 0
     if args.command == "sweep":
         try:
             return sweep_command(args.config, args.list, args.n_jobs, args.quiet)

@@ -17,6 +17,8 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -25,11 +27,19 @@ from ._arrays import as_float
 from ._errors import ConvergenceError, ParameterError, PlanWarning, ShapeError
 from .feeding import mean_force
 from .motion import PlateMotion
+from .pulses import Pulse, program
 from .sim import simulate, simulate_batch
 from .solvers import DisplacementPlan, RotationPlan
 from .waveforms import Harmonics, TwoHarmonic, Waveform
 
-__all__ = ["jet_plan", "plan_to_motion", "sustain_for_displacement"]
+__all__ = [
+    "jet_plan",
+    "jet_pulses",
+    "plan_pulses",
+    "plan_to_motion",
+    "sustain_for_displacement",
+    "trim_rests",
+]
 
 
 def _harmonics(waveform: Waveform | None, amplitude: float, frequency: float) -> Harmonics:
@@ -128,6 +138,16 @@ def _settle(pulse: float, mu: float, mu_s: float, rest: float | None) -> float:
 def plan_to_motion(
     plan: RotationPlan | DisplacementPlan,
     waveform: Waveform | None = None,
+    **options: Any,
+) -> PlateMotion:
+    """The executable plate motion of a plan: :func:`plan_pulses` played one after another
+    (same parameters)."""
+    return program(plan_pulses(plan, waveform, **options))
+
+
+def plan_pulses(
+    plan: RotationPlan | DisplacementPlan,
+    waveform: Waveform | None = None,
     *,
     amplitude: float = 2.0,
     frequency: float = 35.0,
@@ -140,8 +160,8 @@ def plan_to_motion(
     intensity: str = "duration",
     sustain: float | None = None,
     refine: int = 12,
-) -> PlateMotion:
-    """The executable plate motion of a plan: time-asymmetric rotations about its centres, in order.
+) -> list[Pulse]:
+    """The pulses executing a plan: time-asymmetric rotations about its centres, in order.
 
     Parameters
     ----------
@@ -156,12 +176,14 @@ def plan_to_motion(
         rest / (mu m g), 0.2386 by default), so the plate returns home after each rotation and the
         program's average force at the parts is the plan's, to within one period per rotation; the
         remaining time is rest. Needs ``sum |k_j| <= N f0``: otherwise lengthen nothing, bound
-        the plan with ``max_strength``.
+        the plan with ``max_strength``. With ``attack`` the rotations are enveloped (attack, on
+        time less one attack, attack: the same area), as motors need; by default they start and
+        stop abruptly (an ideal plate).
     mu, mu_s, g : float
         DisplacementPlan only: friction of the parts and gravity, for sizing the pulses.
     attack : float
-        DisplacementPlan only: rise (= fall) time of each pulse [s] (default one period); smaller steps
-        shrink the whole pulse.
+        Rise (= fall) time of each pulse [s] (DisplacementPlan: default one period; smaller steps
+        shrink the whole pulse).
     rest : float
         DisplacementPlan only: rest after each pulse [s] (default: long enough for the fastest
         part to stop).
@@ -172,7 +194,7 @@ def plan_to_motion(
 
     Returns
     -------
-    PlateMotion
+    list of Pulse
     """
     h = _harmonics(waveform, amplitude, frequency)
     if isinstance(plan, RotationPlan):
@@ -181,7 +203,8 @@ def plan_to_motion(
                 "intensity must be 'duration' for a RotationPlan: the average force on a resting part "
                 "does not depend on the amplitude of the plate velocity, only on its sign (4.5)"
             )
-        return _force_program(plan, h, _positive("duration", duration))
+        rise = None if attack is None else _positive("attack", attack)
+        return _force_program(plan, h, _positive("duration", duration), rise)
     if isinstance(plan, DisplacementPlan):
         if mu is None:
             raise ParameterError("mu is required to size the pulses of a DisplacementPlan")
@@ -197,7 +220,7 @@ def plan_to_motion(
     raise ParameterError(f"plan must be a RotationPlan or a DisplacementPlan; got {type(plan).__name__}")
 
 
-def _force_program(plan: RotationPlan, h: Harmonics, duration: float) -> PlateMotion:
+def _force_program(plan: RotationPlan, h: Harmonics, duration: float, rise: float | None) -> list[Pulse]:
     if np.ndim(plan.strengths) != 1:
         raise ShapeError("plan must be a single plan, not a batch")
     k = plan.strengths
@@ -213,16 +236,22 @@ def _force_program(plan: RotationPlan, h: Harmonics, duration: float) -> PlateMo
             f"{np.abs(k).sum():.3g} > N f0 = {n * f0:.3g}; solve with max_strength <= {f0:.4g}"
         )
     periods = np.rint(fractions * duration / period).astype(int)
-    items: list[PlateMotion] = []
+    items: list[Pulse] = []
     for j in plan.order:
         if periods[j] == 0:
             continue
         wave = h if k[j] > 0 else _scaled(h, -1.0)
-        items.append(PlateMotion.rotation(plan.centers[j], wave).for_duration(periods[j] * period))
+        on = periods[j] * period
+        a = 0.0 if rise is None else min(rise, on / 2)
+        items.append(Pulse.rotation(plan.centers[j], wave, a, on - a, a))
     used = float(periods.sum()) * period
-    if duration - used > 1e-12 * duration or not items:
-        items.append(PlateMotion.rest(max(duration - used, period)))
-    return PlateMotion.sequence(items)
+    rest = max(duration - used, 0.0 if items else period)
+    if rest > 1e-12 * duration:
+        if items:
+            items[-1] = replace(items[-1], rest=rest)
+        else:
+            items.append(Pulse.pause(rest))
+    return items
 
 
 def _pulse_program(
@@ -236,7 +265,7 @@ def _pulse_program(
     intensity: str,
     sustain: float | None,
     refine: int,
-) -> PlateMotion:
+) -> list[Pulse]:
     d = np.array(plan.strengths, dtype=np.float64)
     if d.ndim != 1:
         raise ShapeError("plan must be a single plan, not a batch")
@@ -248,7 +277,7 @@ def _pulse_program(
     targets = np.concatenate([plan.predicted_steps[:, 0], plan.predicted_steps[:, 1]])
     biggest = float(np.max(np.abs(d))) if n else 0.0
     if biggest == 0.0:
-        return PlateMotion.sequence([PlateMotion.rest(period)])
+        return [Pulse.pause(period)]
     kappa = 0.5 * 0.2386 * mu * g * 1.2386  # step ≈ kappa * on-time^2 for slow parts
     tables = [
         _PulseTable(centers[j], parts, h, rise, hold, intensity, mu, mu_s, g, rest, kappa, biggest, period)
@@ -306,22 +335,23 @@ def _pulse_program(
         if error <= 1e-3 * np.linalg.norm(targets):
             break
 
-    def program(arcs: np.ndarray) -> PlateMotion:
-        items: list[PlateMotion] = []
-        for j in plan.order:
-            if j in active and arcs[j] != 0.0:
-                items += tables[j].pulse(max(abs(arcs[j]), floor[j]), np.sign(arcs[j]))
-        return PlateMotion.sequence(items or [PlateMotion.rest(period)])
+    def pulses(arcs: np.ndarray) -> list[Pulse]:
+        items = [
+            tables[j].pulse(max(abs(arcs[j]), floor[j]), np.sign(arcs[j]))
+            for j in plan.order
+            if j in active and arcs[j] != 0.0
+        ]
+        return items or [Pulse.pause(period)]
 
     if not refine:
-        return program(d)
+        return pulses(d)
 
     # Refinement on the whole program: pulses follow one another, so each one starts from where
     # the previous ones left the parts (the second-order error of 5.4.4). Simulate the program with
     # the exact integrator and correct the arc lengths by the measured miss, with the single-pulse
     # effects as the Jacobian, while the miss shrinks.
     def miss(arcs: np.ndarray) -> np.ndarray:
-        motion = program(arcs)
+        motion = program(pulses(arcs))
         duration = motion.duration or period
         dt = 1.0 / (200.0 * motion.max_frequency) if motion.max_frequency > 0 else duration / 10
         run = simulate(motion, parts, duration=duration, dt=dt, mu=mu, mu_s=mu_s, g=g,
@@ -361,7 +391,42 @@ def _pulse_program(
             PlanWarning,
             stacklevel=3,
         )
-    return program(d)
+    return pulses(d)
+
+
+def trim_rests(
+    pulses: list[Pulse],
+    parts: ArrayLike,
+    *,
+    mu: float,
+    mu_s: float | None = None,
+    g: float = 9.81,
+    margin: float = 0.2,
+) -> list[Pulse]:
+    """The pulses with each rest cut to when every part has actually stopped (plus ``margin``
+    of it, and 5 ms), found by simulating the pulses in turn on all ``parts`` (M, 2) [m].
+
+    The rests :func:`plan_pulses` and :func:`jet_pulses` put after a pulse are safe bounds (a part
+    can gain at most ``mu_s g`` per second of pulse); on a real plate time is what they cost.
+    """
+    pos = as_float("parts", parts).reshape(-1, 2).copy()
+    mu_f = _positive("mu", mu)
+    out: list[Pulse] = []
+    for pulse in pulses:
+        if pulse.kind == "rest" or not len(pos):
+            out.append(pulse)
+            continue
+        on = pulse.on_time
+        tail = max(pulse.rest, 0.05)
+        motion = PlateMotion.sequence([pulse.motion(rest=False), PlateMotion.rest(tail)])
+        dt = 1.0 / (200.0 * motion.max_frequency)
+        every = max(1, int(2e-3 / dt))
+        run = simulate(motion, pos, duration=on + tail, dt=dt, mu=mu_f, mu_s=mu_s, g=g, record_every=every)
+        moving = ~np.all(run.stuck, axis=1) & (run.t > on)
+        stop = float(run.t[moving].max()) - on if np.any(moving) else 0.0
+        out.append(replace(pulse, rest=min(pulse.rest, (1 + margin) * stop + 5e-3)))
+        pos = run.positions[-1]
+    return out
 
 
 def _columns(parts: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -392,9 +457,9 @@ class _PulseTable:
             top = max(2.0 * (math.sqrt(2.0 * biggest / kappa) + rise), 4 * rise)
             grid = np.arange(period / 4, top + period / 8, period / 8)
         else:
-            grid = np.geomspace(0.05, 20.0, 48)
+            grid = np.geomspace(0.05, 20.0, 48)  # control.planners._TABLE_TOP is the top
         self.mu, self.mu_s, self.rest = mu, mu_s, rest
-        motions = [self.motion(x, 1.0, knob=True) for x in grid]
+        motions = [self.motion(x, 1.0) for x in grid]
         longest = max(mo.duration or 0.0 for mo in motions)
         longest += _settle(longest, mu, mu_s, rest)
         dt = 1.0 / (200.0 * motions[-1].max_frequency)
@@ -424,21 +489,29 @@ class _PulseTable:
         ]
         return np.array(out)
 
-    def pulse(self, d: float, sign: float) -> list[PlateMotion]:
-        """The pulse for arc length ``d`` in direction ``sign``, and the rest after it."""
-        m = self.motion(d, sign)
-        return [m, PlateMotion.rest(_settle(m.duration or 0.0, self.mu, self.mu_s, self.rest))]
+    def pulse(self, d: float, sign: float) -> Pulse:
+        """The pulse for arc length ``d`` in direction ``sign``, with the rest after it."""
+        p = self.shape(d, sign)
+        return replace(p, rest=_settle(p.on_time, self.mu, self.mu_s, self.rest))
 
-    def motion(self, d: float, sign: float, knob: bool = False) -> PlateMotion:
+    def motion(self, x: float, sign: float) -> PlateMotion:
+        return self.shape(x, sign, knob=True).motion()
+
+    def shape(self, d: float, sign: float, knob: bool = False) -> Pulse:
         x = d if knob else self.knob(d)
         if self.intensity == "duration":
             wave = self.h if sign > 0 else _scaled(self.h, -1.0)
-            return PlateMotion.rotation(self.c, wave).with_envelope(*_envelope(x, self.rise))
-        wave = _scaled(self.h, sign * x)
-        return PlateMotion.rotation(self.c, wave).with_envelope(self.rise, self.hold, self.rise)
+            return Pulse.rotation(self.c, wave, *_envelope(x, self.rise))
+        return Pulse.rotation(self.c, _scaled(self.h, sign * x), self.rise, self.hold, self.rise)
 
 
-def jet_plan(
+def jet_plan(parts: ArrayLike, steps: ArrayLike, **options: Any) -> PlateMotion:
+    """The plate motion moving each part by its small step with a jet: :func:`jet_pulses` played
+    one after another (same parameters)."""
+    return program(jet_pulses(parts, steps, **options))
+
+
+def jet_pulses(
     parts: ArrayLike,
     steps: ArrayLike,
     *,
@@ -451,11 +524,12 @@ def jet_plan(
     attack: float | None = None,
     rest: float | None = None,
     min_step: float = 1e-6,
-) -> PlateMotion:
-    """Move each part by its small step with a jet focused on it (6.4), one part at a time.
+    order: ArrayLike | None = None,
+) -> list[Pulse]:
+    """Pulses moving each part by its small step with a jet focused on it (6.4), one at a time.
 
-    For every part whose step exceeds ``min_step`` [m], in index order: a jet at the part, along
-    its step, under a raised-cosine envelope whose sustain is solved (by simulating the part) so
+    For every part whose step exceeds ``min_step`` [m], in index order (or ``order``): a jet at the
+    part, along its step, under a raised-cosine envelope whose sustain is solved (by simulating the part) so
     the part moves by ``|step|``, then rest while it stops. No matrix inversion; the other parts
     feel the jet's small far field only (SPEC §7).
 
@@ -470,6 +544,10 @@ def jet_plan(
     rho : float, optional
         Jet radius [m] (default a quarter of the smallest distance between parts, so the others
         sit where the jet's force is a few per cent of its peak; 0.05 for a single part).
+    attack : float, optional
+        Rise (= fall) time of each jet [s] (default one jet period, ``3 / frequency``).
+    order : sequence of int, optional
+        The parts to move, in this order (default all, by index).
     """
     p = as_float("parts", parts)
     s = as_float("steps", steps)
@@ -488,30 +566,27 @@ def jet_plan(
     rho = _positive("rho", rho)
     period = 3.0 / frequency  # the jet's period, 6 pi / w
     rise = period if attack is None else _positive("attack", attack)
-    items: list[PlateMotion] = []
-    for i in range(len(p)):
+    items: list[Pulse] = []
+    sequence = range(len(p)) if order is None else [int(i) for i in np.asarray(order).reshape(-1)]
+    if any(not 0 <= i < len(p) for i in sequence):
+        raise ParameterError(f"order must list part indices in 0..{len(p) - 1}; got {list(sequence)}")
+    for i in sequence:
         length = float(np.hypot(*s[i]))
         if length <= min_step:
             continue
         axis = s[i] / length
         probe = _Probe(p[i], axis, mu_f, mu_s_f, g)
 
-        def pulse(x: float, i: int = i, axis: np.ndarray = axis) -> PlateMotion:
-            jet = PlateMotion.jet(p[i], axis, rho, amplitude, frequency)
-            return jet.with_envelope(*_envelope(x, rise))
+        def pulse(x: float, i: int = i, axis: np.ndarray = axis) -> Pulse:
+            shape = _envelope(x, rise)
+            after = _settle(sum(shape), mu_f, mu_s_f, rest)
+            return Pulse.jet(p[i], axis, rho, amplitude, frequency, *shape, rest=after)
 
-        def step(hold: float, pulse: Callable[[float], PlateMotion] = pulse, probe: _Probe = probe) -> float:
-            m = pulse(hold)
-            return probe(
-                PlateMotion.sequence([m, PlateMotion.rest(_settle(m.duration or 0.0, mu_f, mu_s_f, rest))])
-            )
+        def step(x: float, pulse: Callable[[float], Pulse] = pulse, probe: _Probe = probe) -> float:
+            return probe(pulse(x).motion())
 
-        hold = _solve_increasing(step, length, period, "sustain")
-        m = pulse(hold)
-        items += [m, PlateMotion.rest(_settle(m.duration or 0.0, mu_f, mu_s_f, rest))]
-    if not items:
-        items.append(PlateMotion.rest(period))
-    return PlateMotion.sequence(items)
+        items.append(pulse(_solve_increasing(step, length, period, "sustain")))
+    return items or [Pulse.pause(period)]
 
 
 def sustain_for_displacement(

@@ -108,7 +108,8 @@ class SimulatedUPM:
     snr_db : float or None
         Sensor noise relative to ``full_scale`` (None: none).
     parts : (M, 2) array_like
-        Part positions [m]; ``mu``, ``mu_s`` their friction.
+        Part positions [m]; ``mu``, ``mu_s`` their friction. A part whose centre leaves the plate
+        (``plate_size`` [m] square, centred on the origin) falls off: its row becomes NaN.
     """
 
     plate: Plate = field(default_factory=lambda: Plate(3.0, 0.04, 0.2))
@@ -121,6 +122,7 @@ class SimulatedUPM:
     mu: float = 0.3
     mu_s: float | None = None
     seed: int = 0
+    plate_size: float = 0.4064
 
     def __post_init__(self) -> None:
         self.parts = np.array(as_float("parts", self.parts), dtype=np.float64).reshape(-1, 2)
@@ -200,9 +202,32 @@ class SimulatedUPM:
         motion = PlateMotion.sequence(
             [PlateMotion.from_samples(t, u[:, 0], u[:, 1], u[:, 2]), PlateMotion.rest(coast)]
         )
-        result = simulate(motion, self.parts, duration=motion.duration or 0.0, dt=0.099 / self.sample_rate,
-                          mu=self.mu, mu_s=self.mu_s, record_every=10**9)  # fmt: skip
-        self.parts = result.positions[-1].copy()
+        self._advance(motion, 0.099 / self.sample_rate)
+
+    def play(self, motion: PlateMotion) -> None:
+        """Move the parts under a plate that follows ``motion`` exactly (an ideal plate, no motors),
+        then let them slide to rest; the suspension and sensors are not involved."""
+        if not isinstance(motion, PlateMotion) or motion.duration is None:
+            raise ParameterError("motion must be a upm.PlateMotion with a duration")
+        top = motion.max_frequency
+        dt = 1.0 / (200.0 * top) if top > 0 else 1e-3
+        coast = (motion.duration or 0.0) * ((self.mu_s or self.mu) / self.mu) + 0.01
+        self._advance(PlateMotion.sequence([motion, PlateMotion.rest(coast)]), dt)
+
+    def _advance(self, motion: PlateMotion, dt: float) -> None:
+        on = np.all(np.isfinite(self.parts), axis=1)
+        if not np.any(on):
+            return
+        result = simulate(motion, self.parts[on], duration=motion.duration or 0.0, dt=dt, mu=self.mu,
+                          mu_s=self.mu_s, plate_size=self.plate_size, record_every=10**9)  # fmt: skip
+        moved = result.positions[-1].copy()
+        moved[result.left_plate] = np.nan  # its centre crossed an edge: it fell off
+        self.parts[on] = moved
+
+    @property
+    def fallen(self) -> int:
+        """How many parts have fallen off the plate."""
+        return int(np.sum(~np.all(np.isfinite(self.parts), axis=1)))
 
     def idle(self, n: int) -> NDArray[np.int16]:
         """``n`` samples of a plate at rest (noise only)."""

@@ -16,7 +16,16 @@ from .waveforms import Harmonics, TwoHarmonic
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["feed_rate_map", "feeding_versus_b", "field", "sweep"]
+__all__ = [
+    "bang_bang_feed_rate",
+    "feed_rate_map",
+    "feeding_versus_b",
+    "field",
+    "loop_errors",
+    "loop_paths",
+    "sweep",
+    "theorem1",
+]
 
 
 def _pyplot() -> Any:
@@ -210,5 +219,113 @@ def sweep(ds: Any, var: str | None = None, *, x: str | None = None, y: str | Non
         ax.set_xlabel(cols)
         ax.set_ylabel(rows)
     ax.set_title(title)
+    figure: Figure = fig
+    return figure
+
+
+_LABEL_COLOURS = {"red": "tab:red", "blue": "tab:blue", "penny": "tab:orange"}
+
+
+def loop_paths(
+    log: Any,
+    references: Any = (),
+    centers: ArrayLike | None = None,
+    labels: Any = None,
+    plate_size: float = 0.4064,
+) -> Figure:
+    """The parts' tracked paths on the plate during a loop run (a :class:`upm.control.Log` or a
+    loaded log), with reference paths and the centres of rotation."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(5.4, 5.2), layout="constrained")
+    h = plate_size / 2
+    ax.plot([-h, h, h, -h, -h], [-h, -h, h, h, -h], color="0.4", lw=1)
+    for r in references:
+        r = np.asarray(r)
+        ax.plot(r[:, 0], r[:, 1], color="0.6", lw=1.2, ls="--")
+    pos = np.asarray(log.positions)
+    names = list(log.labels)
+    for k in range(pos.shape[1]):
+        colour = _LABEL_COLOURS.get(names[k] if k < len(names) else "", None)
+        p = pos[:, k]
+        ax.plot(p[:, 0], p[:, 1], "-", lw=1.2, color=colour)
+        ok = np.nonzero(np.all(np.isfinite(p), axis=1))[0]
+        if len(ok):
+            ax.plot(*p[ok[0]], "o", mfc="none", color=colour or "k", ms=6)
+            ax.plot(*p[ok[-1]], "o", color=colour or "k", ms=6)
+    if centers is not None:
+        cs = np.asarray(centers).reshape(-1, 2)
+        ax.plot(cs[:, 0], cs[:, 1], "k+", ms=9, mew=1.5, label="centres of rotation")
+        ax.legend(loc="upper right", fontsize=8)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title("Tracked paths (open: start, filled: end)")
+    figure: Figure = fig
+    return figure
+
+
+def loop_errors(log: Any) -> Figure:
+    """Each part's task error and the step tracking error ``|achieved - desired|`` per cycle."""
+    plt = _pyplot()
+    fig, (a, b) = plt.subplots(2, 1, figsize=(6.0, 5.2), sharex=True, layout="constrained")
+    t = np.asarray(log.time)
+    errors = np.asarray(log.errors)
+    for k in range(errors.shape[1] if errors.ndim == 2 else 0):
+        a.plot(t, 1000 * errors[:, k], lw=1)
+    a.set_ylabel("task error [mm]")
+    d = np.asarray(log.achieved) - np.asarray(log.desired)
+    track = np.hypot(d[..., 0], d[..., 1])
+    if track.size:
+        for k in range(track.shape[1]):
+            b.plot(t, 1000 * track[:, k], ".", ms=3)
+        finite = track[np.isfinite(track)]
+        if finite.size:
+            b.axhline(1000 * float(np.median(finite)), color="k", lw=1, ls="--", label="median")
+            b.legend(fontsize=8)
+    b.set_ylabel("|achieved - desired| [mm]")
+    b.set_xlabel("plate time [s]")
+    a.set_title("Closed loop: errors per cycle")
+    figure: Figure = fig
+    return figure
+
+
+def bang_bang_feed_rate(a_max: float = 16.0, period: float = 1.0) -> Figure:
+    """Fig. 3.5: the bang-bang feed rate ``v_eq``, the velocity range ``v_max`` and their ratio
+    against ``z`` (3.10, 3.11), ``a_max = 16``, ``T = 1``."""
+    plt = _pyplot()
+    z = np.linspace(0.0, 0.999, 400)
+    v_eq = theory.bang_bang_feed_rate(z, a_max, period)
+    v_max = theory.bang_bang_velocity_range(z, a_max, period)[1]
+    ratio = np.divide(v_eq, v_max, out=np.zeros_like(z), where=v_max > 0)
+    fig, ax = plt.subplots(figsize=(5.6, 4.0), layout="constrained")
+    ax.plot(z, v_eq, label=r"$v_{eq}$")
+    ax.plot(z, v_max, "--", label=r"$v_{max}$")
+    ax.plot(z, ratio, ":", label=r"$v_{eq}/v_{max}$")
+    ax.axvline(0.5, color="0.7", lw=0.8)
+    ax.set_xlabel("z")
+    ax.set_ylabel("velocity")
+    ax.set_title(rf"Fig. 3.5: bang-bang feed rate ($a_{{max}}$ = {a_max:g}, T = {period:g})")
+    ax.legend()
+    figure: Figure = fig
+    return figure
+
+
+def theorem1(pairs: Any = ((1, 2), (2, 3), (1, 4))) -> Figure:
+    """Fig. 6.9: average force at rest ``f / (mu m g)`` under ``cos(n1 t) - cos(n2 (t - psi))``
+    against ``psi`` for coprime pairs: triangular waves of period ``2 pi / (n1 n2)`` and amplitude
+    ``1 / (n2^2 - n1^2)`` (Theorem 1, lines), with points from the exact root-based integral
+    (:func:`upm.force_table`)."""
+    from .feeding import force_table, theorem1_force
+
+    plt = _pyplot()
+    phi = np.linspace(0, 2 * np.pi, 721)
+    fig, ax = plt.subplots(figsize=(6.0, 4.0), layout="constrained")
+    for n1, n2 in pairs:
+        line = ax.plot(phi, theorem1_force(n1, n2, phi), lw=1.2, label=f"({n1}, {n2})")[0]
+        ax.plot(phi[::24], force_table(n1, n2, phi[::24]), "o", ms=3.5, color=line.get_color())
+    ax.set_xlabel(r"$\psi$ [rad]")
+    ax.set_ylabel(r"$f / \mu m g$")
+    ax.set_title(r"Fig. 6.9: $\cos n_1 t - \cos n_2 (t - \psi)$ (lines: Theorem 1; dots: exact)", fontsize=10)
+    ax.legend(title="(n1, n2)")
     figure: Figure = fig
     return figure

@@ -5,26 +5,38 @@ returns the bytes to send (replies, 5 kHz accelerometer samples, PULSE_DONE, wat
 ``serve`` runs it on a pseudo-terminal (printing the path to open) or a TCP port;
 ``python -m upm.board.emulator`` and ``upm emulate`` start it in its own process. Faults can be
 injected on the outgoing bytes (drop, duplicate, corrupt, delay, stall) for tests.
+
+With ``camera=`` (``--camera-port``) the same process also serves the simulated plate's overhead
+camera on a TCP port (read it with :class:`upm.vision.RemoteCamera`): the frames show the parts
+where the emulated plate has moved them. Each request is one byte: ``F`` answers ``b"UPMF"``,
+height, width, channels (little-endian u32) and the frame's bytes (uint8, row-major); ``P``
+answers ``b"UPMP"``, the part count (u32) and their true positions (float64 x, y [m], NaN for a
+part that fell off) — the simulation's ground truth, for reports and tests.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import random
 import select
 import socket
+import struct
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from ..plant import Channel, Envelope, SimulatedUPM
+from ..actuation import Plate
+from ..plant import Channel, Envelope, SimulatedUPM, _suspension
 from . import protocol as p
 
-__all__ = ["BoardEmulator", "Faults", "Limits", "main", "serve"]
+__all__ = ["BoardEmulator", "CameraServer", "Faults", "Limits", "main", "serve"]
 
 SAMPLES_PER_FRAME = 127
 
@@ -238,29 +250,84 @@ class BoardEmulator:
         return bytes(out)
 
 
-def serve(emulator: BoardEmulator, *, tcp: int | None = None, announce=print) -> None:  # type: ignore[no-untyped-def]
-    """Run ``emulator`` on a new pseudo-terminal (default) or TCP ``port`` until killed."""
+class CameraServer:
+    """Serves frames of a virtual camera (and the true part positions) to TCP clients."""
+
+    def __init__(self, camera: Any, port: int = 0) -> None:
+        self.camera = camera
+        self.server = socket.create_server(("127.0.0.1", port))
+        self.server.setblocking(False)
+        self.port = int(self.server.getsockname()[1])
+        self.clients: list[socket.socket] = []
+
+    def sockets(self) -> list[socket.socket]:
+        return [self.server, *self.clients]
+
+    def handle(self, ready: list[Any]) -> None:
+        if self.server in ready:
+            try:
+                client, _ = self.server.accept()
+                client.setblocking(True)
+                self.clients.append(client)
+            except BlockingIOError:
+                pass
+        for client in [c for c in self.clients if c in ready]:
+            try:
+                request = client.recv(1)
+                if request == b"F":
+                    _, frame = self.camera.read()
+                    h, w = frame.shape[:2]
+                    c = 1 if frame.ndim == 2 else frame.shape[2]
+                    client.sendall(
+                        b"UPMF" + struct.pack("<3I", h, w, c) + np.ascontiguousarray(frame).tobytes()
+                    )
+                elif request == b"P":
+                    parts = np.ascontiguousarray(self.camera.source.parts, dtype="<f8").reshape(-1, 2)
+                    client.sendall(b"UPMP" + struct.pack("<I", len(parts)) + parts.tobytes())
+                else:
+                    raise ConnectionError("unknown request")
+            except (ConnectionError, OSError):
+                client.close()
+                self.clients.remove(client)
+
+
+def serve(
+    emulator: BoardEmulator,
+    *,
+    tcp: int | None = None,
+    announce: Callable[[str], object] = print,
+    camera: CameraServer | None = None,
+) -> None:
+    """Run ``emulator`` on a new pseudo-terminal (default) or TCP ``port`` until killed; with
+    ``camera``, serve its frames too."""
     if tcp is None:
         import tty
 
         master, slave = os.openpty()
         tty.setraw(slave)
         announce(os.ttyname(slave))
+        if camera is not None:
+            announce(f"camera tcp://127.0.0.1:{camera.port}")
         fd_in = fd_out = master
         sock = None
     else:
         server = socket.create_server(("127.0.0.1", tcp))
         announce(f"socket://127.0.0.1:{server.getsockname()[1]}")
+        if camera is not None:
+            announce(f"camera tcp://127.0.0.1:{camera.port}")
         sock, _ = server.accept()
         sock.setblocking(False)
         fd_in = fd_out = sock.fileno()
     delay = emulator.faults.delay
     pending: list[tuple[float, bytes]] = []
     while True:
-        ready, _, _ = select.select([fd_in], [], [], 0.002)
+        watched: list[Any] = [fd_in, *(camera.sockets() if camera is not None else [])]
+        ready, _, _ = select.select(watched, [], [], 0.002)
+        if camera is not None:
+            camera.handle(ready)
         now = time.monotonic()
         out = bytearray()
-        if ready:
+        if fd_in in ready:
             try:
                 data = os.read(fd_in, 65536) if sock is None else sock.recv(65536)
             except (BlockingIOError, InterruptedError):
@@ -300,18 +367,47 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--stall-for", type=float, default=0.0, help="seconds of silence")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--snr-db", type=float, default=60.0)
+    parser.add_argument(
+        "--camera-port",
+        type=int,
+        default=None,
+        help="also serve the overhead camera on this TCP port (0: any)",
+    )
+    parser.add_argument(
+        "--scene",
+        type=str,
+        default=None,
+        help='JSON file: {"parts": [[x, y], ...], "labels": [...], "mu": 0.3, "plate": [m, I, r], '
+        '"camera": {...}, "render": {...}}',
+    )
     args = parser.parse_args(argv)
     faults = Faults(
         args.drop, args.duplicate, args.corrupt, args.delay, args.seed, args.stall_after, args.stall_for
     )
-    plant = SimulatedUPM(snr_db=args.snr_db, seed=args.seed)
+    scene: dict[str, Any] = {}
+    if args.scene is not None:
+        with open(args.scene) as f:
+            scene = json.load(f)
+    options: dict[str, Any] = {}
+    if "plate" in scene:  # [mass, inertia, lever], on the default flexures
+        plate = Plate(*(float(v) for v in scene["plate"]))
+        options = {"plate": plate, "axes": _suspension(plate.mass, plate.inertia)}
+    plant = SimulatedUPM(snr_db=args.snr_db, seed=args.seed, parts=scene.get("parts", np.zeros((0, 2))),
+                         mu=float(scene.get("mu", 0.3)), **options)  # fmt: skip
     emulator = BoardEmulator(plant, watchdog_ms=args.watchdog_ms, faults=faults)
+    camera = None
+    if args.camera_port is not None:
+        from ..vision.synthetic import Camera
+
+        view = plant.camera(scene.get("labels", "penny"), Camera(**scene.get("camera", {})), seed=args.seed,
+                            **scene.get("render", {}))  # fmt: skip
+        camera = CameraServer(view, args.camera_port)
 
     def announce(where: str) -> None:
         print(where, flush=True)
 
     try:
-        serve(emulator, tcp=args.tcp, announce=announce)
+        serve(emulator, tcp=args.tcp, announce=announce, camera=camera)
     except KeyboardInterrupt:
         pass
     return 0

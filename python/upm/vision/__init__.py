@@ -15,6 +15,7 @@ except ImportError as error:  # pragma: no cover - depends on the environment
 
 from .._errors import VisionError
 from .parts import THESIS_PALETTE, Palette, Parts, find_parts
+from .remote import RemoteCamera
 from .table import PLATE_SIZE, Table, find_table, plate_corners
 from .tracker import Tracker, Tracks
 
@@ -23,6 +24,7 @@ __all__ = [
     "THESIS_PALETTE",
     "Palette",
     "Parts",
+    "RemoteCamera",
     "Table",
     "Tracker",
     "Tracks",

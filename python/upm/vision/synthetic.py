@@ -366,8 +366,14 @@ class VirtualCamera:
         self._rng = np.random.default_rng(self.seed)
 
     def read(self) -> tuple[bool, NDArray[np.uint8]]:
-        self.last = render(self.camera, np.asarray(self.source.parts).reshape(-1, 2), self.labels,
-                           rng=self._rng, **self.options)  # fmt: skip
+        parts = np.asarray(self.source.parts, dtype=np.float64).reshape(-1, 2)
+        here = np.all(np.isfinite(parts), axis=1)  # NaN rows: parts that fell off the plate
+        labels = (
+            self.labels
+            if isinstance(self.labels, str)
+            else [k for k, h in zip(self.labels, here, strict=True) if h]
+        )
+        self.last = render(self.camera, parts[here], labels, rng=self._rng, **self.options)
         return True, self.last.image
 
     def isOpened(self) -> bool:

@@ -1,0 +1,343 @@
+"""The closed loop (thesis 5.2.5, Fig. 4.5): camera → vision → task → planner → device → camera.
+
+Each cycle reads a frame, tracks the parts (:class:`upm.vision.Tracker`), asks the task for the
+steps it wants, asks the planner for pulses, plays them on the device, and on the next frame
+measures the steps achieved; the error (achieved - desired) is logged with the positions, the
+commands and the timings. :meth:`Log.save` writes one ``.npz`` file; :func:`load_log` reads it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .._errors import ParameterError, VisionError
+from ..pulses import Pulse
+from .devices import Device, as_device, pulse_time
+from .planners import Planner
+from .tasks import State, Task
+
+__all__ = ["Log", "Loop", "load_log"]
+
+FloatArray = NDArray[np.float64]
+
+
+class _Camera(Protocol):
+    def read(self) -> tuple[bool, Any]: ...
+
+
+@dataclass
+class Log:
+    """Per-cycle record of a run. Arrays have one row per cycle and one column per part id seen
+    (``ids``); NaN where a part was not seen or not asked to move.
+
+    Attributes
+    ----------
+    time : (C,) plate time at the start of each cycle [s]
+    wall : (C,) wall-clock time since the start [s]
+    positions : (C, P, 2) tracked positions [m]
+    desired : (C, P, 2) steps asked for [m]
+    achieved : (C, P, 2) steps measured on the next frame [m]
+    errors : (C, P) the task's error of each part [m]
+    pulses : (C,) pulses played; plate_time (C,) their length [s]
+    vision, planning, execution : (C,) seconds spent on each
+    centers : list of (n, 2) the centres (rotations) or foci (jets) of each cycle's pulses
+    frames : (F, H, W, 3) the camera frames kept for an animation (every ``keep_frames``-th)
+    frame_cycles : (F,) the cycle of each kept frame
+    """
+
+    ids: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
+    labels: list[str] = field(default_factory=list)
+    time: list[float] = field(default_factory=list)
+    wall: list[float] = field(default_factory=list)
+    rows: list[dict[int, tuple[FloatArray, FloatArray, float]]] = field(default_factory=list)
+    achieved_rows: list[dict[int, FloatArray]] = field(default_factory=list)
+    pulses: list[int] = field(default_factory=list)
+    plate_time: list[float] = field(default_factory=list)
+    vision: list[float] = field(default_factory=list)
+    planning: list[float] = field(default_factory=list)
+    execution: list[float] = field(default_factory=list)
+    centers: list[FloatArray] = field(default_factory=list)
+    frames: list[NDArray[np.uint8]] = field(default_factory=list)
+    frame_cycles: list[int] = field(default_factory=list)
+    done: bool = False
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    # -- as arrays -------------------------------------------------------------------------------
+    def _grid(self, pick: Callable[[int, int], Any], width: int) -> FloatArray:
+        c, p = len(self.rows), len(self.ids)
+        out = np.full((c, p, width) if width > 1 else (c, p), np.nan)
+        index = {int(i): k for k, i in enumerate(self.ids)}
+        for r in range(c):
+            for i in self.rows[r]:
+                value = pick(r, i)
+                if value is not None:
+                    out[r, index[i]] = value
+        return out
+
+    @property
+    def positions(self) -> FloatArray:
+        return self._grid(lambda r, i: self.rows[r][i][0], 2)
+
+    @property
+    def desired(self) -> FloatArray:
+        return self._grid(lambda r, i: self.rows[r][i][1], 2)
+
+    @property
+    def errors(self) -> FloatArray:
+        return self._grid(lambda r, i: self.rows[r][i][2], 1)
+
+    @property
+    def achieved(self) -> FloatArray:
+        return self._grid(
+            lambda r, i: self.achieved_rows[r].get(i) if r < len(self.achieved_rows) else None, 2
+        )
+
+    def arrays(self) -> dict[str, Any]:
+        """Every field as NumPy arrays (what :meth:`save` writes)."""
+        cents = np.full((len(self.centers), max((len(c) for c in self.centers), default=0), 2), np.nan)
+        for k, c in enumerate(self.centers):
+            cents[k, : len(c)] = c
+        frames = np.stack(self.frames) if self.frames else np.zeros((0, 1, 1, 3), np.uint8)
+        return {
+            "ids": self.ids,
+            "labels": np.array(self.labels, dtype=str),
+            "time": np.array(self.time),
+            "wall": np.array(self.wall),
+            "positions": self.positions,
+            "desired": self.desired,
+            "achieved": self.achieved,
+            "errors": self.errors,
+            "pulses": np.array(self.pulses, dtype=np.int64),
+            "plate_time": np.array(self.plate_time),
+            "vision": np.array(self.vision),
+            "planning": np.array(self.planning),
+            "execution": np.array(self.execution),
+            "centers": cents,
+            "frames": frames,
+            "frame_cycles": np.array(self.frame_cycles, dtype=np.int64),
+        }
+
+    def save(self, path: str | Path) -> Path:
+        """Write the log to ``path`` (``.npz``; metadata as JSON inside)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        meta = json.dumps({**self.meta, "done": self.done})
+        np.savez_compressed(path, meta=np.array(meta), **self.arrays())
+        return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
+
+    def tracking_error(self) -> FloatArray:
+        """``|achieved - desired|`` per cycle and part [m] (NaN where unknown)."""
+        d = self.achieved - self.desired
+        out: FloatArray = np.hypot(d[..., 0], d[..., 1])
+        return out
+
+
+@dataclass(frozen=True)
+class LoadedLog:
+    """A log read back by :func:`load_log`: the arrays of :meth:`Log.arrays` as attributes, and
+    ``meta`` (the run's settings and results)."""
+
+    data: dict[str, Any]
+    meta: dict[str, Any]
+
+    def __getattr__(self, name: str) -> Any:
+        try:
+            return self.data[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+
+def load_log(path: str | Path) -> LoadedLog:
+    """Read a log written by :meth:`Log.save` (or :meth:`Loop.run` with ``log=``)."""
+    with np.load(Path(path), allow_pickle=False) as z:
+        data = {k: z[k] for k in z.files if k != "meta"}
+        meta = json.loads(str(z["meta"]))
+    return LoadedLog(data, meta)
+
+
+class Loop:
+    """The closed loop.
+
+    Parameters
+    ----------
+    device : SimulatedUPM, Board, or a Device
+        What plays the pulses.
+    camera : object with ``read() -> (ok, frame)``
+        An OpenCV ``VideoCapture``, a :class:`~upm.vision.synthetic.VirtualCamera`, a
+        :class:`~upm.vision.RemoteCamera`.
+    planner : Planner
+    task : Task
+    part_radius : float
+        Part radius [m] (for vision).
+    table : upm.vision.Table, optional
+        The plate in the image (default: found in the first frame).
+    plate_size : float
+        Side of the plate [m] (for finding the table).
+    palette : upm.vision.Palette, optional
+        Colour references for labels.
+    search : float, optional
+        How far [top-view px] a part may move between frames (default: the task's longest step
+        plus two radii, in pixels).
+    keep_frames : int
+        Keep every this-many-th frame in the log (0: none) for animations.
+    min_cycle : float
+        Shortest cycle [s of plate time]: a cycle whose pulses are shorter rests for the remainder
+        (time passes while the loop sees and thinks, so trajectories keep moving when the parts
+        are on their references).
+    """
+
+    def __init__(
+        self,
+        device: Any,
+        camera: _Camera,
+        planner: Planner,
+        task: Task,
+        *,
+        part_radius: float,
+        table: Any = None,
+        plate_size: float = 0.4064,
+        palette: Any = None,
+        search: float | None = None,
+        keep_frames: int = 1,
+        min_cycle: float = 0.25,
+    ) -> None:
+        from ..vision import THESIS_PALETTE, Tracker, find_table
+
+        self.device: Device = as_device(device)
+        if not hasattr(camera, "read"):
+            raise ParameterError(f"camera must have read() -> (ok, frame); got {type(camera).__name__}")
+        if not hasattr(planner, "plan"):
+            raise ParameterError(f"planner must have plan(positions, steps); got {type(planner).__name__}")
+        if not all(hasattr(task, n) for n in ("steps", "done", "errors")):
+            raise ParameterError(f"task must have steps, done and errors; got {type(task).__name__}")
+        if not (math.isfinite(part_radius) and part_radius > 0):
+            raise ParameterError(f"part_radius must be finite and > 0 [m]; got {part_radius!r}")
+        self.camera, self.planner, self.task = camera, planner, task
+        self.part_radius, self.plate_size = float(part_radius), float(plate_size)
+        self.keep_frames = int(keep_frames)
+        if not (math.isfinite(min_cycle) and min_cycle >= 0):
+            raise ParameterError(f"min_cycle must be finite and >= 0 [s]; got {min_cycle!r}")
+        self.min_cycle = float(min_cycle)
+        self._find_table, self._Tracker = find_table, Tracker
+        self.palette = THESIS_PALETTE if palette is None else palette
+        self.table = table
+        self.search = search
+        self.tracker: Any = None
+        self.plate_time = 0.0
+
+    def _read(self) -> NDArray[np.uint8]:
+        ok, frame = self.camera.read()
+        if not ok or frame is None:
+            raise VisionError("the camera returned no frame")
+        return np.asarray(frame)
+
+    def _start(self, frame: NDArray[np.uint8]) -> None:
+        if self.table is None:
+            self.table = self._find_table(frame, self.plate_size)
+        scale = float(self.table.pixels_per_metre)
+        longest = float(getattr(self.task, "max_step", 0.02))
+        search = self.search if self.search is not None else (longest + 2 * self.part_radius) * scale
+        self.tracker = self._Tracker(
+            self.table,
+            self.part_radius,
+            palette=self.palette,
+            search=search,
+            detect_every=5,
+            max_missed=3,
+            reacquire=3 * longest + 10 * self.part_radius,
+        )
+
+    def run(
+        self,
+        cycles: int = 100,
+        *,
+        timeout: float | None = None,
+        log: str | Path | None = None,
+        callback: Callable[[State, list[Pulse]], None] | None = None,
+    ) -> Log:
+        """Run until the task is done, ``cycles`` cycles have passed, or ``timeout`` seconds of
+        plate time; returns the :class:`Log` (also written to ``log`` when given)."""
+        if cycles < 1:
+            raise ParameterError(f"cycles must be >= 1; got {cycles}")
+        out = Log(meta={"planner": type(self.planner).__name__, "task": type(self.task).__name__})
+        start = time.perf_counter()
+        last_cycle = 0.0
+        prev: dict[int, tuple[FloatArray, FloatArray]] = {}
+        for cycle in range(cycles + 1):
+            t0 = time.perf_counter()
+            frame = self._read()
+            if self.tracker is None:
+                self._start(frame)
+            tracks = self.tracker.update(frame)
+            t1 = time.perf_counter()
+            pos = tracks.positions
+            for k, i in enumerate(tracks.ids):  # ids new to the log get a column
+                if int(i) not in set(out.ids.tolist()):
+                    out.ids = np.append(out.ids, int(i))
+                    out.labels.append(tracks.labels[k])
+            achieved: dict[int, FloatArray] = {}
+            for k, i in enumerate(tracks.ids):
+                if int(i) in prev and np.all(np.isfinite(pos[k])):
+                    achieved[int(i)] = pos[k] - prev[int(i)][0]
+            if cycle > 0:
+                out.achieved_rows.append(achieved)
+            state = State(cycle, self.plate_time, tracks.ids, pos, tracks.labels, last_cycle)
+            errors = np.asarray(self.task.errors(state), dtype=np.float64)
+            finished = bool(self.task.done(state))
+            if self.keep_frames and (cycle % self.keep_frames == 0 or finished or cycle == cycles):
+                out.frames.append(frame.copy() if frame.ndim == 3 else np.repeat(frame[..., None], 3, axis=2))
+                out.frame_cycles.append(cycle)
+            if finished or cycle == cycles or (timeout is not None and self.plate_time >= timeout):
+                out.rows.append(
+                    {int(i): (pos[k], np.full(2, np.nan), float(errors[k])) for k, i in enumerate(tracks.ids)}
+                )
+                out.time.append(self.plate_time)
+                out.wall.append(time.perf_counter() - start)
+                for name in ("pulses", "plate_time", "vision", "planning", "execution"):
+                    getattr(out, name).append(0 if name == "pulses" else 0.0)
+                out.vision[-1] = t1 - t0
+                out.centers.append(np.zeros((0, 2)))
+                out.done = finished
+                break
+            steps = np.asarray(self.task.steps(state), dtype=np.float64)
+            seen = np.all(np.isfinite(pos), axis=1)
+            steps[~seen] = 0.0
+            pulses = list(self.planner.plan(pos[seen], steps[seen]))
+            short = self.min_cycle - pulse_time(pulses)
+            if short > 1e-9:
+                pulses.append(Pulse.pause(short))
+            t2 = time.perf_counter()
+            if callback is not None:
+                callback(state, pulses)
+            self.device.execute(pulses)
+            t3 = time.perf_counter()
+            last_cycle = pulse_time(pulses)
+            self.plate_time += last_cycle
+            prev = {int(i): (pos[k], steps[k]) for k, i in enumerate(tracks.ids) if seen[k]}
+            out.rows.append(
+                {
+                    int(i): (pos[k], steps[k] if seen[k] else np.full(2, np.nan), float(errors[k]))
+                    for k, i in enumerate(tracks.ids)
+                }
+            )
+            out.time.append(state.time)
+            out.wall.append(time.perf_counter() - start)
+            out.pulses.append(sum(p.kind != "rest" for p in pulses))
+            out.plate_time.append(last_cycle)
+            out.vision.append(t1 - t0)
+            out.planning.append(t2 - t1)
+            out.execution.append(t3 - t2)
+            out.centers.append(np.array([p.center for p in pulses if p.kind != "rest"]).reshape(-1, 2))
+        out.meta.update(cycles=len(out.rows), plate_time=self.plate_time, wall=time.perf_counter() - start)
+        if log is not None:
+            out.save(log)
+        return out

@@ -1,0 +1,401 @@
+"""Tasks: what the parts should do, as small desired steps each cycle (thesis 4.3, 5.3, 6.3).
+
+A task sees the tracked parts (:class:`State`) and answers the steps it wants [m], whether it is
+done, and each part's error against its reference. Parts are bound to the task's slots (goals,
+paths) on the first cycle by minimum total distance (``scipy.optimize.linear_sum_assignment``),
+or to the nearest of the given ``starts``; a part lost from view asks for nothing until it is seen
+again.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .._arrays import as_float
+from .._errors import ParameterError, ShapeError
+
+__all__ = ["GotoTask", "SortTask", "State", "Task", "TrajectoryTask", "WatchTask"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class State:
+    """The loop's view of the plate at the start of a cycle."""
+
+    cycle: int
+    time: float
+    """Plate time elapsed [s] (the pulses played so far)."""
+    ids: NDArray[np.int64]
+    positions: FloatArray
+    """(M, 2) [m], NaN for parts lost in this frame."""
+    labels: tuple[str, ...]
+    last_cycle: float
+    """Plate time of the previous cycle [s] (0 on the first)."""
+
+
+@runtime_checkable
+class Task(Protocol):
+    def steps(self, state: State) -> FloatArray: ...
+
+    def done(self, state: State) -> bool: ...
+
+    def errors(self, state: State) -> FloatArray: ...
+
+
+def _points(name: str, value: ArrayLike) -> FloatArray:
+    p = as_float(name, value)
+    if p.ndim != 2 or p.shape[1] != 2:
+        raise ShapeError(f"{name} must have shape (M, 2) [m]; got {p.shape}")
+    return np.array(p, dtype=np.float64)
+
+
+def _clip(steps: FloatArray, longest: float) -> FloatArray:
+    n = np.hypot(steps[:, 0], steps[:, 1])
+    scale = np.where(n > longest, longest / np.maximum(n, 1e-300), 1.0)
+    out: FloatArray = steps * scale[:, None]
+    return out
+
+
+class _Slots:
+    """Binding of tracked part ids to a task's slots, made once on the first cycle they are seen."""
+
+    def __init__(self, anchors: FloatArray) -> None:
+        self.anchors = anchors
+        self.of: dict[int, int] = {}
+
+    def bind(self, state: State) -> NDArray[np.int64]:
+        """Slot of every tracked part (-1: none). A slot whose part has left the tracker's view
+        for good (its id is gone) is free for a part that appears."""
+        present = {int(i) for i in state.ids}
+        self.of = {i: s for i, s in self.of.items() if i in present}
+        new = [
+            k
+            for k, i in enumerate(state.ids)
+            if int(i) not in self.of and np.all(np.isfinite(state.positions[k]))
+        ]
+        free = [s for s in range(len(self.anchors)) if s not in self.of.values()]
+        if new and free:
+            from scipy.optimize import linear_sum_assignment
+
+            cost = np.linalg.norm(state.positions[new][:, None] - self.anchors[free][None], axis=2)
+            rows, cols = linear_sum_assignment(cost)
+            for r, c in zip(rows, cols, strict=True):
+                self.of[int(state.ids[new[r]])] = free[c]
+        return np.array([self.of.get(int(i), -1) for i in state.ids], dtype=np.int64)
+
+
+class GotoTask:
+    """Every part to its goal.
+
+    Parameters
+    ----------
+    goals : (K, 2) array_like
+        Goals [m].
+    starts : (K, 2) array_like, optional
+        Where the part for each goal starts (binding by nearest); default: parts are bound to goals
+        by minimum total distance.
+    gain : float
+        Fraction of the remaining error asked for per cycle.
+    max_step : float
+        Longest step asked for [m].
+    tolerance : float
+        Done when every part is within this of its goal [m].
+    first_step : float, optional
+        Longest step on the first cycle [m] (e.g. the whole way, open loop, as in Fig. 5.3).
+    """
+
+    def __init__(
+        self,
+        goals: ArrayLike,
+        *,
+        starts: ArrayLike | None = None,
+        gain: float = 0.8,
+        max_step: float = 0.02,
+        tolerance: float = 0.003,
+        first_step: float | None = None,
+    ) -> None:
+        self.goals = _points("goals", goals)
+        anchors = self.goals if starts is None else _points("starts", starts)
+        if anchors.shape != self.goals.shape:
+            raise ShapeError(f"starts must match goals' shape {self.goals.shape}; got {anchors.shape}")
+        self.slots = _Slots(anchors)
+        self.gain, self.max_step, self.tolerance = float(gain), float(max_step), float(tolerance)
+        self.first_step = self.max_step if first_step is None else float(first_step)
+
+    def _targets(self, state: State) -> FloatArray:
+        slot = self.slots.bind(state)
+        out = np.full_like(state.positions, np.nan)
+        out[slot >= 0] = self.goals[slot[slot >= 0]]
+        return out
+
+    def errors(self, state: State) -> FloatArray:
+        d = self._targets(state) - state.positions
+        out: FloatArray = np.hypot(d[:, 0], d[:, 1])
+        return out
+
+    def steps(self, state: State) -> FloatArray:
+        d = self._targets(state) - state.positions
+        d = np.where(np.isfinite(d), d, 0.0)
+        near = np.hypot(d[:, 0], d[:, 1]) <= self.tolerance / 2
+        d[near] = 0.0
+        if state.cycle == 0:
+            return _clip(d, self.first_step)
+        return _clip(self.gain * d, self.max_step)
+
+    def done(self, state: State) -> bool:
+        e = self.errors(state)
+        bound = self.slots.bind(state) >= 0
+        return bool(len(self.slots.of) == len(self.goals) and np.all(e[bound] <= self.tolerance))
+
+
+def _polyline(name: str, path: ArrayLike, closed: bool) -> tuple[FloatArray, FloatArray]:
+    p = _points(name, path)
+    if closed and np.any(p[0] != p[-1]):
+        p = np.vstack([p, p[:1]])
+    if len(p) < 2:
+        raise ShapeError(f"{name} needs at least 2 points")
+    seg = np.hypot(*np.diff(p, axis=0).T)
+    if np.any(seg <= 0):
+        raise ParameterError(f"{name} has repeated consecutive points")
+    return p, np.concatenate([[0.0], np.cumsum(seg)])
+
+
+def _along(p: FloatArray, s: FloatArray, at: FloatArray) -> FloatArray:
+    return np.stack([np.interp(at, s, p[:, 0]), np.interp(at, s, p[:, 1])], axis=-1)
+
+
+class TrajectoryTask:
+    """Parts follow polylines at a given speed, each under a PD controller (thesis 4.3.1, 6.3).
+
+    Parameters
+    ----------
+    paths : sequence of (K, 2) array_like
+        One polyline per part [m]; or a single path shared by ``count`` parts spaced equally
+        along it (``equidistant``; the figure-eight of the bow-tie experiment).
+    speed : float
+        Speed of the references along the paths [m/s of plate time].
+    kp, kd : float
+        Proportional and derivative gains of each part's controller (per cycle).
+    closed : bool
+        The paths are loops; run ``laps`` times around.
+    equidistant : bool
+        Parts share ``paths[0]``, ``count`` of them, kept ``L / count`` apart along it.
+    hold : float
+        When a part lags its reference by more than this [m], every reference waits (the parts keep
+        their spacing and nobody is left behind).
+    max_step : float
+        Longest step asked for [m].
+    tolerance : float
+        Done when the references have finished and every part is within this of its end [m].
+    """
+
+    def __init__(
+        self,
+        paths: Sequence[ArrayLike],
+        speed: float,
+        *,
+        kp: float = 0.7,
+        kd: float = 0.2,
+        closed: bool = False,
+        laps: float = 1.0,
+        equidistant: bool = False,
+        count: int | None = None,
+        hold: float = 0.015,
+        max_step: float = 0.02,
+        tolerance: float = 0.005,
+    ) -> None:
+        if not (math.isfinite(speed) and speed > 0):
+            raise ParameterError(f"speed must be finite and > 0 [m/s]; got {speed!r}")
+        self.speed, self.kp, self.kd, self.closed, self.laps = (
+            float(speed),
+            float(kp),
+            float(kd),
+            closed,
+            float(laps),
+        )
+        self.hold, self.max_step, self.tolerance = float(hold), float(max_step), float(tolerance)
+        if equidistant:
+            if count is None or count < 1:
+                raise ParameterError("equidistant needs count >= 1 (how many parts share the path)")
+            p, s = _polyline("paths[0]", paths[0], closed)
+            self.paths = [(p, s)] * count
+            self.offsets = -np.arange(count) * s[-1] / count
+        else:
+            self.paths = [_polyline(f"paths[{k}]", q, closed) for k, q in enumerate(paths)]
+            self.offsets = np.zeros(len(self.paths))
+        if not self.paths:
+            raise ParameterError("paths must hold at least one path")
+        self.length = float(self.paths[0][1][-1])
+        self.progress = 0.0  # arc length covered by the references [m]
+        self.slots = _Slots(np.array([self._reference(k, 0.0) for k in range(len(self.paths))]))
+        self._previous: dict[int, FloatArray] = {}
+        self._time = 0.0
+        self.waited = 0.0
+
+    def _reference(self, k: int, progress: float) -> FloatArray:
+        p, s = self.paths[k]
+        at = progress + self.offsets[k]
+        at = at % s[-1] if self.closed else min(max(at, 0.0), s[-1])
+        return _along(p, s, np.array(at))
+
+    @property
+    def end(self) -> float:
+        return self.laps * self.length if self.closed else self.length
+
+    def _refs(self, state: State, progress: float) -> FloatArray:
+        slot = self.slots.bind(state)
+        out = np.full_like(state.positions, np.nan)
+        for k, j in enumerate(slot):
+            if j >= 0:
+                out[k] = self._reference(int(j), progress)
+        return out
+
+    def errors(self, state: State) -> FloatArray:
+        d = self._refs(state, self.progress) - state.positions
+        out: FloatArray = np.hypot(d[:, 0], d[:, 1])
+        return out
+
+    def steps(self, state: State) -> FloatArray:
+        dt = state.time - self._time
+        self._time = state.time
+        lag = self.errors(state)
+        holding = bool(np.nanmax(lag, initial=0.0) > self.hold)
+        if state.cycle > 0:
+            if holding:
+                self.waited += dt
+            else:
+                self.progress = min(self.progress + self.speed * dt, self.end)
+        # feed forward: where the reference will be after a cycle like the last one (none while
+        # the references wait for a lagging part)
+        ahead = (
+            self.progress
+            if holding
+            else min(self.progress + self.speed * (state.last_cycle or 0.0), self.end)
+        )
+        e = self._refs(state, self.progress) - state.positions
+        forward = self._refs(state, ahead) - self._refs(state, self.progress)
+        out = np.zeros_like(state.positions)
+        for k, i in enumerate(state.ids):
+            if not np.all(np.isfinite(e[k])):
+                continue
+            prev = self._previous.get(int(i), e[k])
+            out[k] = forward[k] + self.kp * e[k] + self.kd * (e[k] - prev)
+            self._previous[int(i)] = e[k]
+        return _clip(out, self.max_step)
+
+    def done(self, state: State) -> bool:
+        if self.progress < self.end:
+            return False
+        e = self.errors(state)
+        return bool(np.all(e[np.isfinite(e)] <= self.tolerance))
+
+
+class SortTask:
+    """Parts pushed by label to opposite sides of the plate (thesis 4.3.2, 6.3).
+
+    Each part with a label in ``sides`` is pushed along x towards its side (``-1`` left, ``+1``
+    right) until it is ``margin`` from the edge; parts closer than ``spacing`` push apart along y so
+    they pass each other (the "dodging" of 4.3.2). Sorted when every such part is beyond ``line``.
+
+    Parameters
+    ----------
+    sides : mapping of label to -1 or +1
+    plate_size : float
+        Side of the plate [m].
+    line : float
+        Sorted: ``side * x >= line`` [m] (default a quarter of the plate from the centre).
+    margin : float
+        Pushing stops this far from the edge [m].
+    spacing : float
+        Parts closer than this [m] are spread apart.
+    max_step : float
+        Step asked for per cycle [m].
+    """
+
+    def __init__(
+        self,
+        sides: Mapping[str, int],
+        *,
+        plate_size: float = 0.4064,
+        line: float | None = None,
+        margin: float = 0.04,
+        spacing: float = 0.045,
+        max_step: float = 0.02,
+    ) -> None:
+        if not sides or any(v not in (-1, 1) for v in sides.values()):
+            raise ParameterError(f"sides must map labels to -1 (left) or +1 (right); got {dict(sides)}")
+        self.sides = dict(sides)
+        self.half = plate_size / 2
+        self.line = plate_size / 4 if line is None else float(line)
+        self.margin, self.spacing, self.max_step = float(margin), float(spacing), float(max_step)
+        if not 0 < self.line < self.half - self.margin:
+            raise ParameterError(f"line must be in (0, {self.half - self.margin:.3g}) m; got {self.line!r}")
+
+    def _side(self, state: State) -> FloatArray:
+        return np.array([float(self.sides.get(lab, 0)) for lab in state.labels])
+
+    def errors(self, state: State) -> FloatArray:
+        """Distance [m] still to go to the sorted line (0 once beyond it)."""
+        side = self._side(state)
+        out: FloatArray = np.where(
+            side != 0, np.maximum(self.line - side * state.positions[:, 0], 0.0), np.nan
+        )
+        return out
+
+    def steps(self, state: State) -> FloatArray:
+        pos = state.positions
+        side = self._side(state)
+        seen = np.all(np.isfinite(pos), axis=1)
+        goal = self.half - self.margin
+        out = np.zeros_like(pos)
+        go = seen & (side != 0)
+        out[go, 0] = side[go] * np.clip(goal - side[go] * pos[go, 0], 0.0, self.max_step)
+        # spread close pairs apart, mostly across the direction of travel
+        for a in np.nonzero(seen)[0]:
+            for b in np.nonzero(seen)[0]:
+                if b <= a:
+                    continue
+                d = pos[b] - pos[a]
+                dist = float(np.hypot(*d))
+                if dist >= self.spacing:
+                    continue
+                dy = d[1] if abs(d[1]) > 1e-9 else (1.0 if a % 2 else -1.0) * 1e-3
+                push = 0.5 * (self.spacing - dist) * math.copysign(1.0, dy)
+                out[a, 1] -= push
+                out[b, 1] += push
+        out[:, 1] = np.clip(
+            out[:, 1], -self.half + self.margin - pos[:, 1], self.half - self.margin - pos[:, 1]
+        )
+        out[~seen] = 0.0
+        return _clip(out, self.max_step)
+
+    def done(self, state: State) -> bool:
+        e = self.errors(state)
+        sorted_ = e[np.isfinite(e)]
+        return bool(len(sorted_) and np.all(sorted_ <= 0.0))
+
+
+class WatchTask:
+    """Asks for nothing; done after ``cycles`` cycles (for open-loop flows under a
+    :class:`~upm.control.FixedPlanner`, watched through the same loop)."""
+
+    def __init__(self, cycles: int) -> None:
+        if cycles < 1:
+            raise ParameterError(f"cycles must be >= 1; got {cycles}")
+        self.cycles = int(cycles)
+
+    def steps(self, state: State) -> FloatArray:
+        return np.zeros_like(state.positions)
+
+    def done(self, state: State) -> bool:
+        return state.cycle >= self.cycles
+
+    def errors(self, state: State) -> FloatArray:
+        return np.zeros(len(state.positions))

@@ -1,0 +1,555 @@
+"""The thesis's experiments, reproduced in simulation through the closed loop (``upm demo NAME``).
+
+Each demo builds a simulated plate with parts on it, runs :class:`upm.control.Loop` (virtual
+camera → vision → task → planner → plate), and writes to ``out/NAME/``: ``animation.gif`` (the
+camera's frames with the tracks drawn in), ``paths.png`` (the parts' paths on the plate with their
+references), ``errors.png`` (each part's error and the step tracking error per cycle),
+``metrics.json`` and ``log.npz`` (:func:`upm.control.load_log`). ``board=True`` (``sort8`` in
+``make demo``) runs the plate in an emulator process reached over the board protocol on a
+pseudo-terminal, and reads the camera it serves.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ._errors import ParameterError
+from .actuation import Plate
+from .control import (
+    DisplacementPlanner,
+    FixedPlanner,
+    GotoTask,
+    JetPlanner,
+    Log,
+    Loop,
+    RotationsPlanner,
+    SimulatedDevice,
+    SortTask,
+    TrajectoryTask,
+    WatchTask,
+)
+from .plant import SimulatedUPM, _suspension
+from .pulses import Pulse
+from .solvers import corner_centers, ring_centers
+from .waveforms import Harmonics
+
+__all__ = ["DEMOS", "Demo", "run_demo"]
+
+FloatArray = NDArray[np.float64]
+
+PENNY = 0.009525
+CHIP = 0.0195
+#: The demos' plate: a 16 in honeycomb plate of 1 kg on flexures (3 Hz, damping ratio 0.2).
+PLATE = Plate(1.0, 0.0275, 0.2)
+_MOTORS: dict[str, Any] = {"plate": PLATE, "axes": _suspension(PLATE.mass, PLATE.inertia), "limit": 200.0}
+
+
+@dataclass
+class Setup:
+    """What a demo runs: the parts, and the planner and task for the loop."""
+
+    parts: FloatArray
+    labels: list[str]
+    radius: float
+    planner: Any
+    task: Any
+    cycles: int
+    references: list[FloatArray] = field(default_factory=list)
+    centers: FloatArray | None = None
+    ideal: bool = False
+
+
+@dataclass(frozen=True)
+class Demo:
+    name: str
+    figure: str
+    summary: str
+    build: Callable[[bool, int], Setup]
+    report: Callable[[Log, Setup, dict[str, Any]], list[str]]
+
+
+def _scatter(rng: np.random.Generator, count: int, reach: float, gap: float) -> FloatArray:
+    pts: list[FloatArray] = []
+    while len(pts) < count:
+        p = rng.uniform(-reach, reach, 2)
+        if all(np.hypot(*(p - q)) > gap for q in pts):
+            pts.append(p)
+    return np.array(pts)
+
+
+def _rectangle(cx: float, cy: float, w: float, h: float) -> FloatArray:
+    return np.array(
+        [
+            [cx - w / 2, cy - h / 2],
+            [cx + w / 2, cy - h / 2],
+            [cx + w / 2, cy + h / 2],
+            [cx - w / 2, cy + h / 2],
+            [cx - w / 2, cy - h / 2],
+        ]
+    )
+
+
+# -- the experiments --------------------------------------------------------------------------------
+
+
+def _trajectory2(quick: bool, seed: int) -> Setup:
+    paths = [_rectangle(-0.06, 0.0, 0.08, 0.1), _rectangle(0.06, 0.0, 0.08, 0.1)]
+    if quick:
+        paths = [p[:2] for p in paths]
+    centers = ring_centers(9, 0.17, phase=0.2)
+    task = TrajectoryTask(paths, speed=0.006, kp=0.8, kd=0.2, max_step=0.015, tolerance=0.004)
+    planner = RotationsPlanner(centers, cycle=2.0, amplitude=1.0)
+    starts = np.array([p[0] for p in paths]) + np.array([[0.004, -0.003], [-0.003, 0.004]])
+    return Setup(starts, ["penny", "penny"], PENNY, planner, task, 40 if quick else 160, paths, centers)
+
+
+def _trajectory2_report(log: Log, setup: Setup, m: dict[str, Any]) -> list[str]:
+    return [
+        f"two pennies followed rectangles with {0 if setup.centers is None else len(setup.centers)} "
+        "rotations per plate motion "
+        f"(4 constraints, 5 redundant): median path error {1000 * m['median_error']:.1f} mm, "
+        f"max {1000 * m['max_error']:.1f} mm (thesis Fig. 4.8: shown qualitatively, point parts, ideal plate)"
+    ]
+
+
+def _sort(quick: bool, seed: int, count: int, planner: Any, max_step: float) -> Setup:
+    rng = np.random.default_rng(seed)
+    parts = _scatter(rng, count, 0.12 if count <= 8 else 0.13, 0.052)
+    labels = ["red"] * (count // 2) + ["blue"] * (count - count // 2)
+    task = SortTask({"red": -1, "blue": 1}, margin=0.08, spacing=0.046, max_step=max_step)
+    return Setup(parts, labels, CHIP, planner, task, 8 if quick else 60)
+
+
+def _sort10(quick: bool, seed: int) -> Setup:
+    centers = ring_centers(24, 0.2)
+    # Tikhonov damping: the minimum-norm solution for 20 constraints and 24 centres cancels large
+    # rotations against each other, which sequential pulses do not superpose well (4.2.5)
+    setup = _sort(quick, seed, 10, RotationsPlanner(centers, cycle=2.0, amplitude=1.0, damping=1.0), 0.02)
+    setup.cycles = 8 if quick else 300
+    return setup
+
+
+def _sort8(quick: bool, seed: int) -> Setup:
+    planner = JetPlanner(mu=0.3, amplitude=0.1, rho=0.03, **_MOTORS)
+    return _sort(quick, seed, 8, planner, 0.025)
+
+
+def _sort_report(thesis: str) -> Callable[[Log, Setup, dict[str, Any]], list[str]]:
+    def report(log: Log, setup: Setup, m: dict[str, Any]) -> list[str]:
+        state = "sorted" if log.done else "NOT sorted"
+        return [
+            f"{len(setup.parts)} chips {state} in {m['plate_time']:.1f} s of plate time, "
+            f"{m['cycles']} cycles; "
+            f"{m['fallen']} lost over the edge ({thesis})"
+        ]
+
+    return report
+
+
+def _racetrack(quick: bool, seed: int) -> Setup:
+    c = np.array([-0.17, -0.17])
+    radii = np.array([0.08, 0.14, 0.2])
+    parts = c + np.stack([radii, np.zeros(3)], axis=1)
+    wave = Harmonics([1.5, -0.75], [0.0, 0.0], 35.0)
+    pulse = Pulse.rotation(c, wave, 3 / 35, 0.5, 3 / 35, rest=0.3)
+    return Setup(
+        parts, ["penny"] * 3, PENNY, FixedPlanner([pulse]), WatchTask(3 if quick else 10), 50, centers=c[None]
+    )
+
+
+def _racetrack_report(log: Log, setup: Setup, m: dict[str, Any]) -> list[str]:
+    return [
+        "three pennies raced along the rotation field about the lower-left corner: arc lengths "
+        + ", ".join(f"{1000 * a:.0f}" for a in m["arc_lengths"])
+        + " mm, angles "
+        + ", ".join(f"{math.degrees(a):.0f}" for a in m["angles"])
+        + " deg (inner first; thesis Fig. 5.2: the inner parts advance more rapidly than the outer ones)"
+    ]
+
+
+def _corners(quick: bool, seed: int) -> Setup:
+    starts = np.array([[-0.06, -0.05], [0.05, -0.06]])
+    goals = np.array([[0.02, 0.06], [-0.06, 0.03]])
+    centers = corner_centers((-0.15, -0.15, 0.15, 0.15))
+    planner = DisplacementPlanner(centers, mu=0.3, max_arc=0.1, sustain=0.3, refine=2, **_MOTORS)
+    task = GotoTask(goals, starts=starts, gain=0.6, max_step=0.015, first_step=0.15, tolerance=0.004)
+    return Setup(
+        starts,
+        ["penny", "penny"],
+        PENNY,
+        planner,
+        task,
+        4 if quick else 40,
+        [np.stack([s, g]) for s, g in zip(starts, goals, strict=True)],
+        centers,
+    )
+
+
+def _corners_report(log: Log, setup: Setup, m: dict[str, Any]) -> list[str]:
+    first = m["errors_by_cycle"][1] if len(m["errors_by_cycle"]) > 1 else [float("nan")]
+    return [
+        "two parts, 4 corner centres, one large step each: after the first cycle they miss their goals by "
+        + ", ".join(f"{1000 * e:.0f}" for e in first)
+        + " mm (thesis Fig. 5.3(d): the error of large steps, made large on purpose); closed loop: "
+        + f"within {1000 * m['final_error']:.1f} mm after {m['cycles']} cycles"
+    ]
+
+
+def _plus(quick: bool, seed: int) -> Setup:
+    arm = 0.07
+    o = np.zeros(2)
+    path = np.array([o, [arm, 0], o, [0, arm], o, [-arm, 0], o, [0, -arm], o])
+    if quick:
+        path = path[:3]
+    centers = corner_centers((-0.15, -0.15, 0.15, 0.15))
+    planner = DisplacementPlanner(centers, mu=0.3, max_arc=0.03, refine=1, **_MOTORS)
+    task = TrajectoryTask([path], speed=0.01, kp=0.8, kd=0.1, max_step=0.02, hold=0.01, tolerance=0.004)
+    return Setup(
+        np.array([[0.045, -0.035]]), ["penny"], PENNY, planner, task, 40 if quick else 120, [path], centers
+    )
+
+
+def _plus_report(log: Log, setup: Setup, m: dict[str, Any]) -> list[str]:
+    return [
+        f"one penny centred, then driven along the plus sign's branches: median path error "
+        f"{1000 * m['median_error']:.1f} mm, max {1000 * m['max_error']:.1f} mm over {m['plate_time']:.0f} s "
+        "(thesis 5.3.2)"
+    ]
+
+
+def _figure_eight(scale: float = 0.09, points: int = 48) -> FloatArray:
+    t = np.linspace(0, 2 * np.pi, points, endpoint=False)
+    return np.stack([scale * np.sin(t), scale * 0.6 * np.sin(2 * t)], axis=1)
+
+
+def _bowtie(quick: bool, seed: int) -> Setup:
+    path = _figure_eight()
+    task = TrajectoryTask(
+        [path],
+        speed=0.008,
+        closed=True,
+        laps=0.25 if quick else 1.0,
+        equidistant=True,
+        count=3,
+        kp=0.8,
+        kd=0.1,
+        max_step=0.015,
+        hold=0.012,
+        tolerance=0.006,
+    )
+    starts = np.array([task._reference(k, 0.0) for k in range(3)]) + 0.003
+    planner = JetPlanner(mu=0.3, amplitude=0.08, rho=0.025, **_MOTORS)
+    return Setup(
+        starts, ["penny"] * 3, PENNY, planner, task, 60 if quick else 400, [np.vstack([path, path[:1]])]
+    )
+
+
+def _bowtie_report(log: Log, setup: Setup, m: dict[str, Any]) -> list[str]:
+    return [
+        "three pennies kept equidistant around the figure-eight with jets: one loop in "
+        f"{m['plate_time']:.0f} s "
+        f"of plate time (thesis Figs. 6.4-6.5: about one minute); median path error "
+        f"{1000 * m['median_error']:.1f} mm"
+    ]
+
+
+DEMOS: dict[str, Demo] = {
+    d.name: d
+    for d in (
+        Demo(
+            "trajectory2",
+            "Fig. 4.8",
+            "two parts follow rectangles, 9 rotations per motion (ch. 4)",
+            _trajectory2,
+            _trajectory2_report,
+        ),
+        Demo(
+            "sort10",
+            "Fig. 4.9",
+            "5 + 5 parts sorted to opposite edges, 24 centres and SVD (ch. 4)",
+            _sort10,
+            _sort_report("thesis Fig. 4.9: simulation, point parts, ideal plate"),
+        ),
+        Demo(
+            "racetrack",
+            "Fig. 5.2",
+            "three parts race along one rotation field (ch. 5)",
+            _racetrack,
+            _racetrack_report,
+        ),
+        Demo(
+            "corners",
+            "Fig. 5.3",
+            "two parts, four corner centres, large steps (ch. 5)",
+            _corners,
+            _corners_report,
+        ),
+        Demo(
+            "plus",
+            "5.3.2",
+            "one penny centred, then along the branches of a plus sign (ch. 5)",
+            _plus,
+            _plus_report,
+        ),
+        Demo(
+            "bowtie",
+            "Figs. 6.4-6.5",
+            "three pennies equidistant along a figure-eight with jets (ch. 6)",
+            _bowtie,
+            _bowtie_report,
+        ),
+        Demo(
+            "sort8",
+            "Fig. 6.6",
+            "8 chips sorted by colour with jets (ch. 6)",
+            _sort8,
+            _sort_report("thesis Fig. 6.6: about 30 s on the real UPM, one chip fell off the edge"),
+        ),
+    )
+}
+
+
+# -- running ----------------------------------------------------------------------------------------
+
+
+def _plant(setup: Setup, seed: int) -> SimulatedUPM:
+    return SimulatedUPM(
+        plate=PLATE, axes=_suspension(PLATE.mass, PLATE.inertia), parts=setup.parts, seed=seed
+    )
+
+
+def _metrics(name: str, log: Log, setup: Setup, fallen: int, started: FloatArray) -> dict[str, Any]:
+    errors = log.errors
+    final = errors[-1] if len(errors) else np.zeros(0)
+    tracking = log.tracking_error()
+    pos = log.positions
+    m: dict[str, Any] = {
+        "demo": name,
+        "done": bool(log.done),
+        "cycles": len(log.rows) - 1,
+        "plate_time": float(log.meta.get("plate_time", 0.0)),
+        "wall_time": float(log.meta.get("wall", 0.0)),
+        "fallen": int(fallen),
+        "parts": len(setup.parts),
+        "final_error": float(np.nanmax(final)) if np.any(np.isfinite(final)) else float("nan"),
+        "median_error": float(np.nanmedian(errors)) if np.any(np.isfinite(errors)) else float("nan"),
+        "max_error": float(np.nanmax(errors[1:])) if np.any(np.isfinite(errors[1:])) else float("nan"),
+        "tracking_error_median": float(np.nanmedian(tracking))
+        if np.any(np.isfinite(tracking))
+        else float("nan"),
+        "tracking_error_p90": float(np.nanpercentile(tracking, 90))
+        if np.any(np.isfinite(tracking))
+        else float("nan"),
+        "vision_ms": 1000 * float(np.mean(log.vision)) if log.vision else 0.0,
+        "planning_ms": 1000 * float(np.mean(log.planning)) if log.planning else 0.0,
+        "pulses": int(np.sum(log.pulses)),
+        "errors_by_cycle": [[float(v) for v in row] for row in np.nan_to_num(errors, nan=-1.0)],
+    }
+    if name == "racetrack" and len(pos):
+        c = setup.centers[0] if setup.centers is not None else np.zeros(2)
+        first = pos[0]
+        inner_first = np.argsort(np.hypot(*(first - c).T))  # columns are tracker ids: order by radius
+        pos = pos[:, inner_first]
+        turn = np.angle(((pos[1:] - c) @ [1, 1j]) / ((pos[:-1] - c) @ [1, 1j]))  # per cycle, each part
+        steps = np.hypot(*np.diff(pos, axis=0).transpose(2, 0, 1))
+        m["arc_lengths"] = [float(v) for v in np.nansum(steps, axis=0)]
+        m["angles"] = [float(v) for v in np.nansum(turn, axis=0)]
+        m["radii"] = [float(v) for v in np.hypot(*(pos[0] - c).T)]
+    return m
+
+
+def _draw(
+    frames: list[NDArray[np.uint8]], cycles: list[int], log: Log, loop: Loop, setup: Setup
+) -> list[NDArray[np.uint8]]:
+    import cv2
+
+    table = loop.table
+    pos = log.positions
+    out = []
+    colours = [
+        (255, 220, 0),
+        (0, 200, 255),
+        (255, 0, 255),
+        (0, 255, 0),
+        (255, 128, 0),
+        (0, 128, 255),
+        (200, 0, 200),
+        (128, 255, 128),
+        (255, 255, 255),
+        (0, 0, 0),
+    ]
+    refs = [table.to_camera(r) for r in setup.references]
+    for frame, c in zip(frames, cycles, strict=True):
+        img = np.ascontiguousarray(frame[..., ::-1])  # RGB for cv2 drawing in BGR order kept consistent
+        for r in refs:
+            cv2.polylines(
+                img, [np.round(r * 4).astype(np.int32)], False, (90, 90, 90), 1, cv2.LINE_AA, shift=2
+            )
+        for k in range(pos.shape[1]):
+            trail = pos[: c + 1, k]
+            trail = trail[np.all(np.isfinite(trail), axis=1)]
+            if len(trail) > 1:
+                px = np.round(table.to_camera(trail) * 4).astype(np.int32)
+                cv2.polylines(img, [px], False, colours[k % len(colours)], 1, cv2.LINE_AA, shift=2)
+        t = log.time[min(c, len(log.time) - 1)] if log.time else 0.0
+        cv2.putText(
+            img,
+            f"cycle {c}  t = {t:5.1f} s",
+            (8, 20),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            0.5,
+            (255, 255, 255),
+            1,
+            cv2.LINE_AA,
+        )
+        out.append(img[..., ::-1].copy())
+    return out
+
+
+def _write_outputs(
+    name: str, out: Path, log: Log, loop: Loop, setup: Setup, metrics: dict[str, Any], mp4: bool
+) -> list[Path]:
+    import imageio.v3 as iio
+
+    from . import plot
+
+    out.mkdir(parents=True, exist_ok=True)
+    written = [log.save(out / "log.npz")]
+    frames = _draw(log.frames, log.frame_cycles, log, loop, setup)
+    if frames:
+        step = max(1, len(frames) // 150)
+        shown = frames[::step] + ([frames[-1]] if (len(frames) - 1) % step else [])
+        small = [f[::2, ::2] for f in shown]
+        iio.imwrite(out / "animation.gif", np.stack(small), duration=120, loop=0)
+        written.append(out / "animation.gif")
+        if mp4:
+            try:
+                import imageio_ffmpeg  # noqa: F401
+            except ImportError as error:
+                raise ImportError("MP4 needs imageio-ffmpeg: pip install imageio-ffmpeg") from error
+            import imageio.v2 as iio2
+
+            with iio2.get_writer(out / "animation.mp4", fps=10) as writer:
+                for f in shown:
+                    writer.append_data(f)  # type: ignore[attr-defined]
+            written.append(out / "animation.mp4")
+    for fname, fig in (
+        ("paths.png", plot.loop_paths(log, setup.references, setup.centers, setup.labels)),
+        ("errors.png", plot.loop_errors(log)),
+    ):
+        fig.savefig(out / fname, dpi=110)
+        written.append(out / fname)
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=1))
+    written.append(out / "metrics.json")
+    return written
+
+
+def _emulated(setup: Setup, seed: int, scene_dir: Path) -> tuple[subprocess.Popen[str], str, str]:
+    scene = {
+        "parts": setup.parts.tolist(),
+        "labels": setup.labels,
+        "mu": 0.3,
+        "plate": [PLATE.mass, PLATE.inertia, PLATE.lever],
+    }
+    path = scene_dir / "scene.json"
+    path.write_text(json.dumps(scene))
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "upm.board.emulator",
+            "--scene",
+            str(path),
+            "--camera-port",
+            "0",
+            "--seed",
+            str(seed),
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert proc.stdout is not None
+    tty = proc.stdout.readline().strip()
+    camera = proc.stdout.readline().strip().removeprefix("camera ")
+    if not tty or not camera:
+        proc.kill()
+        raise RuntimeError("the board emulator did not start")
+    return proc, tty, camera
+
+
+def run_demo(
+    name: str,
+    out: Path | str = "out",
+    *,
+    board: bool = False,
+    quick: bool = False,
+    seed: int = 1,
+    mp4: bool = False,
+    verbose: bool = True,
+    cycles: int | None = None,
+) -> dict[str, Any]:
+    """Run demo ``name`` (see :data:`DEMOS`), write its outputs to ``out/name/``, print the report
+    and return the metrics. ``board``: the plate runs in a board emulator process reached over the
+    protocol; ``quick``: a short version; ``cycles``: at most this many cycles."""
+    if name not in DEMOS:
+        raise ParameterError(f"demo must be one of {sorted(DEMOS)}; got {name!r}")
+    demo = DEMOS[name]
+    setup = demo.build(quick, seed)
+    if cycles is not None:
+        setup.cycles = int(cycles)
+    say = print if verbose else (lambda *a, **k: None)
+    say(f"upm demo {name}: {demo.summary} (thesis {demo.figure})" + ("  [board emulator]" if board else ""))
+    started = time.perf_counter()
+    if board:
+        from .board import Board
+        from .control import BoardDevice
+        from .vision import RemoteCamera
+
+        with tempfile.TemporaryDirectory() as tmp:
+            proc, tty, address = _emulated(setup, seed, Path(tmp))
+            try:
+                with Board(tty) as link, RemoteCamera(address) as camera:
+                    device = BoardDevice(link, PLATE, wait_rest=False)
+                    loop = Loop(device, camera, setup.planner, setup.task, part_radius=setup.radius)
+                    log = loop.run(setup.cycles)
+                    truth = camera.truth()
+            finally:
+                proc.kill()
+                proc.wait()
+        fallen = int(np.sum(~np.all(np.isfinite(truth), axis=1)))
+    else:
+        plant = _plant(setup, seed)
+        loop = Loop(
+            SimulatedDevice(plant, ideal=setup.ideal),
+            plant.camera(setup.labels, seed=seed),
+            setup.planner,
+            setup.task,
+            part_radius=setup.radius,
+        )
+        log = loop.run(setup.cycles)
+        fallen = plant.fallen
+    metrics = _metrics(name, log, setup, fallen, setup.parts)
+    metrics["wall_time"] = time.perf_counter() - started
+    metrics["board"] = board
+    written = _write_outputs(name, Path(out) / name, log, loop, setup, metrics, mp4)
+    for line in demo.report(log, setup, metrics):
+        say("  " + line)
+    say(
+        f"  wall time {metrics['wall_time']:.1f} s; vision {metrics['vision_ms']:.1f} ms/frame, planning "
+        f"{metrics['planning_ms']:.0f} ms/cycle; step tracking error median "
+        f"{1000 * metrics['tracking_error_median']:.1f} mm"
+    )
+    say("  wrote " + ", ".join(str(p) for p in written))
+    return metrics

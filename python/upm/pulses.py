@@ -1,0 +1,254 @@
+"""Pulses: the unit of work a plate executes (SPEC §5, §6, §7; thesis 5.2.3, 5.2.5, 6.1).
+
+A :class:`Pulse` is one shaped burst of plate vibration, a rotation about a centre or a jet,
+under a raised-cosine envelope (attack, sustain, decay) and followed by rest while the parts slide
+to a stop. The same pulse can be
+
+* simulated exactly: :meth:`Pulse.motion` is its :class:`~upm.PlateMotion` (the plate follows the
+  commanded velocity);
+* played on motors: :meth:`Pulse.channels` gives the four motor waveforms (``X1, X2, Y1, Y2``, the
+  board's SET_CHANNEL fields) whose forces make the plate move with that velocity: every harmonic
+  (1, 2 and 2/3 of the base frequency) is a velocity phasor per axis, divided by the axis's
+  velocity response (inertial, 5.10, or the suspension of 5.26: precompensation) and shared
+  among the motors with minimum norm (5.8).
+
+Planners (:mod:`upm.planning`, :mod:`upm.control`) return lists of pulses; devices play them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._arrays import vector
+from ._errors import ParameterError
+from .actuation import Axis, Plate
+from .motion import PlateMotion
+from .waveforms import Harmonics
+
+__all__ = ["Pulse", "program"]
+
+FloatArray = NDArray[np.float64]
+ComplexArray = NDArray[np.complex128]
+
+#: The harmonics a channel can play, as multiples of the base frequency (SET_CHANNEL's fields).
+HARMONICS = (1.0, 2.0, 2.0 / 3.0)
+
+
+def _finite(name: str, value: float, low: float = 0.0, strict: bool = False) -> float:
+    ok = isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(value)
+    if not ok or value < low or (strict and value == low):
+        relation = ">" if strict else ">="
+        raise ParameterError(f"{name} must be finite and {relation} {low:g}; got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class Pulse:
+    """One enveloped plate vibration and the rest after it.
+
+    Build with :meth:`rotation` or :meth:`jet`. ``attack``, ``sustain``, ``decay`` and ``rest``
+    are in seconds; ``frequency`` [Hz] is the base frequency of the drive.
+    """
+
+    kind: Literal["rotation", "jet", "rest"]
+    center: tuple[float, float]
+    frequency: float
+    attack: float
+    sustain: float
+    decay: float
+    rest: float = 0.0
+    waveform: Harmonics | None = field(default=None, compare=False)
+    """Angular velocity [rad/s] of a rotation."""
+    direction: tuple[float, float] = (0.0, 0.0)
+    """Unit feeding direction of a jet."""
+    rho: float = 0.0
+    amplitude: float = 0.0
+
+    # -- builders ------------------------------------------------------------------------------
+    @classmethod
+    def rotation(
+        cls,
+        center: ArrayLike,
+        waveform: Harmonics,
+        attack: float,
+        sustain: float,
+        decay: float,
+        rest: float = 0.0,
+    ) -> Pulse:
+        """A rotation about ``center`` [m] at angular rate ``waveform`` [rad/s] (its first two
+        harmonics; the board plays no higher ones)."""
+        if not isinstance(waveform, Harmonics) or waveform.shape != ():
+            raise ParameterError(f"waveform must be a single upm.Harmonics; got {waveform!r}")
+        if waveform.cos.shape[-1] > 2 and np.any(waveform.cos[2:] != 0) | np.any(waveform.sin[2:] != 0):
+            raise ParameterError("waveform must have harmonics 1 and 2 only (what a board channel plays)")
+        cx, cy = vector("center", center, 2)
+        return cls(
+            "rotation",
+            (float(cx), float(cy)),
+            float(waveform.frequency),
+            *cls._times(attack, sustain, decay, rest),
+            waveform=waveform,
+        )
+
+    @classmethod
+    def jet(
+        cls,
+        center: ArrayLike,
+        direction: ArrayLike,
+        rho: float,
+        amplitude: float,
+        frequency: float,
+        attack: float,
+        sustain: float,
+        decay: float,
+        rest: float = 0.0,
+    ) -> Pulse:
+        """The jet (6.4) focused at ``center`` [m], feeding along ``direction``, radius ``rho`` [m],
+        translation amplitude ``amplitude`` [m/s] at ``frequency`` [Hz]."""
+        cx, cy = vector("center", center, 2)
+        d = vector("direction", direction, 2)
+        n = float(np.hypot(*d))
+        if not n > 0:
+            raise ParameterError("direction must be non-zero")
+        return cls(
+            "jet",
+            (float(cx), float(cy)),
+            _finite("frequency", frequency, strict=True),
+            *cls._times(attack, sustain, decay, rest),
+            direction=(float(d[0] / n), float(d[1] / n)),
+            rho=_finite("rho", rho, strict=True),
+            amplitude=_finite("amplitude", amplitude, strict=True),
+        )
+
+    @classmethod
+    def pause(cls, seconds: float) -> Pulse:
+        """The plate at rest for ``seconds``."""
+        return cls("rest", (0.0, 0.0), 1.0, 0.0, 0.0, 0.0, _finite("seconds", seconds, strict=True))
+
+    @staticmethod
+    def _times(attack: float, sustain: float, decay: float, rest: float) -> tuple[float, float, float, float]:
+        out = tuple(
+            _finite(n, v)
+            for n, v in zip(
+                ("attack", "sustain", "decay", "rest"), (attack, sustain, decay, rest), strict=True
+            )
+        )
+        if out[0] + out[1] + out[2] <= 0:
+            raise ParameterError("a pulse needs attack + sustain + decay > 0")
+        return out  # type: ignore[return-value]
+
+    # -- what it is --------------------------------------------------------------------------------
+    @property
+    def on_time(self) -> float:
+        """``attack + sustain + decay`` [s]."""
+        return self.attack + self.sustain + self.decay
+
+    @property
+    def duration(self) -> float:
+        """``on_time + rest`` [s]."""
+        return self.on_time + self.rest
+
+    def motion(self, rest: bool = True) -> PlateMotion:
+        """The pulse as a plate motion (enveloped, then its rest when ``rest``)."""
+        if self.kind == "rest":
+            return PlateMotion.rest(self.rest)
+        if self.kind == "rotation":
+            assert self.waveform is not None
+            base = PlateMotion.rotation(self.center, self.waveform)
+        else:
+            base = PlateMotion.jet(self.center, self.direction, self.rho, self.amplitude, self.frequency)
+        m = base.with_envelope(self.attack, self.sustain, self.decay)
+        if rest and self.rest > 0:
+            return PlateMotion.sequence([m, PlateMotion.rest(self.rest)])
+        return m
+
+    def phasors(self) -> dict[float, ComplexArray]:
+        """Plate velocity ``(u1, u2, u3)`` as phasors per harmonic (keys 1, 2, 2/3 of the base
+        frequency): ``u(t) = Re sum_h V_h exp(i h w t)`` while the envelope is 1."""
+        cx, cy = self.center
+        out: dict[float, ComplexArray] = {h: np.zeros(3, complex) for h in HARMONICS}
+
+        def spin(rate: complex) -> ComplexArray:  # rotation about the centre at a rate phasor
+            return np.array([rate * cy, -rate * cx, rate])
+
+        if self.kind == "rest":
+            return out
+        if self.kind == "rotation":
+            assert self.waveform is not None
+            c, s = self.waveform.cos, self.waveform.sin
+            for k, h in enumerate((1.0, 2.0)):
+                if k < c.shape[-1]:
+                    out[h] = spin(complex(c[k], -s[k]))
+        else:
+            a, (dx, dy) = self.amplitude, self.direction
+            out[1.0] = np.array([a * dx, a * dy, 0.0], complex)
+            out[2.0] = np.array([-a * dx, -a * dy, 0.0], complex)
+            out[2.0 / 3.0] = spin(-2j * a / self.rho)  # (2A/rho) sin(2wt/3) = Re(-i (2A/rho) e^{i 2wt/3})
+        return out
+
+    def channels(
+        self, plate: Plate, axes: Sequence[Axis] | None = None, limit: float | None = None
+    ) -> list[dict[str, float]]:
+        """The four motor channels ``X1, X2, Y1, Y2`` playing this pulse on ``plate``.
+
+        Each is a dict of the board's SET_CHANNEL fields (``amplitude``, ``frequency``,
+        ``h1_amplitude``, ``h1_phase``, ``h2_amplitude``, ``h2_phase``, ``h23_amplitude``,
+        ``h23_phase``) with ``amplitude = 1`` [N] and the harmonic amplitudes in newtons. Forces
+        are the velocity phasors divided by each axis's velocity response: ``i h w m`` for the
+        inertial plate (5.10), or ``axes`` (x, y, rotation; 5.26) to precompensate the suspension.
+        ``ParameterError`` when a motor's peak force would exceed ``limit`` [N].
+        """
+        w = 2 * math.pi * self.frequency
+        inertia = (plate.mass, plate.mass, plate.inertia)
+        r = plate.lever
+        wrench_of_motors = np.array([[1.0, -1.0, 0.0, 0.0], [0.0, 0.0, 1.0, -1.0], [-r, -r, r, r]])
+        share = np.linalg.pinv(wrench_of_motors)
+        motors: dict[float, ComplexArray] = {}
+        for h, v in self.phasors().items():
+            if axes is None:
+                response = np.array([1.0 / (1j * h * w * m) for m in inertia])
+            else:
+                if len(axes) != 3:
+                    raise ParameterError(
+                        f"axes must be three upm.actuation.Axis (x, y, rotation); got {len(axes)}"
+                    )
+                response = np.array([complex(a.velocity_response(h * self.frequency)) for a in axes])
+            motors[h] = share @ (v / response)
+        out = []
+        for k in range(4):
+            m1, m2, m23 = (motors[h][k] for h in HARMONICS)
+            out.append(
+                {
+                    "amplitude": 1.0,
+                    "frequency": self.frequency,
+                    "h1_amplitude": abs(m1),
+                    "h1_phase": float(np.angle(m1)),
+                    "h2_amplitude": abs(m2),
+                    "h2_phase": float(np.angle(m2)),
+                    "h23_amplitude": abs(m23),
+                    "h23_phase": float(np.angle(m23)),
+                }
+            )
+        if limit is not None:
+            peak = max(c["h1_amplitude"] + c["h2_amplitude"] + c["h23_amplitude"] for c in out)
+            if peak > limit:
+                raise ParameterError(
+                    f"the pulse needs {peak:.4g} N of motor force, beyond the limit of {limit:g} N: lower "
+                    "the waveform's amplitude (or the jet's), or move its centre closer to the plate"
+                )
+        return out
+
+
+def program(pulses: Sequence[Pulse]) -> PlateMotion:
+    """The pulses one after another (each with its rest) as one plate motion; an empty list is a
+    moment of rest."""
+    items = [p.motion() for p in pulses]
+    if not items:
+        return PlateMotion.rest(1e-3)
+    return PlateMotion.sequence(items)
