@@ -135,8 +135,10 @@ class Log:
         return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
 
     def tracking_error(self) -> FloatArray:
-        """``|achieved - desired|`` per cycle and part [m] (NaN where unknown)."""
-        d = self.achieved - self.desired
+        """``|achieved - desired|`` per cycle and part [m] (NaN where unknown; a free component,
+        NaN in ``desired``, counts as met)."""
+        achieved, desired = self.achieved, self.desired
+        d = np.where(np.isnan(desired) & np.isfinite(achieved), 0.0, achieved - desired)
         out: FloatArray = np.hypot(d[..., 0], d[..., 1])
         return out
 

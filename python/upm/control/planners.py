@@ -2,7 +2,7 @@
 
 * :class:`RotationsPlanner` (chapter 4): steps are read as average forces (``f = step / gain``),
   the rotation strengths come from :func:`upm.solve_rotations` (SVD, minimum norm over redundant
-  centres, bounded), and rotation ``j`` runs for a share ``|k_j| / (N f0)`` of the cycle.
+  centres, optionally damped), and rotation ``j`` gets short pulses in proportion to ``|k_j|``.
 * :class:`DisplacementPlanner` (chapter 5): arc lengths about the centres from
   :func:`upm.solve_displacements`, one shaped pulse per centre sized against the exact integrator
   (:func:`upm.plan_pulses`).
@@ -24,11 +24,12 @@ from .._arrays import as_float
 from .._errors import ParameterError, PlanWarning, RankWarning
 from ..actuation import Axis, Plate
 from ..feeding import mean_force
+from ..fields import rotation_field
 from ..motion import PlateMotion
 from ..planning import _harmonics, _positive, jet_pulses, plan_pulses, trim_rests
 from ..pulses import Pulse
 from ..sim import simulate_batch
-from ..solvers import solve_displacements, solve_rotations
+from ..solvers import rotation_order, solve_displacements
 from ..waveforms import Harmonics, Waveform
 
 __all__ = ["DisplacementPlanner", "FixedPlanner", "JetPlanner", "Planner", "RotationsPlanner"]
@@ -38,7 +39,8 @@ FloatArray = NDArray[np.float64]
 
 @runtime_checkable
 class Planner(Protocol):
-    """``plan(positions (M, 2), steps (M, 2)) -> list[Pulse]`` [m]."""
+    """``plan(positions (M, 2), steps (M, 2)) -> list[Pulse]`` [m]. A NaN component of a step is
+    free: the task does not care where the part goes along it."""
 
     def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]: ...
 
@@ -92,6 +94,9 @@ class RotationsPlanner:
         Rise and fall of each pulse [s] (default 1.5 periods).
     rcond, damping :
         Passed to :func:`upm.solve_rotations`.
+
+    Free step components (NaN) are left out of the linear system (4.10): a sort that only needs
+    parts to move along x constrains M rows, not 2M, and the redundant centres go much further.
     """
 
     def __init__(
@@ -133,8 +138,16 @@ class RotationsPlanner:
         return Pulse.rotation(center, wave, a, on - 2 * a, a, self.rest)
 
     def _calibrate(self) -> tuple[float, float]:
-        """Step of a pulse against its on-time (mean over parts 5 to 30 cm from the centre), and
-        the time the parts take to stop after the longest (+20%)."""
+        """Step of a pulse against its on-time (mean over parts 5 to 30 cm from the centre), the
+        time the parts take to stop after the longest (+20%), and the full pulse's step against
+        the distance from its centre (``self.radii``, ``self.by_radius``, relative to the mean)."""
+        self.radii = np.geomspace(0.005, 1.0, 40)
+        probe = Pulse.rotation((0.0, 0.0), self.h, self.attack, self.short - 2 * self.attack, self.attack)
+        ring = PlateMotion.sequence([probe.motion(), PlateMotion.rest(self.short)])
+        far = simulate_batch([ring], np.stack([self.radii, np.zeros_like(self.radii)], axis=1),
+                             duration=ring.duration or 0.0, dt=1.0 / (200.0 * ring.max_frequency), mu=self.mu,
+                             record_every=10**9)  # fmt: skip
+        self.by_radius = far.positions[0, -1, :, 1]
         radii = np.linspace(0.05, 0.3, 6)
         parts = np.stack([radii, np.zeros_like(radii)], axis=1)
         period = 1.0 / float(self.h.frequency)
@@ -159,6 +172,7 @@ class RotationsPlanner:
         stop = float(run.t[moving].max()) - self.short if np.any(moving) else 0.0
         if not self.steps[-1] > 0:
             raise ParameterError("the waveform does not move parts forward; check its time asymmetry")
+        self.by_radius = self.by_radius / self.steps[-1]
         return float(self.steps[-1]), 1.2 * stop + 2e-3
 
     def _split(self, strengths: FloatArray) -> tuple[NDArray[np.int64], FloatArray]:
@@ -174,20 +188,41 @@ class RotationsPlanner:
         whole, on = self._split(strengths)
         return float(whole.sum() * (self.short + self.rest) + np.sum(on + self.rest * (on > 0)))
 
+    def _solve_some(self, pos: FloatArray, forces: FloatArray) -> FloatArray:
+        """Strengths for the given (finite) force components: (4.10)'s rows ``A_ij = Phi_j(P_i)``
+        (the unit rotation field), each scaled by what a pulse about ``C_j`` really does at
+        ``|P_i - C_j|`` relative to the mean (from the calibration: less very near the centre),
+        minimum norm by SVD (``rcond``), with Tikhonov ``damping``. The scaling matters because
+        redundant centres cancel each other: a few per cent of model error on every rotation is
+        larger than what is left of them."""
+        n = len(self.centers)
+        scale = np.interp(
+            np.linalg.norm(pos[:, None] - self.centers[None], axis=2), self.radii, self.by_radius
+        )
+        field = np.stack([rotation_field(pos, c) for c in self.centers], axis=-1) * scale[:, None, :]
+        given = np.isfinite(forces).reshape(-1)
+        a = field.reshape(-1, n)[given]
+        b = n * forces.reshape(-1)[given]
+        if self.damping:
+            a = np.vstack([a, self.damping * np.eye(n)])
+            b = np.concatenate([b, np.zeros(n)])
+        out: FloatArray = np.linalg.lstsq(a, b, rcond=self.rcond)[0]
+        return out
+
     def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]:
         pos, st = np.asarray(positions, float), np.asarray(steps, float)
-        if len(pos) == 0 or not np.any(st):
+        if len(pos) == 0 or not np.any(np.nan_to_num(st)):
             return []
         st = _clear_of_centers(pos, st, self.centers, 0.01)
-        if 2 * len(pos) > len(self.centers):
+        rows = int(np.isfinite(st).sum())
+        if rows > len(self.centers):
             raise ParameterError(
-                f"{len(pos)} parts need at least {2 * len(pos)} centres of rotation; the planner has "
-                f"{len(self.centers)}"
+                f"{rows} constrained step components need at least as many centres of rotation; the planner "
+                f"has {len(self.centers)}"
             )
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RankWarning)
-            plan = solve_rotations(pos, st / self.gain, self.centers, rcond=self.rcond, damping=self.damping)
-        k = plan.strengths  # linear in the forces: scaling them scales k
+        k = self._solve_some(pos, st / self.gain)
+        order = rotation_order(k, pos, self.centers)
+        # the solution is linear in the forces: scaling them scales k
         if self._time(k) > self.cycle:  # too much for one cycle: all forces down together
             lo, hi = 0.0, 1.0
             for _ in range(40):
@@ -198,7 +233,7 @@ class RotationsPlanner:
         counts = whole + (on > 0)
         out: list[Pulse] = []
         for turn in range(int(counts.max(initial=0))):  # round robin, in the plan's order
-            for j in plan.order:
+            for j in order:
                 if whole[j] > turn:
                     out.append(self._pulse(self.centers[j], float(np.sign(k[j]))))
                 elif whole[j] == turn and on[j] > 0:
@@ -276,7 +311,7 @@ class DisplacementPlanner:
             )
 
     def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]:
-        pos, st = np.asarray(positions, float), np.asarray(steps, float)
+        pos, st = np.asarray(positions, float), np.nan_to_num(np.asarray(steps, float))  # free: stay
         if len(pos) == 0 or not np.any(st):
             return []
         st = _clear_of_centers(pos, st, self.centers, 0.01)
@@ -375,7 +410,7 @@ class JetPlanner:
         return self.amplitude * min(1.0, 0.98 * self.limit / peak)
 
     def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]:
-        pos, st = np.asarray(positions, float), np.asarray(steps, float)
+        pos, st = np.asarray(positions, float), np.nan_to_num(np.asarray(steps, float))  # free: stay
         moving = np.hypot(st[:, 0], st[:, 1]) > self.min_step
         if not np.any(moving):
             return []

@@ -317,6 +317,11 @@ class SortTask:
         Parts closer than this [m] are spread apart.
     max_step : float
         Step asked for per cycle [m].
+    free_y : bool
+        Leave y free (NaN) for parts that are not being spread apart and are more than
+        ``margin`` from the top and bottom edges (beyond it they are brought back): planners that
+        solve for every constrained component (:class:`~upm.control.RotationsPlanner`) then have
+        about half the constraints.
     """
 
     def __init__(
@@ -328,7 +333,9 @@ class SortTask:
         margin: float = 0.04,
         spacing: float = 0.045,
         max_step: float = 0.02,
+        free_y: bool = False,
     ) -> None:
+        self.free_y = bool(free_y)
         if not sides or any(v not in (-1, 1) for v in sides.values()):
             raise ParameterError(f"sides must map labels to -1 (left) or +1 (right); got {dict(sides)}")
         self.sides = dict(sides)
@@ -357,6 +364,7 @@ class SortTask:
         out = np.zeros_like(pos)
         go = seen & (side != 0)
         out[go, 0] = side[go] * np.clip(goal - side[go] * pos[go, 0], 0.0, self.max_step)
+        spread = np.zeros(len(pos), dtype=bool)
         # spread close pairs apart, mostly across the direction of travel
         for a in np.nonzero(seen)[0]:
             for b in np.nonzero(seen)[0]:
@@ -370,11 +378,18 @@ class SortTask:
                 push = 0.5 * (self.spacing - dist) * math.copysign(1.0, dy)
                 out[a, 1] -= push
                 out[b, 1] += push
+                spread[[a, b]] = True
         out[:, 1] = np.clip(
             out[:, 1], -self.half + self.margin - pos[:, 1], self.half - self.margin - pos[:, 1]
         )
         out[~seen] = 0.0
-        return _clip(out, self.max_step)
+        out = _clip(out, self.max_step)
+        if self.free_y:  # free across, but not out towards the edges parallel to the travel
+            inner = self.half - self.margin
+            over = np.abs(pos[:, 1]) - inner
+            out[seen & (over > 0), 1] = -np.sign(pos[seen & (over > 0), 1]) * over[seen & (over > 0)]
+            out[seen & ~spread & (over <= 0), 1] = np.nan
+        return out
 
     def done(self, state: State) -> bool:
         e = self.errors(state)
@@ -392,7 +407,7 @@ class WatchTask:
         self.cycles = int(cycles)
 
     def steps(self, state: State) -> FloatArray:
-        return np.zeros_like(state.positions)
+        return np.full_like(state.positions, np.nan)  # nothing asked: every component free
 
     def done(self, state: State) -> bool:
         return state.cycle >= self.cycles
