@@ -1,8 +1,8 @@
 """Planners: desired small steps of the parts → the pulses that make them (chapters 4, 5, 6).
 
 * :class:`RotationsPlanner` (chapter 4): steps are read as average forces (``f = step / gain``),
-  the rotation strengths come from :func:`upm.solve_rotations` (SVD, minimum norm over redundant
-  centres, optionally damped), and rotation ``j`` gets short pulses in proportion to ``|k_j|``.
+  the rotation strengths solve (4.10) by SVD (minimum norm over redundant centres, optionally
+  damped) with calibrated columns, and rotation ``j`` gets short pulses in proportion to ``|k_j|``.
 * :class:`DisplacementPlanner` (chapter 5): arc lengths about the centres from
   :func:`upm.solve_displacements`, one shaped pulse per centre sized against the exact integrator
   (:func:`upm.plan_pulses`).
@@ -66,7 +66,9 @@ class RotationsPlanner:
     """Chapter 4: average forces from rotations about fixed centres, solved by SVD.
 
     The steps asked for are read as average forces (``f = step / gain``) and
-    :func:`upm.solve_rotations` gives the strengths (minimum norm over redundant centres). The
+    the strengths solve (4.10) by SVD, minimum norm over redundant centres, as
+    :func:`upm.solve_rotations` does, with each column scaled per part by what a pulse about that
+    centre really does at that distance (see :meth:`_solve_some`). The
     model holds for parts that start from rest: a time-asymmetric rotation pushes every resting
     part with the same tangential force whatever its distance from the centre, but a part that has
     picked up speed feels a force that falls off with speed relative to the plate, which is slower
@@ -93,7 +95,8 @@ class RotationsPlanner:
     attack : float or None
         Rise and fall of each pulse [s] (default 1.5 periods).
     rcond, damping :
-        Passed to :func:`upm.solve_rotations`.
+        Singular values below ``rcond * s_max`` dropped; Tikhonov ``damping`` (as in
+        :func:`upm.solve_rotations`).
 
     Free step components (NaN) are left out of the linear system (4.10): a sort that only needs
     parts to move along x constrains M rows, not 2M, and the redundant centres go much further.
