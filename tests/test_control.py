@@ -262,10 +262,12 @@ def test_remote_camera_refuses_bad_addresses():
 # -- the command line ---------------------------------------------------------------------------------
 
 
-def test_demo_names_match_the_registry():
+def test_demo_list_names_every_demo(capsys):
     from upm import cli, demos
 
-    assert cli._demo_names() == list(demos.DEMOS)
+    assert cli.main(["demo", "list"]) == 0
+    listed = [line.split()[0] for line in capsys.readouterr().out.splitlines()]
+    assert listed == list(demos.DEMOS)
 
 
 def test_figures_are_written(tmp_path):

@@ -196,10 +196,6 @@ def sweep_command(config: Path | None, listing: bool, n_jobs: int | None, quiet:
     return 0
 
 
-def _demo_names() -> list[str]:
-    return ["trajectory2", "sort10", "racetrack", "corners", "plus", "bowtie", "sort8"]
-
-
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["emulate"]:  # its own options: hand them over untouched
@@ -216,7 +212,7 @@ def main(argv: list[str] | None = None) -> int:
         "demo", help="a thesis experiment through the closed loop (NAME), or the feeding table ('feeding')"
     )
     d.add_argument(
-        "name", nargs="?", default="feeding", help="feeding, list, or a demo: " + ", ".join(_demo_names())
+        "name", nargs="?", default="feeding", help="feeding (the default), list (the demos), or a demo's name"
     )
     d.add_argument("--out", type=Path, default=Path("out"), help="directory for outputs (default: out)")
     d.add_argument("--no-plots", action="store_true", help="feeding: print the tables only")

@@ -68,7 +68,6 @@ class Setup:
     cycles: int
     references: list[FloatArray] = field(default_factory=list)
     centers: FloatArray | None = None
-    ideal: bool = False
 
 
 @dataclass(frozen=True)
@@ -332,7 +331,11 @@ def _plant(setup: Setup, seed: int) -> SimulatedUPM:
     )
 
 
-def _metrics(name: str, log: Log, setup: Setup, fallen: int, started: FloatArray) -> dict[str, Any]:
+def _finite(statistic: Callable[..., Any], values: FloatArray, *args: Any) -> float:
+    return float(statistic(values, *args)) if np.any(np.isfinite(values)) else float("nan")
+
+
+def _metrics(name: str, log: Log, setup: Setup, fallen: int, wall: float, board: bool) -> dict[str, Any]:
     errors = log.errors
     final = errors[-1] if len(errors) else np.zeros(0)
     tracking = log.tracking_error()
@@ -342,18 +345,15 @@ def _metrics(name: str, log: Log, setup: Setup, fallen: int, started: FloatArray
         "done": bool(log.done),
         "cycles": len(log.rows) - 1,
         "plate_time": float(log.meta.get("plate_time", 0.0)),
-        "wall_time": float(log.meta.get("wall", 0.0)),
+        "wall_time": wall,
+        "board": board,
         "fallen": int(fallen),
         "parts": len(setup.parts),
-        "final_error": float(np.nanmax(final)) if np.any(np.isfinite(final)) else float("nan"),
-        "median_error": float(np.nanmedian(errors)) if np.any(np.isfinite(errors)) else float("nan"),
-        "max_error": float(np.nanmax(errors[1:])) if np.any(np.isfinite(errors[1:])) else float("nan"),
-        "tracking_error_median": float(np.nanmedian(tracking))
-        if np.any(np.isfinite(tracking))
-        else float("nan"),
-        "tracking_error_p90": float(np.nanpercentile(tracking, 90))
-        if np.any(np.isfinite(tracking))
-        else float("nan"),
+        "final_error": _finite(np.nanmax, final),
+        "median_error": _finite(np.nanmedian, errors),
+        "max_error": _finite(np.nanmax, errors[1:]),
+        "tracking_error_median": _finite(np.nanmedian, tracking),
+        "tracking_error_p90": _finite(np.nanpercentile, tracking, 90),
         "vision_ms": 1000 * float(np.mean(log.vision)) if log.vision else 0.0,
         "planning_ms": 1000 * float(np.mean(log.planning)) if log.planning else 0.0,
         "pulses": int(np.sum(log.pulses)),
@@ -394,7 +394,9 @@ def _draw(
     ]
     refs = [table.to_camera(r) for r in setup.references]
     for frame, c in zip(frames, cycles, strict=True):
-        img = np.ascontiguousarray(frame[..., ::-1])  # RGB for cv2 drawing in BGR order kept consistent
+        img = np.asarray(
+            cv2.cvtColor(frame, cv2.COLOR_BGR2RGB), dtype=np.uint8
+        )  # GIF and MP4 writers take RGB
         for r in refs:
             cv2.polylines(
                 img, [np.round(r * 4).astype(np.int32)], False, (90, 90, 90), 1, cv2.LINE_AA, shift=2
@@ -416,7 +418,7 @@ def _draw(
             1,
             cv2.LINE_AA,
         )
-        out.append(img[..., ::-1].copy())
+        out.append(img)
     return out
 
 
@@ -534,7 +536,7 @@ def run_demo(
     else:
         plant = _plant(setup, seed)
         loop = Loop(
-            SimulatedDevice(plant, ideal=setup.ideal),
+            SimulatedDevice(plant),
             plant.camera(setup.labels, seed=seed),
             setup.planner,
             setup.task,
@@ -542,9 +544,7 @@ def run_demo(
         )
         log = loop.run(setup.cycles)
         fallen = plant.fallen
-    metrics = _metrics(name, log, setup, fallen, setup.parts)
-    metrics["wall_time"] = time.perf_counter() - started
-    metrics["board"] = board
+    metrics = _metrics(name, log, setup, fallen, time.perf_counter() - started, board)
     written = _write_outputs(name, Path(out) / name, log, loop, setup, metrics, mp4)
     for line in demo.report(log, setup, metrics):
         say("  " + line)

@@ -394,6 +394,13 @@ def _pulse_program(
     return pulses(d)
 
 
+def stopping_time(t: np.ndarray, stuck: np.ndarray, after: float) -> float:
+    """How long after time ``after`` [s] the last part still slid: ``stuck`` (T, M) records at
+    times ``t`` (T,) from the integrator."""
+    moving = ~np.all(stuck, axis=1) & (t > after)
+    return float(t[moving].max()) - after if np.any(moving) else 0.0
+
+
 def trim_rests(
     pulses: list[Pulse],
     parts: ArrayLike,
@@ -422,8 +429,7 @@ def trim_rests(
         dt = 1.0 / (200.0 * motion.max_frequency)
         every = max(1, int(2e-3 / dt))
         run = simulate(motion, pos, duration=on + tail, dt=dt, mu=mu_f, mu_s=mu_s, g=g, record_every=every)
-        moving = ~np.all(run.stuck, axis=1) & (run.t > on)
-        stop = float(run.t[moving].max()) - on if np.any(moving) else 0.0
+        stop = stopping_time(run.t, run.stuck, on)
         out.append(replace(pulse, rest=min(pulse.rest, (1 + margin) * stop + 5e-3)))
         pos = run.positions[-1]
     return out
@@ -434,6 +440,10 @@ def _columns(parts: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r = parts - c
     n = np.hypot(r[:, 0], r[:, 1])
     return -r[:, 1] / n, r[:, 0] / n
+
+
+#: The largest multiple of the waveform's amplitude in the sizing table of ``intensity="amplitude"``.
+AMPLITUDE_TOP = 20.0
 
 
 class _PulseTable:
@@ -457,7 +467,7 @@ class _PulseTable:
             top = max(2.0 * (math.sqrt(2.0 * biggest / kappa) + rise), 4 * rise)
             grid = np.arange(period / 4, top + period / 8, period / 8)
         else:
-            grid = np.geomspace(0.05, 20.0, 48)  # control.planners._TABLE_TOP is the top
+            grid = np.geomspace(0.05, AMPLITUDE_TOP, 48)
         self.mu, self.mu_s, self.rest = mu, mu_s, rest
         motions = [self.motion(x, 1.0) for x in grid]
         longest = max(mo.duration or 0.0 for mo in motions)

@@ -236,13 +236,21 @@ class Pulse:
                 }
             )
         if limit is not None:
-            peak = max(c["h1_amplitude"] + c["h2_amplitude"] + c["h23_amplitude"] for c in out)
+            peak = _peak(out)
             if peak > limit:
                 raise ParameterError(
                     f"the pulse needs {peak:.4g} N of motor force, beyond the limit of {limit:g} N: lower "
                     "the waveform's amplitude (or the jet's), or move its centre closer to the plate"
                 )
         return out
+
+    def peak_force(self, plate: Plate, axes: Sequence[Axis] | None = None) -> float:
+        """The largest peak force [N] any motor needs to play this pulse (see :meth:`channels`)."""
+        return _peak(self.channels(plate, axes))
+
+
+def _peak(channels: list[dict[str, float]]) -> float:
+    return max(c["h1_amplitude"] + c["h2_amplitude"] + c["h23_amplitude"] for c in channels)
 
 
 def program(pulses: Sequence[Pulse]) -> PlateMotion:

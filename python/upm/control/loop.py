@@ -71,6 +71,30 @@ class Log:
     done: bool = False
     meta: dict[str, Any] = field(default_factory=dict)
 
+    def record(
+        self,
+        ids: NDArray[np.int64],
+        positions: FloatArray,
+        desired: FloatArray,
+        errors: FloatArray,
+        time: float,
+        wall: float,
+        pulses: list[Pulse],
+        timings: tuple[float, float, float],
+    ) -> None:
+        """Append one cycle: what was seen, asked for and played (``timings``: vision, planning,
+        execution [s])."""
+        self.rows.append({int(i): (positions[k], desired[k], float(errors[k])) for k, i in enumerate(ids)})
+        self.time.append(time)
+        self.wall.append(wall)
+        played = [p for p in pulses if p.kind != "rest"]
+        self.pulses.append(len(played))
+        self.plate_time.append(math.fsum(p.duration for p in pulses))
+        self.vision.append(timings[0])
+        self.planning.append(timings[1])
+        self.execution.append(timings[2])
+        self.centers.append(np.array([p.center for p in played]).reshape(-1, 2))
+
     # -- as arrays -------------------------------------------------------------------------------
     def _grid(self, pick: Callable[[int, int], Any], width: int) -> FloatArray:
         c, p = len(self.rows), len(self.ids)
@@ -273,7 +297,8 @@ class Loop:
         out = Log(meta={"planner": type(self.planner).__name__, "task": type(self.task).__name__})
         start = time.perf_counter()
         last_cycle = 0.0
-        prev: dict[int, tuple[FloatArray, FloatArray]] = {}
+        prev: dict[int, FloatArray] = {}  # positions at the start of the last cycle
+        known: set[int] = set()
         for cycle in range(cycles + 1):
             t0 = time.perf_counter()
             frame = self._read()
@@ -283,13 +308,14 @@ class Loop:
             t1 = time.perf_counter()
             pos = tracks.positions
             for k, i in enumerate(tracks.ids):  # ids new to the log get a column
-                if int(i) not in set(out.ids.tolist()):
+                if int(i) not in known:
+                    known.add(int(i))
                     out.ids = np.append(out.ids, int(i))
                     out.labels.append(tracks.labels[k])
             achieved: dict[int, FloatArray] = {}
             for k, i in enumerate(tracks.ids):
                 if int(i) in prev and np.all(np.isfinite(pos[k])):
-                    achieved[int(i)] = pos[k] - prev[int(i)][0]
+                    achieved[int(i)] = pos[k] - prev[int(i)]
             if cycle > 0:
                 out.achieved_rows.append(achieved)
             state = State(cycle, self.plate_time, tracks.ids, pos, tracks.labels, last_cycle)
@@ -299,15 +325,9 @@ class Loop:
                 out.frames.append(frame.copy() if frame.ndim == 3 else np.repeat(frame[..., None], 3, axis=2))
                 out.frame_cycles.append(cycle)
             if finished or cycle == cycles or (timeout is not None and self.plate_time >= timeout):
-                out.rows.append(
-                    {int(i): (pos[k], np.full(2, np.nan), float(errors[k])) for k, i in enumerate(tracks.ids)}
-                )
-                out.time.append(self.plate_time)
-                out.wall.append(time.perf_counter() - start)
-                for name in ("pulses", "plate_time", "vision", "planning", "execution"):
-                    getattr(out, name).append(0 if name == "pulses" else 0.0)
-                out.vision[-1] = t1 - t0
-                out.centers.append(np.zeros((0, 2)))
+                nothing = np.full_like(pos, np.nan)
+                out.record(tracks.ids, pos, nothing, errors, self.plate_time, time.perf_counter() - start, [],
+                           (t1 - t0, 0.0, 0.0))  # fmt: skip
                 out.done = finished
                 break
             steps = np.asarray(self.task.steps(state), dtype=np.float64)
@@ -324,21 +344,10 @@ class Loop:
             t3 = time.perf_counter()
             last_cycle = pulse_time(pulses)
             self.plate_time += last_cycle
-            prev = {int(i): (pos[k], steps[k]) for k, i in enumerate(tracks.ids) if seen[k]}
-            out.rows.append(
-                {
-                    int(i): (pos[k], steps[k] if seen[k] else np.full(2, np.nan), float(errors[k]))
-                    for k, i in enumerate(tracks.ids)
-                }
-            )
-            out.time.append(state.time)
-            out.wall.append(time.perf_counter() - start)
-            out.pulses.append(sum(p.kind != "rest" for p in pulses))
-            out.plate_time.append(last_cycle)
-            out.vision.append(t1 - t0)
-            out.planning.append(t2 - t1)
-            out.execution.append(t3 - t2)
-            out.centers.append(np.array([p.center for p in pulses if p.kind != "rest"]).reshape(-1, 2))
+            prev = {int(i): pos[k] for k, i in enumerate(tracks.ids) if seen[k]}
+            desired = np.where(seen[:, None], steps, np.nan)
+            out.record(tracks.ids, pos, desired, errors, state.time, time.perf_counter() - start, pulses,
+                       (t1 - t0, t2 - t1, t3 - t2))  # fmt: skip
         out.meta.update(cycles=len(out.rows), plate_time=self.plate_time, wall=time.perf_counter() - start)
         if log is not None:
             out.save(log)

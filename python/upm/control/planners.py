@@ -26,7 +26,15 @@ from ..actuation import Axis, Plate
 from ..feeding import mean_force
 from ..fields import rotation_field
 from ..motion import PlateMotion
-from ..planning import _harmonics, _positive, jet_pulses, plan_pulses, trim_rests
+from ..planning import (
+    AMPLITUDE_TOP,
+    _harmonics,
+    _positive,
+    jet_pulses,
+    plan_pulses,
+    stopping_time,
+    trim_rests,
+)
 from ..pulses import Pulse
 from ..sim import simulate_batch
 from ..solvers import rotation_order, solve_displacements
@@ -171,8 +179,7 @@ class RotationsPlanner:
             record_every=max(1, int(1e-3 / dt)),
         )
         self.steps = np.maximum.accumulate(np.maximum(np.mean(run.positions[:, -1, :, 1], axis=1), 0.0))
-        moving = ~np.all(run.stuck[-1], axis=1) & (run.t > self.short)
-        stop = float(run.t[moving].max()) - self.short if np.any(moving) else 0.0
+        stop = stopping_time(run.t, run.stuck[-1], self.short)
         if not self.steps[-1] > 0:
             raise ParameterError("the waveform does not move parts forward; check its time asymmetry")
         self.by_radius = self.by_radius / self.steps[-1]
@@ -244,15 +251,6 @@ class RotationsPlanner:
         return out
 
 
-_TABLE_TOP = 20.0  # the largest amplitude multiple in plan_pulses' sizing table
-
-
-def _peak(pulse: Pulse, plate: Plate, axes: Sequence[Axis] | None) -> float:
-    return max(
-        c["h1_amplitude"] + c["h2_amplitude"] + c["h23_amplitude"] for c in pulse.channels(plate, axes)
-    )
-
-
 class DisplacementPlanner:
     """Chapter 5: arc lengths about the centres (:func:`upm.solve_displacements`), executed as
     shaped pulses sized against the exact integrator (:func:`upm.plan_pulses`).
@@ -305,12 +303,12 @@ class DisplacementPlanner:
         self.sustain = _positive("sustain", sustain)
         if plate is not None:
             peak = max(
-                _peak(Pulse.rotation(c, self.h, self.attack, self.sustain, self.attack), plate, axes)
+                Pulse.rotation(c, self.h, self.attack, self.sustain, self.attack).peak_force(plate, axes)
                 for c in self.centers
             )
             top = 0.98 * _positive("limit", limit) / peak  # the largest playable multiple of h
             self.h = Harmonics(
-                self.h.cos * top / _TABLE_TOP, self.h.sin * top / _TABLE_TOP, float(self.h.frequency)
+                self.h.cos * top / AMPLITUDE_TOP, self.h.sin * top / AMPLITUDE_TOP, float(self.h.frequency)
             )
 
     def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]:
@@ -333,7 +331,7 @@ class DisplacementPlanner:
                     pos, st * (self.max_arc / biggest), self.centers, rcond=self.rcond, damping=self.damping
                 )
         pulses: list[Pulse] = []
-        for _ in range(5):
+        for halvings in range(1, 6):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", PlanWarning)  # the loop measures and corrects the miss
                 try:
@@ -350,7 +348,7 @@ class DisplacementPlanner:
                     break
                 except ParameterError:  # an arc beyond what a pulse reaches: half the steps
                     plan = solve_displacements(
-                        pos, st * 0.5 ** (_ + 1), self.centers, rcond=self.rcond, damping=self.damping
+                        pos, st * 0.5**halvings, self.centers, rcond=self.rcond, damping=self.damping
                     )
         if not pulses:
             return []
@@ -405,11 +403,8 @@ class JetPlanner:
     def _amplitude(self, center: FloatArray, direction: FloatArray, rho: float) -> float:
         if self.plate is None:
             return self.amplitude
-        peak = _peak(
-            Pulse.jet(center, direction, rho, self.amplitude, self.frequency, 1.0, 0.0, 1.0),
-            self.plate,
-            self.axes,
-        )
+        probe = Pulse.jet(center, direction, rho, self.amplitude, self.frequency, 1.0, 0.0, 1.0)
+        peak = probe.peak_force(self.plate, self.axes)
         return self.amplitude * min(1.0, 0.98 * self.limit / peak)
 
     def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]:
