@@ -118,6 +118,13 @@ def simulate(
     plate_size: float | None,
     record_every: int,
     threads: int | None = None,
+    contacts: bool = False,
+    restitution: float = 0.5,
+    part_friction: float = 0.3,
+    walls: _F | None = None,
+    walls_move_with_plate: bool = False,
+    mass: _F | None = None,
+    contact_iterations: int = 4,
 ) -> tuple[_F, _F, _F, NDArray[np.bool_], _F, _F, _F]: ...
 
 _I = NDArray[np.int64]

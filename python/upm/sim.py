@@ -32,7 +32,9 @@ class Disk(NamedTuple):
     """A flat disk part of ``radius`` [m] pressing uniformly on the plate: it slides and spins.
 
     ``position`` [m], ``velocity`` [m/s], ``angle`` [rad], ``spin`` [rad/s]. Friction force and
-    torque are integrated over the footprint (see ``docs/simulation.md``).
+    torque are integrated over the footprint (see ``docs/simulation.md``). ``mass`` (any unit, only
+    ratios matter) is used by contacts only; by default it is proportional to the disk's area. Give
+    it for every disk or for none.
     """
 
     position: tuple[float, float]
@@ -40,6 +42,7 @@ class Disk(NamedTuple):
     velocity: tuple[float, float] = (0.0, 0.0)
     angle: float = 0.0
     spin: float = 0.0
+    mass: float | None = None
 
 
 @dataclass(frozen=True)
@@ -66,6 +69,40 @@ class SimResult:
     """Parts whose centre left the square plate, ``(M,)``; they stop being simulated."""
     left_time: NDArray[np.float64]
     """When each part left the plate [s] (NaN: it did not), ``(M,)``."""
+
+
+def _masses(parts: Any) -> np.ndarray | None:
+    """The disks' masses (M,) if every disk gives one, None if none does (points count 1)."""
+    if not (isinstance(parts, (list, tuple)) and parts and all(isinstance(p, (Point, Disk)) for p in parts)):
+        return None
+    given = [p.mass is not None for p in parts if isinstance(p, Disk)]
+    if not any(given):
+        return None
+    if not all(given):
+        missing = next(i for i, p in enumerate(parts) if isinstance(p, Disk) and p.mass is None)
+        raise ParameterError(
+            f"mass must be given for every Disk or for none; part {missing} has none "
+            "(without masses, contacts take them proportional to the area)"
+        )
+    return as_float("parts[i].mass", [p.mass if isinstance(p, Disk) else 1.0 for p in parts])
+
+
+def _walls(walls: Any, plate_size: float | None) -> np.ndarray | None:
+    """Walls as a (K, 4) array of segment end points, from None, "plate" or (K, 2, 2)."""
+    if walls is None:
+        return None
+    if isinstance(walls, str):
+        if walls != "plate":
+            raise ParameterError(f'walls must be None, "plate" or an array (K, 2, 2); got {walls!r}')
+        if plate_size is None:
+            raise ParameterError('walls="plate" needs plate_size (the side of the square plate, m)')
+        h = 0.5 * float(plate_size)
+        c = [(-h, -h), (h, -h), (h, h), (-h, h)]
+        return np.array([[*c[k], *c[(k + 1) % 4]] for k in range(4)], dtype=np.float64)
+    w = as_float("walls", walls)
+    if w.ndim != 3 or w.shape[1:] != (2, 2) or w.shape[0] == 0:
+        raise ShapeError(f"walls must have shape (K, 2, 2) (K segments, two ends each); got {w.shape}")
+    return np.ascontiguousarray(w.reshape(-1, 4))
 
 
 def _parts(parts: Any) -> tuple[np.ndarray, ...]:
@@ -111,6 +148,7 @@ def _run(
     plate_size: float | None,
     record_every: int,
     threads: int | None = None,
+    contacts: _Contact | None = None,
 ) -> tuple[Any, ...]:
     if not all(isinstance(m, PlateMotion) for m in motions):
         raise ParameterError("motion must be a upm.PlateMotion")
@@ -120,6 +158,9 @@ def _run(
     mu_s_a = mu_a if mu_s is None else _per_part("mu_s", mu_s, m)
     if isinstance(record_every, bool) or not isinstance(record_every, (int, np.integer)) or record_every < 1:
         raise ParameterError(f"record_every must be an integer >= 1; got {record_every!r}")
+    extra: dict[str, Any] = {}
+    if contacts is not None:
+        extra = contacts.arguments(parts, plate_size)
     return _core.simulate(
         [mo._inner for mo in motions],
         pos,
@@ -135,7 +176,51 @@ def _run(
         plate_size=None if plate_size is None else float(plate_size),
         record_every=int(record_every),
         threads=None if threads is None else as_int("threads", threads),
+        **extra,
     )
+
+
+@dataclass(frozen=True)
+class _Contact:
+    """Contact settings (the keyword arguments of :func:`simulate` that start with ``contacts``)."""
+
+    restitution: float
+    part_friction: float
+    walls: Any
+    walls_move_with_plate: bool
+    iterations: int
+
+    def arguments(self, parts: Any, plate_size: float | None) -> dict[str, Any]:
+        """The extension's keyword arguments."""
+        for name, v in (("restitution", self.restitution), ("part_friction", self.part_friction)):
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
+                raise ParameterError(f"{name} must be a number; got {v!r}")
+        return {
+            "contacts": True,
+            "restitution": float(self.restitution),
+            "part_friction": float(self.part_friction),
+            "walls": _walls(self.walls, plate_size),
+            "walls_move_with_plate": bool(self.walls_move_with_plate),
+            "mass": _masses(parts),
+            "contact_iterations": as_int("contact_iterations", self.iterations),
+        }
+
+
+def _contact(
+    contacts: bool,
+    restitution: float,
+    part_friction: float,
+    walls: Any,
+    walls_move_with_plate: bool,
+    contact_iterations: int,
+) -> _Contact | None:
+    if not isinstance(contacts, (bool, np.bool_)):
+        raise ParameterError(f"contacts must be True or False; got {contacts!r}")
+    if not contacts:
+        if walls is not None:
+            raise ParameterError("walls need contacts=True")
+        return None
+    return _Contact(restitution, part_friction, walls, walls_move_with_plate, contact_iterations)
 
 
 def simulate(
@@ -149,6 +234,12 @@ def simulate(
     g: float = 9.81,
     plate_size: float | None = None,
     record_every: int = 1,
+    contacts: bool = False,
+    restitution: float = 0.5,
+    part_friction: float = 0.3,
+    walls: ArrayLike | str | None = None,
+    walls_move_with_plate: bool = False,
+    contact_iterations: int = 4,
 ) -> SimResult:
     """Simulate parts sliding (points) or sliding and spinning (disks) on the plate under ``motion``.
 
@@ -176,13 +267,29 @@ def simulate(
     record_every : int
         Record every this many steps (and the last step); memory is about ``steps / record_every + 2``
         rows, whatever the number of steps.
+    contacts : bool
+        Resolve disk–disk and disk–wall contacts with the rapier2d physics engine after every
+        friction step (``docs/simulation.md``, "Contacts"). Disks must not overlap at the start;
+        points have no extent and take no part. With ``False`` parts pass through each other.
+    restitution : float
+        Coefficient of restitution of every contact, in ``[0, 1]``.
+    part_friction : float
+        Coulomb friction coefficient between parts and between a part and a wall, ``>= 0``.
+    walls : array_like of shape (K, 2, 2), or "plate", optional
+        Fences as segments ``[[x0, y0], [x1, y1]]`` [m]; ``"plate"``: the four edges of the square
+        plate of side ``plate_size``. Without walls the plate edge is no wall: parts fall off it.
+    walls_move_with_plate : bool
+        Walls fixed to the plate (they vibrate with it) instead of to the frame.
+    contact_iterations : int
+        rapier solver iterations per step.
 
     Returns
     -------
     SimResult
     """
+    contact = _contact(contacts, restitution, part_friction, walls, walls_move_with_plate, contact_iterations)
     t, pos, vel, stuck, angles, spins, left = _run(
-        [motion], parts, duration, dt, mu, mu_s, g, plate_size, record_every
+        [motion], parts, duration, dt, mu, mu_s, g, plate_size, record_every, contacts=contact
     )
     return SimResult(t, pos[0], vel[0], stuck[0], angles[0], spins[0], ~np.isnan(left[0]), left[0])
 
@@ -199,18 +306,25 @@ def simulate_batch(
     plate_size: float | None = None,
     record_every: int = 1,
     threads: int | None = None,
+    contacts: bool = False,
+    restitution: float = 0.5,
+    part_friction: float = 0.3,
+    walls: ArrayLike | str | None = None,
+    walls_move_with_plate: bool = False,
+    contact_iterations: int = 4,
 ) -> SimResult:
     """:func:`simulate` for ``B`` independent worlds (one motion each, the same parts), in parallel.
 
     Every array of the result but ``t`` gains a leading axis ``B``. Results are bitwise identical
     to ``B`` separate calls and to any thread count. ``threads``: run on a pool of that many
     threads (default: rayon's global pool, one thread per core); :func:`upm.sweep` runs each
-    chunk on one and parallelises over chunks.
+    chunk on one and parallelises over chunks. The contact arguments are :func:`simulate`'s.
     """
     ms = list(motions)
     if not ms:
         raise ParameterError("motions must contain at least one upm.PlateMotion")
+    contact = _contact(contacts, restitution, part_friction, walls, walls_move_with_plate, contact_iterations)
     t, pos, vel, stuck, angles, spins, left = _run(
-        ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads
+        ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact
     )
     return SimResult(t, pos, vel, stuck, angles, spins, ~np.isnan(left), left)

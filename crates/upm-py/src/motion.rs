@@ -189,7 +189,7 @@ fn to_arrays<'py>(
 
 /// Simulates point and disk parts under each of `motions` (B worlds); arrays carry a batch axis.
 #[pyfunction]
-#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None))]
+#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -207,6 +207,13 @@ pub fn simulate<'py>(
     plate_size: Option<f64>,
     record_every: usize,
     threads: Option<usize>,
+    contacts: bool,
+    restitution: f64,
+    part_friction: f64,
+    walls: Option<PyReadonlyArray2<'py, f64>>,
+    walls_move_with_plate: bool,
+    mass: Option<PyReadonlyArray1<'py, f64>>,
+    contact_iterations: usize,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let parts = Parts {
         position: pairs(py, "positions", &positions)?,
@@ -232,10 +239,38 @@ pub fn simulate<'py>(
             Error::parameter("motions", "must contain at least one motion"),
         ));
     }
+    let contacts = if contacts {
+        let walls = match &walls {
+            None => Vec::new(),
+            Some(w) => {
+                let w = w.as_array();
+                if w.shape()[1] != 4 {
+                    return Err(shape_error(
+                        py,
+                        format!("walls must have shape (K, 2, 2); got (K, {})", w.shape()[1]),
+                    ));
+                }
+                w.rows()
+                    .into_iter()
+                    .map(|r| [[r[0], r[1]], [r[2], r[3]]])
+                    .collect()
+            }
+        };
+        Some(sim::Contacts {
+            restitution,
+            part_friction,
+            walls,
+            walls_move_with_plate,
+            mass: mass.map(|m| m.as_array().to_vec()),
+            iterations: contact_iterations,
+        })
+    } else {
+        None
+    };
     let runs = detached(py, || {
         // Every world advances one block at a time; Ctrl-C is honoured between blocks.
         upm_core::parallel::with_threads(threads, || {
-            sim::simulate_worlds(&motions, &parts, &cfg, |_| {
+            sim::simulate_worlds_with(&motions, &parts, &cfg, contacts.as_ref(), |_| {
                 Python::attach(|py| py.check_signals()).map_err(Failure::from)
             })
         })?

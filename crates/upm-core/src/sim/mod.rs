@@ -21,12 +21,16 @@
 //! state and the time loop inside, so the state stays in cache and the per-part update vectorises;
 //! the plate velocity is tabulated once per block of steps and shared by all chunks. Chunks run on
 //! rayon threads; each part is independent, so results are bitwise identical for any thread
-//! count. Contacts (a later phase) will hook in between steps, after the friction update.
+//! count. Disks may collide with each other and with walls: [`contact`] (rapier2d) runs after
+//! each friction step when contacts are asked for.
+
+pub mod contact;
 
 use rayon::prelude::*;
 
 use crate::error::{positive, Error, Result};
 use crate::motion::PlateMotion;
+pub use contact::Contacts;
 
 /// Parts per chunk (a multiple of any SIMD width).
 pub const CHUNK_PARTS: usize = 64;
@@ -443,39 +447,60 @@ impl DiskState {
         (self.p, self.v, self.angle, self.spin, self.stuck)
     }
 
+    /// The disk's velocity, spin and stuck flag after the implicit friction step
+    /// ([`crate::disk::implicit_step`]) under the plate velocity `u`; the state is not changed.
+    fn friction(&self, [u1, u2, u3]: [f64; 3]) -> ([f64; 2], f64, bool) {
+        let [x, y] = self.p;
+        let (sx, sy) = (u1 - u3 * y, u2 + u3 * x);
+        let free = [self.v[0] - sx, self.v[1] - sy];
+        let r = self.radius;
+        let st = crate::disk::implicit_step(
+            free,
+            r * (self.spin - u3),
+            self.slide,
+            self.hold,
+            self.stuck,
+        );
+        ([sx + st.w[0], sy + st.w[1]], u3 + st.s / r, st.stuck)
+    }
+
+    /// Moves to velocity `v` and spin `spin` over one step, positions by the trapezoid.
+    fn advance(&mut self, v: [f64; 2], spin: f64, stuck: bool, dt: f64) {
+        let [x, y] = self.p;
+        self.p = [
+            x + 0.5 * (self.v[0] + v[0]) * dt,
+            y + 0.5 * (self.v[1] + v[1]) * dt,
+        ];
+        self.angle += 0.5 * (self.spin + spin) * dt;
+        (self.v, self.spin, self.stuck) = (v, spin, stuck);
+    }
+
+    /// Whether the disk's centre left the plate in step `s` (0-based); it is then frozen.
+    fn leaves(&mut self, s: usize, cfg: &Config) -> bool {
+        let out = self.active && off_plate(self.p[0], self.p[1], half_side(cfg));
+        if out {
+            self.active = false;
+            self.left = Some((s + 1) as f64 * cfg.dt);
+        }
+        out
+    }
+
+    /// Records the state after step `s` (0-based) if that step is recorded.
+    fn record_step(&mut self, s: usize, cfg: &Config, steps: usize) {
+        if recorded(s + 1, steps, cfg.record_every) {
+            self.record.push(self.row());
+        }
+    }
+
     /// Advances through one block with the disk's implicit step ([`crate::disk::implicit_step`]).
     fn run(&mut self, table: &[[f64; 3]], first: usize, cfg: &Config, steps: usize) {
-        let half = half_side(cfg);
-        let dt = cfg.dt;
-        for (k, &[u1, u2, u3]) in table.iter().enumerate() {
+        for (k, &u) in table.iter().enumerate() {
             if self.active {
-                let [x, y] = self.p;
-                let (sx, sy) = (u1 - u3 * y, u2 + u3 * x);
-                let free = [self.v[0] - sx, self.v[1] - sy];
-                let r = self.radius;
-                let st = crate::disk::implicit_step(
-                    free,
-                    r * (self.spin - u3),
-                    self.slide,
-                    self.hold,
-                    self.stuck,
-                );
-                let v = [sx + st.w[0], sy + st.w[1]];
-                let spin = u3 + st.s / r;
-                self.p = [
-                    x + 0.5 * (self.v[0] + v[0]) * dt,
-                    y + 0.5 * (self.v[1] + v[1]) * dt,
-                ];
-                self.angle += 0.5 * (self.spin + spin) * dt;
-                (self.v, self.spin, self.stuck) = (v, spin, st.stuck);
-                if off_plate(self.p[0], self.p[1], half) {
-                    self.active = false;
-                    self.left = Some((first + k + 1) as f64 * dt);
-                }
+                let (v, spin, stuck) = self.friction(u);
+                self.advance(v, spin, stuck, cfg.dt);
+                self.leaves(first + k, cfg);
             }
-            if recorded(first + k + 1, steps, cfg.record_every) {
-                self.record.push(self.row());
-            }
+            self.record_step(first + k, cfg, steps);
         }
     }
 }
@@ -489,6 +514,8 @@ struct World<'a> {
     /// Disk parts; `disk_index[j]` is the index of the j-th disk among all parts.
     disks: Vec<DiskState>,
     disk_index: &'a [usize],
+    /// The disks' rapier world when contacts are on.
+    contact: Option<contact::ContactWorld>,
     out: Trajectory,
     table: Vec<[f64; 3]>,
 }
@@ -600,6 +627,22 @@ pub fn simulate_worlds<E, B>(
     motions: &[PlateMotion],
     parts: &Parts,
     cfg: &Config,
+    between: B,
+) -> std::result::Result<Vec<Trajectory>, E>
+where
+    E: From<Error>,
+    B: FnMut(usize) -> std::result::Result<(), E>,
+{
+    simulate_worlds_with(motions, parts, cfg, None, between)
+}
+
+/// [`simulate_worlds`] with part–part and wall contacts of the disks resolved by rapier
+/// ([`contact`]) when `contacts` is given.
+pub fn simulate_worlds_with<E, B>(
+    motions: &[PlateMotion],
+    parts: &Parts,
+    cfg: &Config,
+    contacts: Option<&Contacts>,
     mut between: B,
 ) -> std::result::Result<Vec<Trajectory>, E>
 where
@@ -622,18 +665,38 @@ where
     let (points, disk_index): (Vec<usize>, Vec<usize>) =
         (0..m).partition(|&i| parts.radius[i] == 0.0);
     let point_parts = parts.subset(&points);
+    let disk_mass: Vec<f64> = match contacts {
+        None => Vec::new(),
+        Some(c) => {
+            let disks: Vec<_> = disk_index
+                .iter()
+                .map(|&i| (parts.position[i], parts.radius[i], i))
+                .collect();
+            c.check(&disks, m)?;
+            disk_index
+                .iter()
+                .map(|&i| {
+                    c.mass
+                        .as_ref()
+                        .map_or(parts.radius[i] * parts.radius[i], |mass| mass[i])
+                })
+                .collect()
+        }
+    };
     let mut worlds: Vec<World> = motions
         .iter()
         .map(|motion| {
             let u0 = motion.velocity(0.0);
+            let disks: Vec<DiskState> = disk_index
+                .iter()
+                .map(|&i| DiskState::new(parts, i, cfg, u0))
+                .collect();
             World {
                 motion,
                 chunks: chunks(&point_parts, cfg, u0),
                 points: &points,
-                disks: disk_index
-                    .iter()
-                    .map(|&i| DiskState::new(parts, i, cfg, u0))
-                    .collect(),
+                contact: contacts.map(|c| contact::ContactWorld::new(&disks, &disk_mass, c, cfg)),
+                disks,
                 disk_index: &disk_index,
                 out: Trajectory {
                     t: Vec::with_capacity(rows),
@@ -673,9 +736,13 @@ where
             w.chunks
                 .par_iter_mut()
                 .for_each(|c| c.run(table, first, cfg, steps));
-            w.disks
-                .par_iter_mut()
-                .for_each(|d| d.run(table, first, cfg, steps));
+            match &mut w.contact {
+                Some(c) => c.run(&mut w.disks, table, first, cfg, steps),
+                None => w
+                    .disks
+                    .par_iter_mut()
+                    .for_each(|d| d.run(table, first, cfg, steps)),
+            }
             w.out.t.extend(
                 ((first + 1)..=end)
                     .filter(|&s| recorded(s, steps, cfg.record_every))

@@ -1,0 +1,329 @@
+//! Part–part and wall contacts of disk parts, resolved by the rapier2d physics engine (f64).
+//!
+//! Each step is split in two (first-order operator splitting):
+//!
+//! 1. the exact plate-friction step of [`crate::disk`] gives every disk its new velocity and spin,
+//!    as without contacts;
+//! 2. rapier takes those as the bodies' velocities and runs one step of its contact solver
+//!    (non-penetration, restitution, part–part and part–wall Coulomb friction), integrating the
+//!    positions with the velocities it returns.
+//!
+//! A disk that no contact touched in the step keeps the trapezoidal position update of the
+//! contact-free integrator, so separated parts move exactly as with `contacts = false`. A disk that
+//! a contact touched takes rapier's position, velocity and spin, and is sliding (not stuck) on the
+//! plate for the next friction step. Points have no extent: they take no part in contacts.
+//!
+//! ## Units and rapier's settings
+//! rapier's tolerances are absolute (allowed penetration, prediction distance, maximal corrective
+//! and linear speeds are in "length units" per second; its contact softness is a frequency in Hz
+//! tuned for 60 Hz game steps), while our parts are millimetres to centimetres on a plate shaken
+//! at tens of Hz with steps of ~1e-4 s. So:
+//!
+//! * lengths reach rapier in units of the mean disk radius (`scale = 1 / mean radius`), velocities
+//!   likewise; time is not scaled;
+//! * the contact softness is set per step: natural frequency `0.5 / dt` Hz (rapier's default of
+//!   30 Hz at 1/60 s has the same `omega dt`), `1 / dt` for contacts with walls; damping ratio as
+//!   rapier's default;
+//! * the allowed penetration is 0.1% of the mean radius (rapier: 0.5%), the prediction distance
+//!   2% (rapier's);
+//! * no sleeping (every step sets the velocities anyway), no contact recycling (manifolds are
+//!   recomputed every step: parts moving ~1e-3 radii per step would otherwise keep stale normals),
+//!   no CCD (a step moves a part far less than its radius: [`Contacts::check_step`]);
+//! * the maximal linear speed is lifted to 1e6 radii/s so rapier never clamps a part.
+//!
+//! Masses: only their ratios matter (gravity and the plate's friction act through the friction
+//! step); by default a disk's mass is proportional to its area (equal thickness and density).
+//! Bodies are stepped by rapier's single-threaded pipeline, one world per rayon task, so results
+//! are bitwise identical for any number of threads.
+
+use rapier2d_f64::prelude::*;
+
+use super::{Config, DiskState};
+use crate::error::{Error, Result};
+
+/// Contact settings of a simulation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Contacts {
+    /// Coefficient of restitution of every contact, in `[0, 1]`.
+    pub restitution: f64,
+    /// Coulomb friction coefficient between parts and between a part and a wall, `>= 0`.
+    pub part_friction: f64,
+    /// Fences: segments `[a, b]` [m] in the world frame.
+    pub walls: Vec<[[f64; 2]; 2]>,
+    /// Whether the walls are fixed to the plate (they move with it) rather than to the frame.
+    pub walls_move_with_plate: bool,
+    /// Mass of every part (only ratios matter; points ignore theirs); `None`: proportional to the
+    /// disk's area.
+    pub mass: Option<Vec<f64>>,
+    /// rapier solver iterations per step (`>= 1`).
+    pub iterations: usize,
+}
+
+impl Default for Contacts {
+    fn default() -> Self {
+        Contacts {
+            restitution: 0.5,
+            part_friction: 0.3,
+            walls: Vec::new(),
+            walls_move_with_plate: false,
+            mass: None,
+            iterations: 4,
+        }
+    }
+}
+
+/// Distance from `p` to the segment `[a, b]`.
+fn segment_distance(p: [f64; 2], [a, b]: [[f64; 2]; 2]) -> f64 {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let len2 = dx * dx + dy * dy;
+    let t = if len2 > 0.0 {
+        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p[0] - a[0] - t * dx).hypot(p[1] - a[1] - t * dy)
+}
+
+impl Contacts {
+    /// Checks the settings against the disks (`(position, radius)` of every disk, with its index
+    /// among all parts): coefficients in range, finite walls, and no disk overlapping another or
+    /// a wall at the start.
+    pub fn check(&self, disks: &[([f64; 2], f64, usize)], parts: usize) -> Result<()> {
+        if !(self.restitution.is_finite() && (0.0..=1.0).contains(&self.restitution)) {
+            return Err(Error::parameter(
+                "restitution",
+                format!("must be in [0, 1]; got {}", self.restitution),
+            ));
+        }
+        if !(self.part_friction.is_finite() && self.part_friction >= 0.0) {
+            return Err(Error::parameter(
+                "part_friction",
+                format!("must be finite and >= 0; got {}", self.part_friction),
+            ));
+        }
+        if self.iterations == 0 || self.iterations > 1000 {
+            return Err(Error::parameter(
+                "contact_iterations",
+                format!("must be in [1, 1000]; got {}", self.iterations),
+            ));
+        }
+        for (k, w) in self.walls.iter().enumerate() {
+            if !w.iter().flatten().all(|x| x.is_finite()) {
+                return Err(Error::parameter(
+                    "walls",
+                    format!("must be finite; wall {k} is {w:?}"),
+                ));
+            }
+            if w[0] == w[1] {
+                return Err(Error::parameter(
+                    "walls",
+                    format!("wall {k} has zero length (both ends at {:?})", w[0]),
+                ));
+            }
+        }
+        if let Some(mass) = &self.mass {
+            if mass.len() != parts {
+                return Err(Error::Shape(format!(
+                    "mass must have one entry per part ({parts}); got {}",
+                    mass.len()
+                )));
+            }
+            for &(_, _, i) in disks {
+                if !(mass[i].is_finite() && mass[i] > 0.0) {
+                    return Err(Error::parameter(
+                        "mass",
+                        format!("must be finite and > 0; got {} for part {i}", mass[i]),
+                    ));
+                }
+            }
+        }
+        // Sweep along x: only disks whose x-extents overlap are compared.
+        let mut order: Vec<usize> = (0..disks.len()).collect();
+        order.sort_by(|&a, &b| {
+            let (pa, ra, _) = disks[a];
+            let (pb, rb, _) = disks[b];
+            (pa[0] - ra).total_cmp(&(pb[0] - rb))
+        });
+        for (n, &a) in order.iter().enumerate() {
+            let (pa, ra, ia) = disks[a];
+            for &b in &order[n + 1..] {
+                let (pb, rb, ib) = disks[b];
+                if pb[0] - rb > pa[0] + ra {
+                    break;
+                }
+                let gap = (pa[0] - pb[0]).hypot(pa[1] - pb[1]) - (ra + rb);
+                if gap < -1e-9 * (ra + rb) {
+                    let (i, j) = (ia.min(ib), ia.max(ib));
+                    return Err(Error::parameter(
+                        "parts",
+                        format!(
+                            "disks {i} and {j} overlap by {:.6e} m at the start; contacts need \
+                             separated disks",
+                            -gap
+                        ),
+                    ));
+                }
+            }
+            for (k, &w) in self.walls.iter().enumerate() {
+                let gap = segment_distance(pa, w) - ra;
+                if gap < -1e-9 * ra {
+                    return Err(Error::parameter(
+                        "walls",
+                        format!(
+                            "wall {k} cuts disk {ia} by {:.6e} m at the start; move the disk or \
+                             the wall",
+                            -gap
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One world's rapier bodies for its disks.
+pub(super) struct ContactWorld {
+    world: PhysicsWorld,
+    /// The body of each disk (in the order of the world's disks); `None` once it left the plate.
+    bodies: Vec<Option<RigidBodyHandle>>,
+    /// The walls' body when they move with the plate.
+    plate: Option<RigidBodyHandle>,
+    /// Lengths in rapier = metres x `scale`.
+    scale: f64,
+}
+
+/// The relative tolerance under which a velocity returned by rapier counts as untouched.
+const UNTOUCHED: f64 = 1e-12;
+
+impl ContactWorld {
+    /// Bodies for `disks` (`mass[j]`: the j-th disk's mass, any unit) and colliders for the walls.
+    pub(super) fn new(
+        disks: &[DiskState],
+        mass: &[f64],
+        contacts: &Contacts,
+        cfg: &Config,
+    ) -> Self {
+        let mean_r = disks.iter().map(|d| d.radius).sum::<f64>() / disks.len().max(1) as f64;
+        let scale = if mean_r > 0.0 { 1.0 / mean_r } else { 1.0 };
+        let mut world = PhysicsWorld::new();
+        world.gravity = Vector::ZERO;
+        let p = &mut world.integration_parameters;
+        p.dt = cfg.dt;
+        p.length_unit = 1.0;
+        p.num_solver_iterations = contacts.iterations;
+        p.contact_softness = SpringCoefficients::new(0.5 / cfg.dt, 10.0);
+        p.static_contact_softness = SpringCoefficients::new(1.0 / cfg.dt, 10.0);
+        p.normalized_allowed_linear_error = 0.001;
+        p.normalized_prediction_distance = 0.02;
+        p.normalized_max_linear_velocity = 1e6;
+        p.contact_recycling = false;
+        let mean_m = mass.iter().sum::<f64>() / mass.len().max(1) as f64;
+        let material = |c: ColliderBuilder| {
+            c.restitution(contacts.restitution)
+                .friction(contacts.part_friction)
+                .restitution_combine_rule(CoefficientCombineRule::Max)
+                .friction_combine_rule(CoefficientCombineRule::Max)
+        };
+        let bodies = disks
+            .iter()
+            .zip(mass)
+            .map(|(d, &m)| {
+                d.active.then(|| {
+                    let body = RigidBodyBuilder::dynamic()
+                        .translation(Vector::new(d.p[0] * scale, d.p[1] * scale))
+                        .linvel(Vector::new(d.v[0] * scale, d.v[1] * scale))
+                        .angvel(d.spin)
+                        .can_sleep(false);
+                    let collider =
+                        material(ColliderBuilder::ball(d.radius * scale)).mass(m / mean_m);
+                    world.insert(body, collider).0
+                })
+            })
+            .collect();
+        let plate = if contacts.walls.is_empty() {
+            None
+        } else {
+            let body = if contacts.walls_move_with_plate {
+                RigidBodyBuilder::kinematic_velocity_based().can_sleep(false)
+            } else {
+                RigidBodyBuilder::fixed()
+            };
+            let handle = world.insert_body(body);
+            for &[a, b] in &contacts.walls {
+                let seg = ColliderBuilder::segment(
+                    Vector::new(a[0] * scale, a[1] * scale),
+                    Vector::new(b[0] * scale, b[1] * scale),
+                );
+                world.insert_collider(material(seg), Some(handle));
+            }
+            contacts.walls_move_with_plate.then_some(handle)
+        };
+        ContactWorld {
+            world,
+            bodies,
+            plate,
+            scale,
+        }
+    }
+
+    /// Advances `disks` through one block: `table[k] = (u1, u2, u3)` at the end of step
+    /// `first + k` (as [`DiskState::run`]).
+    pub(super) fn run(
+        &mut self,
+        disks: &mut [DiskState],
+        table: &[[f64; 3]],
+        first: usize,
+        cfg: &Config,
+        steps: usize,
+    ) {
+        let s = self.scale;
+        let dt = cfg.dt;
+        let mut wanted = vec![([0.0; 2], 0.0, false); disks.len()];
+        for (k, &u) in table.iter().enumerate() {
+            for ((d, body), want) in disks.iter().zip(&self.bodies).zip(wanted.iter_mut()) {
+                let Some(h) = body else { continue };
+                *want = d.friction(u);
+                let (v, spin, _) = *want;
+                let b = &mut self.world.bodies[*h];
+                b.set_translation(Vector::new(d.p[0] * s, d.p[1] * s), false);
+                b.set_linvel(Vector::new(v[0] * s, v[1] * s), true);
+                b.set_angvel(spin, true);
+            }
+            if let Some(h) = self.plate {
+                // The walls' body moves like the plate surface under its own origin.
+                let b = &mut self.world.bodies[h];
+                let o = b.translation() / s;
+                let [u1, u2, u3] = u;
+                b.set_linvel(Vector::new((u1 - u3 * o.y) * s, (u2 + u3 * o.x) * s), true);
+                b.set_angvel(u3, true);
+            }
+            self.world.step();
+            for ((d, body), &(v, spin, stuck)) in
+                disks.iter_mut().zip(&mut self.bodies).zip(&wanted)
+            {
+                let Some(h) = *body else { continue };
+                let b = &self.world.bodies[h];
+                let (lv, w) = (b.linvel() / s, b.angvel());
+                let tol = UNTOUCHED * (v[0].hypot(v[1]) + (spin * d.radius).abs() + d.radius / dt);
+                let touched = (lv.x - v[0]).abs() > tol
+                    || (lv.y - v[1]).abs() > tol
+                    || ((w - spin) * d.radius).abs() > tol;
+                if touched {
+                    let t = b.translation() / s;
+                    d.angle += 0.5 * (d.spin + w) * dt;
+                    (d.p, d.v, d.spin, d.stuck) = ([t.x, t.y], [lv.x, lv.y], w, false);
+                } else {
+                    d.advance(v, spin, stuck, dt);
+                }
+                if d.leaves(first + k, cfg) {
+                    self.world.remove_body(h);
+                    *body = None;
+                }
+            }
+            for d in disks.iter_mut() {
+                d.record_step(first + k, cfg, steps);
+            }
+        }
+    }
+}
