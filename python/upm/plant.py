@@ -23,7 +23,7 @@ from ._arrays import as_float
 from ._errors import ParameterError, ShapeError
 from .actuation import Axis, Plate
 from .motion import PlateMotion
-from .sim import simulate
+from .sim import Disk, simulate
 
 if TYPE_CHECKING:
     from .vision.synthetic import Camera, VirtualCamera
@@ -88,6 +88,15 @@ def _suspension(mass: float, inertia: float, hz: float = 3.0, zeta: float = 0.2)
     return tuple(Axis(m, 2 * zeta * m * w0, m * w0 * w0) for m in (mass, mass, inertia))  # type: ignore[return-value]
 
 
+def _min_gap(positions: FloatArray, gone: NDArray[np.bool_], radius: float) -> float:
+    """Smallest distance between the rims of two disks still on the plate over recorded rows."""
+    p = positions[:, ~gone]
+    if p.shape[1] < 2:
+        return math.inf
+    i, j = np.triu_indices(p.shape[1], 1)
+    return float(np.linalg.norm(p[:, i] - p[:, j], axis=-1).min() - 2 * radius)
+
+
 @dataclass
 class SimulatedUPM:
     """A simulated plate with four motors, two accelerometers and parts on it.
@@ -110,6 +119,11 @@ class SimulatedUPM:
     parts : (M, 2) array_like
         Part positions [m]; ``mu``, ``mu_s`` their friction. A part whose centre leaves the plate
         (``plate_size`` [m] square, centred on the origin) falls off: its row becomes NaN.
+    part_radius : float or None
+        Parts are disks of this radius [m] that collide with each other (``upm.simulate`` with
+        ``contacts=True``, ``restitution`` and ``part_friction``); ``None``: point parts that pass
+        through each other. ``min_gap`` [m] is then the smallest distance between two disks' rims
+        seen so far (sampled every ``gap_every`` steps; negative: they overlapped).
     """
 
     plate: Plate = field(default_factory=lambda: Plate(3.0, 0.04, 0.2))
@@ -123,9 +137,16 @@ class SimulatedUPM:
     mu_s: float | None = None
     seed: int = 0
     plate_size: float = 0.4064
+    part_radius: float | None = None
+    restitution: float = 0.5
+    part_friction: float = 0.3
+    gap_every: int = 20
 
     def __post_init__(self) -> None:
         self.parts = np.array(as_float("parts", self.parts), dtype=np.float64).reshape(-1, 2)
+        if self.part_radius is not None and not (np.isfinite(self.part_radius) and self.part_radius > 0):
+            raise ParameterError(f"part_radius must be None or finite and > 0; got {self.part_radius}")
+        self.min_gap = math.inf
         if not (self.full_scale > 0 and self.sample_rate > 0):
             raise ParameterError("full_scale and sample_rate must be > 0")
         self._rng = np.random.default_rng(self.seed)
@@ -218,8 +239,16 @@ class SimulatedUPM:
         on = np.all(np.isfinite(self.parts), axis=1)
         if not np.any(on):
             return
-        result = simulate(motion, self.parts[on], duration=motion.duration or 0.0, dt=dt, mu=self.mu,
-                          mu_s=self.mu_s, plate_size=self.plate_size, record_every=10**9)  # fmt: skip
+        opts: dict[str, Any] = {"duration": motion.duration or 0.0, "dt": dt, "mu": self.mu,
+                                "mu_s": self.mu_s, "plate_size": self.plate_size}  # fmt: skip
+        r = self.part_radius
+        if r is None:
+            result = simulate(motion, self.parts[on], record_every=10**9, **opts)
+        else:
+            disks = [Disk((float(x), float(y)), r) for x, y in self.parts[on]]
+            contact: dict[str, Any] = {"restitution": self.restitution, "part_friction": self.part_friction}
+            result = simulate(motion, disks, record_every=self.gap_every, contacts=True, **contact, **opts)
+            self.min_gap = min(self.min_gap, _min_gap(result.positions, result.left_plate, r))
         moved = result.positions[-1].copy()
         moved[result.left_plate] = np.nan  # its centre crossed an edge: it fell off
         self.parts[on] = moved

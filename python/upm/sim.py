@@ -84,7 +84,8 @@ def _masses(parts: Any) -> np.ndarray | None:
             f"mass must be given for every Disk or for none; part {missing} has none "
             "(without masses, contacts take them proportional to the area)"
         )
-    return as_float("parts[i].mass", [p.mass if isinstance(p, Disk) else 1.0 for p in parts])
+    masses = [p.mass if isinstance(p, Disk) and p.mass is not None else 1.0 for p in parts]
+    return as_float("parts[i].mass", masses)
 
 
 def _walls(walls: Any, plate_size: float | None) -> np.ndarray | None:
