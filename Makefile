@@ -62,6 +62,7 @@ bench: $(VENV)/.built ## side-by-side benchmarks (ours vs the peer, ratios print
 	$(PY) bench/sweeps.py
 	$(PY) -m pip install --quiet 'mujoco>=3.1'
 	$(PY) bench/integrator.py --mujoco
+	$(PY) bench/contacts.py
 
 .PHONY: wheel
 wheel: $(VENV)/.deps ## build the abi3 wheel into dist/

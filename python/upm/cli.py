@@ -220,6 +220,9 @@ def main(argv: list[str] | None = None) -> int:
         "--board", action="store_true", help="run the plate in a board emulator process (protocol v1)"
     )
     d.add_argument("--quick", action="store_true", help="a short version")
+    d.add_argument(
+        "--points", action="store_true", help="parts are points that pass through each other (no contacts)"
+    )
     d.add_argument("--mp4", action="store_true", help="also write animation.mp4 (needs imageio-ffmpeg)")
     d.add_argument("--seed", type=int, default=1)
     fg = commands.add_parser("figures", help="the thesis's analytic figures (3.5, 3.6, 4.7, 6.2, 6.9)")
@@ -246,7 +249,8 @@ def main(argv: list[str] | None = None) -> int:
         from .demos import run_demo
 
         try:
-            run_demo(args.name, args.out, board=args.board, quick=args.quick, seed=args.seed, mp4=args.mp4)
+            run_demo(args.name, args.out, board=args.board, quick=args.quick, seed=args.seed, mp4=args.mp4,
+                     contacts=not args.points)  # fmt: skip
         except UpmError as error:
             print(f"upm demo: {error}", file=sys.stderr)
             return 2

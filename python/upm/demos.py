@@ -325,9 +325,13 @@ DEMOS: dict[str, Demo] = {
 # -- running ----------------------------------------------------------------------------------------
 
 
-def _plant(setup: Setup, seed: int) -> SimulatedUPM:
+def _plant(setup: Setup, seed: int, contacts: bool = False) -> SimulatedUPM:
     return SimulatedUPM(
-        plate=PLATE, axes=_suspension(PLATE.mass, PLATE.inertia), parts=setup.parts, seed=seed
+        plate=PLATE,
+        axes=_suspension(PLATE.mass, PLATE.inertia),
+        parts=setup.parts,
+        seed=seed,
+        part_radius=setup.radius if contacts else None,
     )
 
 
@@ -460,9 +464,12 @@ def _write_outputs(
     return written
 
 
-def _emulated(setup: Setup, seed: int, scene_dir: Path) -> tuple[subprocess.Popen[str], str, str]:
+def _emulated(
+    setup: Setup, seed: int, scene_dir: Path, contacts: bool = False
+) -> tuple[subprocess.Popen[str], str, str]:
     scene = {
         "parts": setup.parts.tolist(),
+        "part_radius": setup.radius if contacts else None,
         "labels": setup.labels,
         "mu": 0.3,
         "plate": [PLATE.mass, PLATE.inertia, PLATE.lever],
@@ -503,10 +510,13 @@ def run_demo(
     mp4: bool = False,
     verbose: bool = True,
     cycles: int | None = None,
+    contacts: bool = True,
 ) -> dict[str, Any]:
     """Run demo ``name`` (see :data:`DEMOS`), write its outputs to ``out/name/``, print the report
     and return the metrics. ``board``: the plate runs in a board emulator process reached over the
-    protocol; ``quick``: a short version; ``cycles``: at most this many cycles."""
+    protocol; ``quick``: a short version; ``cycles``: at most this many cycles; ``contacts``: the
+    parts are disks of the demo's part radius that collide (rapier2d); ``False``: points that pass
+    through each other."""
     if name not in DEMOS:
         raise ParameterError(f"demo must be one of {sorted(DEMOS)}; got {name!r}")
     demo = DEMOS[name]
@@ -522,7 +532,7 @@ def run_demo(
         from .vision import RemoteCamera
 
         with tempfile.TemporaryDirectory() as tmp:
-            proc, tty, address = _emulated(setup, seed, Path(tmp))
+            proc, tty, address = _emulated(setup, seed, Path(tmp), contacts)
             try:
                 with Board(tty) as link, RemoteCamera(address) as camera:
                     device = BoardDevice(link, PLATE, wait_rest=False)
@@ -534,7 +544,7 @@ def run_demo(
                 proc.wait()
         fallen = int(np.sum(~np.all(np.isfinite(truth), axis=1)))
     else:
-        plant = _plant(setup, seed)
+        plant = _plant(setup, seed, contacts)
         loop = Loop(
             SimulatedDevice(plant),
             plant.camera(setup.labels, seed=seed),
@@ -545,6 +555,7 @@ def run_demo(
         log = loop.run(setup.cycles)
         fallen = plant.fallen
     metrics = _metrics(name, log, setup, fallen, time.perf_counter() - started, board)
+    metrics["contacts"] = contacts
     written = _write_outputs(name, Path(out) / name, log, loop, setup, metrics, mp4)
     for line in demo.report(log, setup, metrics):
         say("  " + line)

@@ -393,7 +393,8 @@ def main(argv: list[str] | None = None) -> int:
         plate = Plate(*(float(v) for v in scene["plate"]))
         options = {"plate": plate, "axes": _suspension(plate.mass, plate.inertia)}
     plant = SimulatedUPM(snr_db=args.snr_db, seed=args.seed, parts=scene.get("parts", np.zeros((0, 2))),
-                         mu=float(scene.get("mu", 0.3)), **options)  # fmt: skip
+                         mu=float(scene.get("mu", 0.3)), part_radius=scene.get("part_radius"),
+                         **options)  # fmt: skip
     emulator = BoardEmulator(plant, watchdog_ms=args.watchdog_ms, faults=faults)
     camera = None
     if args.camera_port is not None:
