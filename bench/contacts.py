@@ -1,14 +1,14 @@
 """Benchmark: disk parts with and without part–part contacts (rapier2d), beside MuJoCo's colliding boxes.
 
-Run with ``make bench`` or ``python bench/contacts.py [--quick] [--no-mujoco]``. All sides run in this
-one process. Scene: disks of radius 5 mm on a square grid with 0.2 mm gaps, its front 0.2 mm from
-the plate's edge, fed along +x by the time-asymmetric translation drive at 35 Hz into a fence (the
-plate's edge as a wall), so that they pile up and press on each other: nearly every step has
-contacts. Printed: microseconds per step and nanoseconds per disk-step for upm without contacts (the disks pass through each other), upm with
-contacts, and MuJoCo (the same plate motion prescribed open-loop on a massive plate's joints,
-5 mm boxes resting on it, box–box and box–wall contacts, elliptic cones, impratio 100,
-solref 0.001, the same time step), the ratio MuJoCo / upm with contacts, and the worst overlap
-seen in upm's run.
+Run with ``make bench`` or ``python bench/contacts.py [--quick] [--no-mujoco]``. All sides run in
+this one process. Scene: disks of radius 5 mm on a square grid with 0.2 mm gaps, its front 0.2 mm
+from the plate's edge, fed along +x by the time-asymmetric translation drive at 35 Hz into a fence
+(the plate's edge as a wall), so that they pile up and press on each other: nearly every step has
+contacts. Printed: microseconds per step and nanoseconds per disk-step for upm without contacts (the
+disks pass through each other), upm with contacts, and MuJoCo (the same plate motion prescribed
+open-loop on a massive plate's joints, 5 mm boxes resting on it, box–box and box–wall contacts,
+elliptic cones, impratio 100, solref 0.001, the same time step), the ratio MuJoCo / upm with
+contacts, and the worst overlap seen in upm's run.
 """
 
 from __future__ import annotations
