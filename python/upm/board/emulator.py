@@ -25,6 +25,7 @@ import select
 import socket
 import struct
 import sys
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -90,6 +91,9 @@ class BoardEmulator:
         self.last_rx: float | None = None
         self.pulse: tuple[int, int, int] | None = None  # (id, first sample, last sample)
         self.pulse_velocity: list[np.ndarray] = []
+        # Colliding disks (part_radius set) settle in a thread after a pulse, as they can take
+        # seconds to simulate, while the board keeps answering; PULSE_DONE goes out when they have.
+        self.settling: tuple[threading.Thread, int] | None = None
         self._seq = 0
         self._last: tuple[int, list[p.Message]] | None = None
 
@@ -195,9 +199,18 @@ class BoardEmulator:
                 out += self._send(m)
         return bytes(out)
 
-    def _end_pulse(self) -> None:
+    def _end_pulse(self, background: bool = False) -> None:
+        if self.settling is not None:
+            self.settling[0].join()
+            self.settling = None
         if self.pulse is not None and self.pulse_velocity and len(self.plant.parts):
-            self.plant.settle_parts(np.concatenate(self.pulse_velocity))
+            velocity = np.concatenate(self.pulse_velocity)
+            if background:
+                worker = threading.Thread(target=self.plant.settle_parts, args=(velocity,), daemon=True)
+                worker.start()
+                self.settling = (worker, self.pulse[0])
+            else:
+                self.plant.settle_parts(velocity)
         self.pulse = None
         self.pulse_velocity = []
 
@@ -243,10 +256,17 @@ class BoardEmulator:
                 due -= n
             if self.state == p.State.PULSING and self.pulse is not None and self.produced >= self.pulse[2]:
                 pid = self.pulse[0]
-                self._end_pulse()
-                self.state = p.State.IDLE
-                self.pulses += 1
-                out += self._send(p.PulseDone(pid, self.produced))
+                self._end_pulse(background=self.plant.part_radius is not None)
+                if self.settling is None:
+                    self.state = p.State.IDLE
+                    self.pulses += 1
+                    out += self._send(p.PulseDone(pid, self.produced))
+        if self.settling is not None and not self.settling[0].is_alive():
+            pid = self.settling[1]
+            self.settling = None
+            self.state = p.State.IDLE
+            self.pulses += 1
+            out += self._send(p.PulseDone(pid, self.produced))
         return bytes(out)
 
 
