@@ -126,7 +126,8 @@ def _curls(
 
 
 def _warn_rank(rank: Any, constraints: int) -> None:
-    low = int(np.min(rank))
+    # A single plan's rank is an int: no NumPy reduction on the hot path of one solve.
+    low = rank if isinstance(rank, int) else int(np.min(rank))
     if low < constraints:
         warnings.warn(
             f"the system is rank deficient (rank {low} < {constraints} constraints): parts coincide "
@@ -208,9 +209,10 @@ def solve_rotations(
     s, o, pred, pc, res, cost, sv, rank, cond = _core.solve(
         p, f, c, q, k, float(mu_m_g), *_options(rcond, damping, max_strength)
     )
-    _warn_rank(rank, 2 * p.shape[0] + k.size)
+    r0 = int(rank[0])
+    _warn_rank(r0, 2 * p.shape[0] + k.size)
     return RotationPlan(
-        s[0], _order(o[0], s[0], p, c, order), float(res[0]), float(cost[0]), sv[0], int(rank[0]),
+        s[0], _order(o[0], s[0], p, c, order), float(res[0]), float(cost[0]), sv[0], r0,
         float(cond[0]), p, c, pred[0], pc[0], float(mu_m_g),
     )  # fmt: skip
 
@@ -237,9 +239,10 @@ def solve_displacements(
     s, o, pred, _, res, cost, sv, rank, cond = _core.solve(
         p, d, c, _NO_POINTS, _NO_VALUES, None, *_options(rcond, damping, max_strength)
     )
-    _warn_rank(rank, 2 * p.shape[0])
+    r0 = int(rank[0])
+    _warn_rank(r0, 2 * p.shape[0])
     return DisplacementPlan(
-        s[0], _order(o[0], s[0], p, c, order), float(res[0]), float(cost[0]), sv[0], int(rank[0]),
+        s[0], _order(o[0], s[0], p, c, order), float(res[0]), float(cost[0]), sv[0], r0,
         float(cond[0]), p, c, pred[0],
     )  # fmt: skip
 
