@@ -9,7 +9,7 @@ equation numbers pointing into the thesis, is in ``docs/theory.md``.
 
 from __future__ import annotations
 
-from . import actuation, theory
+from . import actuation, mchip, theory
 from ._core import __version__
 from ._errors import (
     BoardError,
@@ -77,6 +77,7 @@ __all__ = [
     "jet_field",
     "jet_plan",
     "jet_pulses",
+    "mchip",
     "mean_force",
     "plan_pulses",
     "plan_to_motion",

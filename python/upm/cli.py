@@ -245,6 +245,19 @@ def main(argv: list[str] | None = None) -> int:
 
             for entry in DEMOS.values():
                 print(f"{entry.name:12s} {entry.figure:14s} {entry.summary}")
+            from .mchip_demos import DEMOS as MCHIP
+
+            for name, (summary, _) in MCHIP.items():
+                print(f"{name:12s} {'chapter 2':14s} {summary}")
+            return 0
+        if args.name.startswith("mchip-"):
+            from .mchip_demos import run_mchip_demo
+
+            try:
+                run_mchip_demo(args.name, args.out, quick=args.quick)
+            except UpmError as error:
+                print(f"upm demo: {error}", file=sys.stderr)
+                return 2
             return 0
         from .demos import run_demo
 

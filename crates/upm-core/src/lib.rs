@@ -14,8 +14,10 @@
 //! * [`friction`]: exact average Coulomb forces and feed rates (root-based, no sampling).
 //! * [`theory`]: the closed forms of chapter 3 and Theorem 1 (section 6.4).
 //! * [`motion`]: plate motion programs `(u1, u2, u3)(t)`.
-//! * [`sim`]: the exact stick–slip integrator for point parts, batched and parallel.
+//! * [`sim`]: the exact stick–slip integrator for point and disk parts, batched and parallel;
+//!   [`sim::contact`] resolves disk contacts with rapier2d.
 //! * [`field`]: average force fields of rotations, jets and any plate motion.
+//! * [`mchip`]: the M-Chip resonator array of chapter 2 (rapier3d).
 //! * [`solve`]: the sequencing-rotations and displacement-field solvers (SVD, bounded, ordered).
 //! * [`parallel`]: deterministic batches on rayon.
 #![deny(missing_docs)]
@@ -26,6 +28,7 @@ pub mod disk;
 pub mod error;
 pub mod field;
 pub mod friction;
+pub mod mchip;
 pub mod motion;
 pub mod parallel;
 pub(crate) mod quadrature;

@@ -6,6 +6,7 @@
 
 mod actuation;
 mod errors;
+mod mchip;
 mod motion;
 mod solve;
 mod vision;
@@ -345,6 +346,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<WaveformBatch>()?;
     m.add_class::<motion::PlateMotion>()?;
     m.add_function(wrap_pyfunction!(motion::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(mchip::mchip_simulate, m)?)?;
     m.add_function(wrap_pyfunction!(vision::coverage_centroids, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::motors_for, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::velocity_amplitudes, m)?)?;

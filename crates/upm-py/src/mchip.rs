@@ -1,0 +1,155 @@
+//! Binding of the M-Chip resonator array (`upm_core::mchip`).
+
+use numpy::{PyArray1, PyArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyTuple;
+use upm_core::mchip::{self, Design, Drive, Scheme, Settings};
+use upm_core::Error;
+
+use crate::errors::{detached, Failure};
+
+/// Simulates the array; returns `(t, position, velocity, angles, collisions, energy, joint)`:
+/// arrays `(T,)`, `(T, 3)`, `(T, 3)`, `(T, R*C)`, `(K, 6)` (time, resonator, angle, angular
+/// speed, x impulse, normal impulse), `(6,)` (part x, y, z, rotation, resonators' kinetic and
+/// spring energy) and `(torque, stiffness, damping, inertia)`.
+#[pyfunction]
+#[pyo3(signature = (*, rows, cols, slab, gap, ridge_distance, ridge_height, ridge_width, density, natural_frequency, quality, part_size, part_mass, friction, restitution, frequency, duty, torque, peak_angle, scheme, tau, delta, phases, dt, duration, record_every, external_force, iterations, part_start, drop_height, initial_angle, part))]
+#[allow(clippy::too_many_arguments)]
+pub fn mchip_simulate<'py>(
+    py: Python<'py>,
+    rows: usize,
+    cols: usize,
+    slab: [f64; 3],
+    gap: f64,
+    ridge_distance: f64,
+    ridge_height: f64,
+    ridge_width: f64,
+    density: f64,
+    natural_frequency: f64,
+    quality: f64,
+    part_size: [f64; 3],
+    part_mass: f64,
+    friction: f64,
+    restitution: f64,
+    frequency: f64,
+    duty: f64,
+    torque: Option<f64>,
+    peak_angle: f64,
+    scheme: &str,
+    tau: usize,
+    delta: usize,
+    phases: Vec<f64>,
+    dt: f64,
+    duration: f64,
+    record_every: usize,
+    external_force: [f64; 2],
+    iterations: usize,
+    part_start: [f64; 2],
+    drop_height: f64,
+    initial_angle: f64,
+    part: bool,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let scheme = match scheme {
+        "all" => Scheme::AllOn,
+        "off" => Scheme::Off,
+        "strobe" => Scheme::Strobe { tau, delta },
+        "phases" => Scheme::Phases(phases),
+        other => {
+            return Err(crate::errors::to_py(
+                py,
+                Error::parameter(
+                    "scheme",
+                    format!("must be 'all', 'strobe', 'phases' or 'off'; got {other:?}"),
+                ),
+            ))
+        }
+    };
+    let design = Design {
+        rows,
+        cols,
+        slab,
+        gap,
+        ridge_distance,
+        ridge_height,
+        ridge_width,
+        density,
+        natural_frequency,
+        quality,
+        part_size,
+        part_mass,
+        friction,
+        restitution,
+    };
+    let drive = Drive {
+        frequency,
+        duty,
+        torque,
+        peak_angle,
+        scheme,
+    };
+    let settings = Settings {
+        dt,
+        duration,
+        record_every,
+        external_force,
+        iterations,
+        part_start,
+        drop_height,
+        initial_angle,
+        part,
+    };
+    let out = detached(py, || {
+        mchip::simulate_with(&design, &drive, &settings, |_| {
+            Python::attach(|py| py.check_signals()).map_err(Failure::from)
+        })
+    })?;
+    let rows_t = out.t.len();
+    let n_res = design.rows * design.cols;
+    let t = PyArray1::from_vec(py, out.t);
+    let pos = PyArray1::from_vec(py, out.position.into_iter().flatten().collect())
+        .reshape([rows_t, 3])?;
+    let vel = PyArray1::from_vec(py, out.velocity.into_iter().flatten().collect())
+        .reshape([rows_t, 3])?;
+    let angles = PyArray1::from_vec(py, out.angles).reshape([rows_t, n_res])?;
+    let k = out.collisions.len();
+    let coll: Vec<f64> = out
+        .collisions
+        .iter()
+        .flat_map(|c| {
+            [
+                c.time,
+                c.resonator as f64,
+                c.angle,
+                c.angular_speed,
+                c.impulse_x,
+                c.impulse_normal,
+            ]
+        })
+        .collect();
+    let coll = PyArray1::from_vec(py, coll).reshape([k, 6])?;
+    let e = out.energy;
+    let energy = PyArray1::from_vec(
+        py,
+        vec![
+            e.part_translation[0],
+            e.part_translation[1],
+            e.part_translation[2],
+            e.part_rotation,
+            e.resonator_kinetic,
+            e.resonator_spring,
+        ],
+    );
+    let joint = PyTuple::new(py, [out.torque, out.stiffness, out.damping, out.inertia])?;
+    PyTuple::new(
+        py,
+        [
+            t.into_any(),
+            pos.into_any(),
+            vel.into_any(),
+            angles.into_any(),
+            coll.into_any(),
+            energy.into_any(),
+            joint.into_any(),
+        ],
+    )
+}

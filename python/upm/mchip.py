@@ -1,0 +1,245 @@
+"""The M-Chip resonator array of thesis chapter 2 (SPEC §9), simulated with the rapier3d physics engine.
+
+A design tool for impact-driven microactuator arrays: an interleaved array of torsional resonators
+(silicon slabs with a ridge at the rear end, on revolute joints with a torsional spring and damper)
+driven by a positive square-wave torque feeds a rectangular part lying on the ridges. The model
+and its unit scaling are described in ``docs/mchip.md``; the Rust side is ``upm_core::mchip``.
+
+>>> from upm import mchip
+>>> run = mchip.simulate(duration=0.02)                    # the default 8 x 5 array, 5 kHz
+>>> run.feed_rate()                                        # m/s along the feed axis x
+>>> mchip.simulate(mchip.Design(), mchip.Drive(scheme="strobe", tau=50, delta=4), duration=0.2)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from . import _core
+from ._errors import ParameterError
+
+__all__ = ["Design", "Drive", "MChipResult", "conveyor_fit", "simulate"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Design:
+    """Geometry and materials (SI units). Defaults: the thesis's 8 x 5 sub-array of 280 x 180 x
+    5 µm silicon slabs with a 5 µm ridge, resonating at 5 kHz, and a 1150 x 400 x 50 µm silicon
+    part (54 µg, the thesis's nominal 55 µg); friction 1.0, restitution 0.5 (SPEC §9)."""
+
+    rows: int = 8
+    cols: int = 5
+    slab: tuple[float, float, float] = (280e-6, 180e-6, 5e-6)
+    gap: float = 20e-6
+    ridge_distance: float = 130e-6
+    """``L``: the ridge's distance behind the slab's midpoint (the joint) [m]."""
+    ridge_height: float = 5e-6
+    """``H`` [m]."""
+    ridge_width: float = 10e-6
+    density: float = 2330.0
+    natural_frequency: float = 5000.0
+    quality: float = 0.8
+    """Quality factor of a resonator on its joint (damping ratio ``1 / (2 Q)``)."""
+    part_size: tuple[float, float, float] = (1150e-6, 400e-6, 50e-6)
+    part_mass: float | None = None
+    """[kg]; default: silicon of ``part_size``."""
+    friction: float = 1.0
+    restitution: float = 0.5
+
+    def mass(self) -> float:
+        """The part's mass [kg]."""
+        return self.part_mass if self.part_mass is not None else self.density * math.prod(self.part_size)
+
+
+@dataclass(frozen=True)
+class Drive:
+    """The square-wave drive torque: ``frequency`` [Hz], ``duty`` (fraction on), amplitude
+    ``torque`` [N m] or (default) the one whose free steady oscillation peaks at ``peak_angle``
+    [rad]; ``scheme``: ``"all"`` rows on, ``"strobe"`` (rows off for ``tau`` cycles in wavefronts
+    ``delta`` rows apart, travelling against the feed), ``"phases"`` (per-row offsets
+    ``phases`` [cycles]) or ``"off"``."""
+
+    frequency: float = 5000.0
+    duty: float = 0.5
+    torque: float | None = None
+    peak_angle: float = 0.08
+    scheme: str = "all"
+    tau: int = 50
+    delta: int = 4
+    phases: tuple[float, ...] = field(default_factory=tuple)
+
+
+_COLLISION = np.dtype(
+    [
+        ("time", "f8"),
+        ("resonator", "i8"),
+        ("angle", "f8"),
+        ("angular_speed", "f8"),
+        ("impulse_x", "f8"),
+        ("impulse_normal", "f8"),
+    ]
+)
+
+
+@dataclass(frozen=True)
+class MChipResult:
+    """What :func:`simulate` recorded (SI units)."""
+
+    design: Design
+    drive: Drive
+    t: FloatArray
+    """Recorded times [s], ``(T,)``."""
+    position: FloatArray
+    """Part centre [m], ``(T, 3)``; x along the feed, z up (z = 0: the slabs' top at rest)."""
+    velocity: FloatArray
+    """Part velocity [m/s], ``(T, 3)``."""
+    angles: FloatArray
+    """Resonator angles [rad], ``(T, rows * cols)`` (index ``row * cols + col``)."""
+    collisions: NDArray[Any]
+    """One record per part–resonator contact episode: ``time``, ``resonator``, ``angle``,
+    ``angular_speed`` (when it began), ``impulse_x``, ``impulse_normal`` [N s]."""
+    energy: dict[str, float]
+    """Time-averaged energy per degree of freedom [J]: ``part_x``, ``part_y``, ``part_z``,
+    ``part_rotation``, ``resonators_kinetic``, ``resonators_spring``."""
+    torque: float
+    """Drive torque amplitude used [N m]."""
+    stiffness: float
+    """Joint spring [N m/rad]."""
+    damping: float
+    """Joint damper [N m s/rad]."""
+    inertia: float
+    """Resonator inertia about its joint [kg m^2]."""
+
+    def feed_rate(self, skip: float = 0.01) -> float:
+        """Mean feed velocity along x [m/s]: the least-squares slope of ``x(t)`` after ``skip`` [s]
+        (the part's landing)."""
+        keep = self.t >= min(skip, 0.5 * self.t[-1])
+        if keep.sum() < 2:
+            raise ParameterError("feed_rate needs at least two recorded rows after skip")
+        return float(np.polyfit(self.t[keep], self.position[keep, 0], 1)[0])
+
+    def jams(
+        self, window: float = 0.01, fraction: float = 0.2, skip: float = 0.01
+    ) -> list[tuple[float, float]]:
+        """Intervals ``(start, end)`` [s] over which the part advanced less than ``fraction`` of
+        its run-average rate in every ``window`` [s] (a jam), after ``skip``."""
+        t, x = self.t, self.position[:, 0]
+        rate = max(self.feed_rate(skip), 0.0)
+        out: list[tuple[float, float]] = []
+        start = None
+        for k in range(len(t)):
+            if t[k] < skip + window:
+                continue
+            j = int(np.searchsorted(t, t[k] - window))
+            slow = (x[k] - x[j]) < fraction * rate * (t[k] - t[j])
+            if slow and start is None:
+                start = float(t[j])
+            elif not slow and start is not None:
+                out.append((start, float(t[k])))
+                start = None
+        if start is not None:
+            out.append((start, float(t[-1])))
+        return out
+
+    def inter_arrival(self) -> FloatArray:
+        """Times between successive collisions of the same resonator [s] (all resonators)."""
+        gaps = []
+        for r in np.unique(self.collisions["resonator"]):
+            times = np.sort(self.collisions["time"][self.collisions["resonator"] == r])
+            gaps.append(np.diff(times))
+        return np.concatenate(gaps) if gaps else np.zeros(0)
+
+    def hop_frequency(self, skip: float = 0.01) -> float:
+        """Dominant frequency [Hz] of the part's vertical motion below the drive frequency (the
+        array as a spring under the part, thesis 2.2.4)."""
+        keep = self.t >= skip
+        z = self.position[keep, 2] - self.position[keep, 2].mean()
+        dt = float(np.median(np.diff(self.t[keep])))
+        spectrum = np.abs(np.fft.rfft(z * np.hanning(len(z))))
+        f = np.fft.rfftfreq(len(z), dt)
+        band = (f > 2.0 / (len(z) * dt)) & (f < 0.5 * self.drive.frequency)
+        if not band.any():
+            raise ParameterError("hop_frequency needs a longer run")
+        return float(f[band][np.argmax(spectrum[band])])
+
+    def array_stiffness(self, skip: float = 0.01) -> float:
+        """The array's vertical stiffness under the part [N/m]: ``m (2 pi f_hop)^2``."""
+        return self.design.mass() * (2 * math.pi * self.hop_frequency(skip)) ** 2
+
+
+def simulate(
+    design: Design | None = None,
+    drive: Drive | None = None,
+    *,
+    duration: float,
+    dt: float = 1e-6,
+    record_every: int = 10,
+    external_force: ArrayLike = (0.0, 0.0),
+    iterations: int = 4,
+    part_start: ArrayLike = (600e-6, 400e-6),
+    drop_height: float = 2e-6,
+    initial_angle: float = 0.0,
+    part: bool = True,
+) -> MChipResult:
+    """Simulate the resonator array and the part for ``duration`` [s] with steps of ``dt`` [s]
+    (at most 1/50 of the drive and resonance periods).
+
+    ``external_force`` (x, y) [N] acts on the part; ``part_start`` is its centre (x, y) [m] (x = 0
+    at the first row's joints); it starts ``drop_height`` [m] above the ridges. ``initial_angle``
+    sets every resonator's angle at the start (ring-down checks); ``part=False`` simulates the
+    array alone. Releases the GIL; Ctrl-C stops it.
+    """
+    design = design or Design()
+    drive = drive or Drive()
+    if not isinstance(design, Design) or not isinstance(drive, Drive):
+        raise ParameterError("design must be a upm.mchip.Design and drive a upm.mchip.Drive")
+    d = asdict(design)
+    d["part_mass"] = design.mass()
+    v = asdict(drive)
+    phases = [float(p) for p in v.pop("phases")]
+    force = np.asarray(external_force, dtype=float).reshape(-1)
+    start = np.asarray(part_start, dtype=float).reshape(-1)
+    if force.size != 2 or start.size != 2:
+        raise ParameterError("external_force and part_start must be (x, y) pairs")
+    t, pos, vel, angles, coll, energy, joint = _core.mchip_simulate(
+        **d,
+        **v,
+        phases=phases,
+        dt=float(dt),
+        duration=float(duration),
+        record_every=int(record_every),
+        external_force=(float(force[0]), float(force[1])),
+        iterations=int(iterations),
+        part_start=(float(start[0]), float(start[1])),
+        drop_height=float(drop_height),
+        initial_angle=float(initial_angle),
+        part=bool(part),
+    )
+    records = np.zeros(len(coll), dtype=_COLLISION)
+    for k, name in enumerate(_COLLISION.names or ()):
+        records[name] = coll[:, k]
+    names = ("part_x", "part_y", "part_z", "part_rotation", "resonators_kinetic", "resonators_spring")
+    return MChipResult(
+        design, drive, t, pos, vel, angles, records, dict(zip(names, map(float, energy), strict=True)),
+        *joint,
+    )  # fmt: skip
+
+
+def conveyor_fit(forces: ArrayLike, feed_rates: ArrayLike) -> tuple[float, float]:
+    """Fit the abstract spring–conveyor model's viscous law ``v = v_belt - F / c`` (thesis 2.2.4)
+    to feed rates [m/s] measured under external forces [N]: returns ``(v_belt [m/s], c [N s/m])``."""
+    f = np.asarray(forces, dtype=float).reshape(-1)
+    v = np.asarray(feed_rates, dtype=float).reshape(-1)
+    if f.size != v.size or f.size < 2:
+        raise ParameterError("conveyor_fit needs at least two (force, feed rate) pairs of equal length")
+    slope, belt = np.polyfit(f, v, 1)
+    if slope >= 0:
+        raise ParameterError("the feed rate does not fall with the force: no viscous fit")
+    return float(belt), float(-1.0 / slope)

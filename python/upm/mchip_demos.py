@@ -1,0 +1,183 @@
+"""``upm demo mchip-NAME``: the M-Chip experiments of thesis chapter 2 (Figs. 2.5–2.10, Table 2.1),
+each writing plots and ``metrics.json`` to ``out/mchip-NAME/``. Needs matplotlib."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._errors import ParameterError
+from .mchip import Design, Drive, MChipResult, conveyor_fit, simulate
+
+# Short contacts: an impact's rebound within this time of the previous one is a double bounce.
+DOUBLE_BOUNCE = 0.05e-3
+
+
+def _run(design: Design, drive: Drive, duration: float, **kw: Any) -> MChipResult:
+    return simulate(design, drive, duration=duration, record_every=20, **kw)
+
+
+def _summary(r: MChipResult) -> dict[str, Any]:
+    gaps = r.inter_arrival()
+    e = r.energy
+    part = e["part_x"] + e["part_y"] + e["part_z"] + e["part_rotation"]
+    return {
+        "feed_rate_mm_s": 1e3 * r.feed_rate(),
+        "collisions": len(r.collisions),
+        "double_bounce_share": float(np.mean(gaps < DOUBLE_BOUNCE)) if len(gaps) else 0.0,
+        "jam_time_s": float(sum(b - a for a, b in r.jams())),
+        "energy_share_vertical_hop": e["part_z"] / part if part > 0 else float("nan"),
+    }
+
+
+def _feed(quick: bool, out: Path) -> dict[str, Any]:
+    import matplotlib.pyplot as plt
+
+    duration = 0.04 if quick else 0.2
+    r = _run(Design(), Drive(), duration)
+    m = _summary(r)
+    m["hop_frequency_hz"] = r.hop_frequency()
+    m["array_stiffness_n_m"] = r.array_stiffness()
+    m["energy_j"] = r.energy
+    fig, ax = plt.subplots(3, 1, figsize=(7, 9))
+    ax[0].plot(1e3 * r.t, 1e6 * (r.position[:, 0] - r.position[0, 0]), label="x (feed)")
+    ax[0].plot(1e3 * r.t, 1e6 * r.position[:, 2], label="z (hop)")
+    ax[0].set(xlabel="t [ms]", ylabel="part [µm]", title="Part displacement (Fig. 2.5)")
+    ax[0].legend()
+    c = r.collisions
+    ax[1].scatter(c["angle"], c["angular_speed"], s=3)
+    ax[1].set(xlabel="angle [rad]", ylabel="angular speed [rad/s]", title="Collisions (Fig. 2.6)")
+    gaps = r.inter_arrival()
+    ax[2].hist(1e3 * gaps[gaps < 0.5e-3], bins=100)
+    ax[2].set(xlabel="inter-arrival time [ms]", ylabel="collisions", title="Fig. 2.7")
+    fig.tight_layout()
+    fig.savefig(out / "feed.png", dpi=110)
+    plt.close(fig)
+    return m
+
+
+def _compare(runs: dict[str, tuple[Design, Drive]], duration: float, out: Path, name: str) -> dict[str, Any]:
+    import matplotlib.pyplot as plt
+
+    m: dict[str, Any] = {}
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for label, (design, drive) in runs.items():
+        r = _run(design, drive, duration)
+        m[label] = _summary(r)
+        ax.plot(1e3 * r.t, 1e6 * (r.position[:, 0] - r.position[0, 0]), label=label)
+    ax.set(xlabel="t [ms]", ylabel="x [µm]")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(out / f"{name}.png", dpi=110)
+    plt.close(fig)
+    return m
+
+
+def _strobe(quick: bool, out: Path) -> dict[str, Any]:
+    runs = {
+        "all rows on": (Design(), Drive()),
+        "row strobing (tau 50, delta 4)": (Design(), Drive(scheme="strobe", tau=50, delta=4)),
+    }
+    return _compare(runs, 0.06 if quick else 0.4, out, "strobe")
+
+
+def _duty(quick: bool, out: Path) -> dict[str, Any]:
+    runs = {"duty 50%": (Design(), Drive()), "duty 36%": (Design(), Drive(duty=0.36))}
+    return _compare(runs, 0.04 if quick else 0.2, out, "duty")
+
+
+def _sweep_plot(x: list[float], y: list[float], xlabel: str, out: Path, name: str) -> None:
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(x, y, "o-")
+    ax.set(xlabel=xlabel, ylabel="feed rate [mm/s]")
+    fig.tight_layout()
+    fig.savefig(out / f"{name}.png", dpi=110)
+    plt.close(fig)
+
+
+def _mass(quick: bool, out: Path) -> dict[str, Any]:
+    base = Design()
+    factors = [0.5, 1.0, 2.0] if quick else [0.25, 0.5, 1.0, 2.0, 4.0, 8.0]
+    rates = []
+    for f in factors:
+        r = _run(replace(base, part_mass=base.mass() * f), Drive(), 0.03 if quick else 0.1)
+        rates.append(1e3 * r.feed_rate())
+    masses = [1e9 * base.mass() * f for f in factors]
+    _sweep_plot(masses, rates, "part mass [µg]", out, "mass")
+    return {"part_mass_ug": masses, "feed_rate_mm_s": rates}
+
+
+def _shape(quick: bool, out: Path) -> dict[str, Any]:
+    ls = [70e-6, 130e-6] if quick else [40e-6, 70e-6, 100e-6, 130e-6]
+    hs = [5e-6] if quick else [2.5e-6, 5e-6, 10e-6]
+    grid = []
+    for h in hs:
+        row = []
+        for length in ls:
+            r = _run(
+                replace(Design(), ridge_distance=length, ridge_height=h), Drive(), 0.03 if quick else 0.1
+            )
+            row.append(1e3 * r.feed_rate())
+        grid.append(row)
+    _sweep_plot(
+        [1e6 * v for v in ls], grid[-1], f"ridge distance L [µm] (H = {1e6 * hs[-1]:g} µm)", out, "shape"
+    )
+    return {"ridge_distance_um": [1e6 * v for v in ls], "ridge_height_um": [1e6 * v for v in hs],
+            "feed_rate_mm_s": grid}  # fmt: skip
+
+
+def _force(quick: bool, out: Path) -> dict[str, Any]:
+    weight = Design().mass() * 9.81
+    fractions = [0.0, 0.05, 0.1] if quick else [0.0, 0.025, 0.05, 0.075, 0.1, 0.15]
+    forces = [-f * weight for f in fractions]  # pushing against the feed
+    rates = [
+        _run(Design(), Drive(), 0.03 if quick else 0.1, external_force=(f, 0.0)).feed_rate() for f in forces
+    ]
+    m: dict[str, Any] = {"force_n": forces, "feed_rate_mm_s": [1e3 * v for v in rates]}
+    try:
+        belt, c = conveyor_fit(np.negative(forces), rates)
+        fit = np.polyval(np.polyfit(forces, rates, 1), forces)
+        m.update(belt_speed_mm_s=1e3 * belt, viscous_n_s_m=c,
+                 linear_fit_rms_mm_s=float(1e3 * np.sqrt(np.mean((np.array(rates) - fit) ** 2))))  # fmt: skip
+    except ParameterError as error:
+        m["fit"] = str(error)
+    _sweep_plot([1e9 * -f for f in forces], m["feed_rate_mm_s"], "force against the feed [nN]", out, "force")
+    return m
+
+
+DEMOS: dict[str, tuple[str, Callable[[bool, Path], dict[str, Any]]]] = {
+    "mchip-feed": ("the part fed by the array; collisions and inter-arrival times (Figs. 2.5–2.7)", _feed),
+    "mchip-strobe": ("all rows on against row strobing (2.2.1, Fig. 2.4)", _strobe),
+    "mchip-duty": ("torque duty cycle 50% against 36%: double bounces (2.2.2)", _duty),
+    "mchip-mass": ("feed rate against part mass (Fig. 2.9)", _mass),
+    "mchip-shape": ("feed rate against ridge distance L and height H (Figs. 2.8, 2.9)", _shape),
+    "mchip-force": ("feed rate under an external force: the viscous model (Fig. 2.10, Table 2.1)", _force),
+}
+
+
+def run_mchip_demo(
+    name: str, out: Path | str = "out", quick: bool = False, verbose: bool = True
+) -> dict[str, Any]:
+    """Run M-Chip experiment ``name`` (see :data:`DEMOS`); write ``out/name/`` and return the metrics."""
+    if name not in DEMOS:
+        raise ParameterError(f"demo must be one of {sorted(DEMOS)}; got {name!r}")
+    summary, fn = DEMOS[name]
+    folder = Path(out) / name
+    folder.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+    metrics = fn(quick, folder)
+    metrics["wall_time_s"] = time.perf_counter() - started
+    (folder / "metrics.json").write_text(json.dumps(metrics, indent=1, default=float))
+    if verbose:
+        print(f"upm demo {name}: {summary}")
+        print(json.dumps(metrics, indent=1, default=float))
+        print(f"  wrote {folder}")
+    return metrics

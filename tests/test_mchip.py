@@ -1,0 +1,84 @@
+"""The M-Chip array (``upm.mchip``, rapier3d): the Python contract, the collision log and the
+spring–conveyor fit. The physics checks (ring-down Q, drive off/on, dt halving) are in
+``crates/upm-core/tests/mchip.rs``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import upm
+from upm import mchip
+
+
+@pytest.fixture(scope="module")
+def run() -> mchip.MChipResult:
+    return mchip.simulate(duration=0.02)
+
+
+def test_a_driven_part_feeds_forward_and_hops(run: mchip.MChipResult) -> None:
+    assert run.feed_rate() > 5e-4  # m/s along +x
+    assert run.position.shape == (len(run.t), 3) and run.angles.shape == (len(run.t), 40)
+    # The resonators oscillate between about 0 and the 0.08 rad asked for.
+    late = run.angles[len(run.t) // 2 :]
+    assert 0.075 < late.max() < 0.09 and late.min() > -0.01
+    # Most of the part's kinetic energy is the vertical hop.
+    e = run.energy
+    assert e["part_z"] > 5 * max(e["part_x"], e["part_y"])
+
+
+def test_collisions_come_once_a_cycle_with_rebounds_just_after(run: mchip.MChipResult) -> None:
+    c = run.collisions
+    assert set(c.dtype.names or ()) >= {"time", "resonator", "angle", "angular_speed", "impulse_x"}
+    assert np.all(np.diff(c["time"]) >= 0) and c["resonator"].max() < 40
+    assert np.all(c["impulse_normal"] > 0)
+    gaps = run.inter_arrival()
+    period = 1 / 5000
+    # One impact per resonator cycle (0.2 ms) and rebounds within a few hundredths of a ms.
+    assert np.mean(np.abs(gaps - period) < 0.15 * period) > 0.1
+    assert np.mean(gaps < 0.25 * period) > 0.05
+    # Impacts push the part forward on balance.
+    assert c["impulse_x"].sum() > 0
+
+
+def test_no_drive_no_feed() -> None:
+    still = mchip.simulate(drive=mchip.Drive(scheme="off"), duration=0.01)
+    # It drops 2 µm onto the ridges and rocks there (a few nm, damped) for a few ms; then it rests.
+    landed = np.searchsorted(still.t, 0.006)
+    assert np.ptp(still.position[landed:, 0]) < 5e-9
+
+
+def test_strobe_and_phase_schemes_switch_rows() -> None:
+    strobe = mchip.simulate(mchip.Design(rows=4, cols=1), mchip.Drive(scheme="strobe", tau=2, delta=2),
+                            duration=2e-3, part=False, record_every=1)  # fmt: skip
+    # Two rows (alternating) are off for two cycles at a time: their angles fall while the
+    # others swing.
+    swing = np.ptp(strobe.angles[-200:], axis=0)
+    assert swing.min() < 0.5 * swing.max()
+    phased = mchip.simulate(mchip.Design(rows=2, cols=1), mchip.Drive(scheme="phases", phases=(0.0, 0.5)),
+                            duration=2e-3, part=False, record_every=1)  # fmt: skip
+    a = phased.angles[-400:]
+    assert np.corrcoef(a[:, 0], a[:, 1])[0, 1] < -0.5  # half a cycle apart
+
+
+def test_conveyor_fit_recovers_a_viscous_law() -> None:
+    forces = np.array([0.0, 1e-9, 2e-9, 3e-9])
+    belt, c = mchip.conveyor_fit(forces, 1e-3 - forces / 2e-6)
+    assert belt == pytest.approx(1e-3) and c == pytest.approx(2e-6)
+    with pytest.raises(upm.ParameterError, match="does not fall"):
+        mchip.conveyor_fit(forces, forces)
+
+
+def test_bad_input_names_the_parameter() -> None:
+    with pytest.raises(upm.ParameterError, match="scheme"):
+        mchip.simulate(drive=mchip.Drive(scheme="wave"), duration=1e-3)
+    with pytest.raises(upm.ParameterError, match="duty"):
+        mchip.simulate(drive=mchip.Drive(duty=1.5), duration=1e-3)
+    with pytest.raises(upm.ParameterError, match="dt"):
+        mchip.simulate(duration=1e-3, dt=1e-5)
+    with pytest.raises(upm.ParameterError, match="ridge_distance"):
+        mchip.simulate(mchip.Design(ridge_distance=1e-3), duration=1e-3)
+    with pytest.raises(upm.ParameterError, match="phases"):
+        mchip.simulate(drive=mchip.Drive(scheme="phases", phases=(0.0,)), duration=1e-3)
+    with pytest.raises(upm.ParameterError, match="design must be"):
+        mchip.simulate("8x5", duration=1e-3)  # type: ignore[arg-type]
