@@ -24,6 +24,7 @@ __all__ = [
     "gamma",
     "harmonic_fit",
     "jet_field",
+    "mchip_simulate",
     "motors_for",
     "normalized_drive",
     "positive_force",
