@@ -513,7 +513,6 @@ where
         InteractionGroups::new(Group::GROUP_2, Group::GROUP_1, InteractionTestMode::And);
     let n_res = design.rows * design.cols;
     let mut resonators = Vec::with_capacity(n_res);
-    let mut colliders = Vec::with_capacity(n_res);
     let [lx, ly, lz] = design.slab;
     for row in 0..design.rows {
         for col in 0..design.cols {
@@ -543,13 +542,12 @@ where
             .friction(design.friction)
             .restitution(design.restitution)
             .collision_groups(res_group);
-            let c = world.insert_collider(ridge, Some(h));
+            world.insert_collider(ridge, Some(h));
             let joint = RevoluteJointBuilder::new(Vector::Y)
                 .local_anchor1(Vector::new(l(x), l(y), l(z)))
                 .local_anchor2(Vector::ZERO);
             world.insert_impulse_joint(ground, h, joint);
             resonators.push(h);
-            colliders.push(c);
         }
     }
     let [px, py, pz] = design.part_size;
@@ -676,11 +674,10 @@ where
             }
         }
         // Energies (scaled units, converted at the end).
-        let (v, w) = (b.linvel(), b.angvel());
+        let v = b.linvel();
         energy.part_translation[0] += 0.5 * m_part * v.x * v.x;
         energy.part_translation[1] += 0.5 * m_part * v.y * v.y;
         energy.part_translation[2] += 0.5 * m_part * v.z * v.z;
-        let _ = w;
         energy.part_rotation += b.kinetic_energy() - 0.5 * m_part * v.length_squared();
         for &h in &resonators {
             let r = &world.bodies[h];
