@@ -72,6 +72,18 @@ def test_rotation_accuracy_scenario() -> None:
         upm.sweep("rotation_accuracy", {"spacing": [0.05], "n_centers": [6]}, progress=False)
 
 
+def test_mchip_feed_scenario_runs_the_array_per_point() -> None:
+    # Two duty cycles, 15 ms each, on two threads: each point is one rapier3d run of upm.mchip, the
+    # same as calling it directly.
+    ds = upm.sweep("mchip_feed", {"duty": [0.36, 0.5]}, duration=0.015, n_jobs=2, progress=False)
+    assert ds.feed_rate.dims == ("duty",) and np.all(ds.feed_rate > 0)
+    assert np.all((ds.rebound_share >= 0) & (ds.rebound_share <= 1)) and np.all(ds.collisions > 0)
+    direct = upm.mchip.simulate(drive=upm.mchip.Drive(duty=0.5), duration=0.015, record_every=20)
+    assert float(ds.feed_rate.sel(duty=0.5)) == direct.feed_rate(skip=0.3 * 0.015)
+    with pytest.raises(upm.ParameterError, match="ridge_distance"):
+        upm.sweep("mchip_feed", {"ridge_distance": [1e-3]}, progress=False)
+
+
 # -- functions, shapes, labels -------------------------------------------------------------
 
 

@@ -176,6 +176,29 @@ def _rotation_accuracy(p: dict[str, FloatArray]) -> Outputs:
     return {"residual": residual, "flow_error": flow, "condition": cond}
 
 
+def _mchip_feed(p: dict[str, FloatArray]) -> Outputs:
+    from . import mchip
+
+    n = len(p["duty"])
+    out = {k: np.empty(n) for k in ("feed_rate", "rebound_share", "collisions", "hop_energy_share")}
+    for i in range(n):
+        design = mchip.Design(
+            part_mass=float(p["mass"][i]),
+            ridge_distance=float(p["ridge_distance"][i]),
+            ridge_height=float(p["ridge_height"][i]),
+        )
+        run = mchip.simulate(design, mchip.Drive(duty=float(p["duty"][i])), duration=float(p["duration"][i]),
+                             record_every=20)  # fmt: skip
+        gaps = run.inter_arrival()
+        e = run.energy
+        part = e["part_x"] + e["part_y"] + e["part_z"] + e["part_rotation"]
+        out["feed_rate"][i] = run.feed_rate(skip=min(0.01, 0.3 * float(p["duration"][i])))
+        out["rebound_share"][i] = float(np.mean(gaps < 0.05e-3)) if len(gaps) else 0.0
+        out["collisions"][i] = len(run.collisions)
+        out["hop_energy_share"][i] = e["part_z"] / part if part > 0 else np.nan
+    return out
+
+
 def _check_feed_rate(values: Callable[[str], NDArray[Any]]) -> None:
     periods, average = values("periods"), values("average")
     if np.any((periods > 0) & (periods <= average.max())):
@@ -263,6 +286,36 @@ SCENARIOS: dict[str, Scenario] = {
             check=_check_rotation_accuracy,
             chunk=8,
             integers=("n_centers", "parts", "trials", "seed"),
+        ),
+        Scenario(
+            "mchip_feed",
+            "The M-Chip resonator array (thesis ch. 2, upm.mchip, rapier3d): the part's feed rate "
+            "versus its mass, the ridge distance L and height H and the torque's duty cycle, with "
+            "the share of rebounds (collisions within 0.05 ms of the resonator's previous one) and "
+            "of the part's kinetic energy in the vertical hop. Each point simulates `duration` s "
+            "(about 25 s of wall time per simulated 0.1 s).",
+            ranges={
+                "mass": (1e-12, 1e-3),
+                "ridge_distance": (0.0, 135e-6),
+                "ridge_height": (1e-7, 1e-4),
+                "duty": (1e-3, 1.0),
+                "duration": (1e-3, 10.0),
+            },
+            defaults={
+                "mass": 2330.0 * 1150e-6 * 400e-6 * 50e-6,
+                "ridge_distance": 130e-6,
+                "ridge_height": 5e-6,
+                "duty": 0.5,
+                "duration": 0.05,
+            },
+            outputs={
+                "feed_rate": "m/s along the feed",
+                "rebound_share": "1",
+                "collisions": "1",
+                "hop_energy_share": "1",
+            },
+            run=_mchip_feed,
+            chunk=1,
         ),
     )
 }
