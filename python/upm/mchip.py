@@ -156,6 +156,18 @@ class MChipResult:
             gaps.append(np.diff(times))
         return np.concatenate(gaps) if gaps else np.zeros(0)
 
+    def rebound_share(self, within: float = 0.05e-3) -> float:
+        """Share of collisions that came within ``within`` [s] of the same resonator's previous
+        one: the double bounces of thesis 2.2.2 (0 without collisions)."""
+        gaps = self.inter_arrival()
+        return float(np.mean(gaps < within)) if len(gaps) else 0.0
+
+    def hop_energy_share(self) -> float:
+        """Share of the part's kinetic energy in its vertical motion (thesis 2.2.4, Table 2.1)."""
+        e = self.energy
+        part = e["part_x"] + e["part_y"] + e["part_z"] + e["part_rotation"]
+        return e["part_z"] / part if part > 0 else float("nan")
+
     def hop_frequency(self, skip: float = 0.01) -> float:
         """Dominant frequency [Hz] of the part's vertical motion below the drive frequency (the
         array as a spring under the part, thesis 2.2.4)."""

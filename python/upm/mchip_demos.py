@@ -15,24 +15,18 @@ import numpy as np
 from ._errors import ParameterError
 from .mchip import Design, Drive, MChipResult, conveyor_fit, simulate
 
-# Short contacts: an impact's rebound within this time of the previous one is a double bounce.
-DOUBLE_BOUNCE = 0.05e-3
-
 
 def _run(design: Design, drive: Drive, duration: float, **kw: Any) -> MChipResult:
     return simulate(design, drive, duration=duration, record_every=20, **kw)
 
 
 def _summary(r: MChipResult) -> dict[str, Any]:
-    gaps = r.inter_arrival()
-    e = r.energy
-    part = e["part_x"] + e["part_y"] + e["part_z"] + e["part_rotation"]
     return {
         "feed_rate_mm_s": 1e3 * r.feed_rate(),
         "collisions": len(r.collisions),
-        "double_bounce_share": float(np.mean(gaps < DOUBLE_BOUNCE)) if len(gaps) else 0.0,
+        "double_bounce_share": r.rebound_share(),
         "jam_time_s": float(sum(b - a for a, b in r.jams())),
-        "energy_share_vertical_hop": e["part_z"] / part if part > 0 else float("nan"),
+        "energy_share_vertical_hop": r.hop_energy_share(),
     }
 
 

@@ -246,8 +246,10 @@ class SimulatedUPM:
             result = simulate(motion, self.parts[on], record_every=10**9, **opts)
         else:
             disks = [Disk((float(x), float(y)), r) for x, y in self.parts[on]]
-            contact: dict[str, Any] = {"restitution": self.restitution, "part_friction": self.part_friction}
-            result = simulate(motion, disks, record_every=self.gap_every, contacts=True, **contact, **opts)
+            result = simulate(
+                motion, disks, record_every=self.gap_every, contacts=True,
+                restitution=self.restitution, part_friction=self.part_friction, **opts,
+            )  # fmt: skip
             self.min_gap = min(self.min_gap, _min_gap(result.positions, result.left_plate, r))
         moved = result.positions[-1].copy()
         moved[result.left_plate] = np.nan  # its centre crossed an edge: it fell off

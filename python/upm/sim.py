@@ -149,7 +149,7 @@ def _run(
     plate_size: float | None,
     record_every: int,
     threads: int | None = None,
-    contacts: _Contact | None = None,
+    contacts: dict[str, Any] | None = None,
 ) -> tuple[Any, ...]:
     if not all(isinstance(m, PlateMotion) for m in motions):
         raise ParameterError("motion must be a upm.PlateMotion")
@@ -159,9 +159,6 @@ def _run(
     mu_s_a = mu_a if mu_s is None else _per_part("mu_s", mu_s, m)
     if isinstance(record_every, bool) or not isinstance(record_every, (int, np.integer)) or record_every < 1:
         raise ParameterError(f"record_every must be an integer >= 1; got {record_every!r}")
-    extra: dict[str, Any] = {}
-    if contacts is not None:
-        extra = contacts.arguments(parts, plate_size)
     return _core.simulate(
         [mo._inner for mo in motions],
         pos,
@@ -177,51 +174,39 @@ def _run(
         plate_size=None if plate_size is None else float(plate_size),
         record_every=int(record_every),
         threads=None if threads is None else as_int("threads", threads),
-        **extra,
+        **(contacts or {}),
     )
 
 
-@dataclass(frozen=True)
-class _Contact:
-    """Contact settings (the keyword arguments of :func:`simulate` that start with ``contacts``)."""
-
-    restitution: float
-    part_friction: float
-    walls: Any
-    walls_move_with_plate: bool
-    iterations: int
-
-    def arguments(self, parts: Any, plate_size: float | None) -> dict[str, Any]:
-        """The extension's keyword arguments."""
-        for name, v in (("restitution", self.restitution), ("part_friction", self.part_friction)):
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
-                raise ParameterError(f"{name} must be a number; got {v!r}")
-        return {
-            "contacts": True,
-            "restitution": float(self.restitution),
-            "part_friction": float(self.part_friction),
-            "walls": _walls(self.walls, plate_size),
-            "walls_move_with_plate": bool(self.walls_move_with_plate),
-            "mass": _masses(parts),
-            "contact_iterations": as_int("contact_iterations", self.iterations),
-        }
-
-
 def _contact(
+    parts: Any,
+    plate_size: float | None,
     contacts: bool,
     restitution: float,
     part_friction: float,
     walls: Any,
     walls_move_with_plate: bool,
     contact_iterations: int,
-) -> _Contact | None:
+) -> dict[str, Any]:
+    """The extension's contact keyword arguments (none when ``contacts`` is off)."""
     if not isinstance(contacts, (bool, np.bool_)):
         raise ParameterError(f"contacts must be True or False; got {contacts!r}")
     if not contacts:
         if walls is not None:
             raise ParameterError("walls need contacts=True")
-        return None
-    return _Contact(restitution, part_friction, walls, walls_move_with_plate, contact_iterations)
+        return {}
+    for name, v in (("restitution", restitution), ("part_friction", part_friction)):
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
+            raise ParameterError(f"{name} must be a number; got {v!r}")
+    return {
+        "contacts": True,
+        "restitution": float(restitution),
+        "part_friction": float(part_friction),
+        "walls": _walls(walls, plate_size),
+        "walls_move_with_plate": bool(walls_move_with_plate),
+        "mass": _masses(parts),
+        "contact_iterations": as_int("contact_iterations", contact_iterations),
+    }
 
 
 def simulate(
@@ -288,7 +273,8 @@ def simulate(
     -------
     SimResult
     """
-    contact = _contact(contacts, restitution, part_friction, walls, walls_move_with_plate, contact_iterations)
+    contact = _contact(parts, plate_size, contacts, restitution, part_friction, walls, walls_move_with_plate,
+                       contact_iterations)  # fmt: skip
     t, pos, vel, stuck, angles, spins, left = _run(
         [motion], parts, duration, dt, mu, mu_s, g, plate_size, record_every, contacts=contact
     )
@@ -324,7 +310,8 @@ def simulate_batch(
     ms = list(motions)
     if not ms:
         raise ParameterError("motions must contain at least one upm.PlateMotion")
-    contact = _contact(contacts, restitution, part_friction, walls, walls_move_with_plate, contact_iterations)
+    contact = _contact(parts, plate_size, contacts, restitution, part_friction, walls, walls_move_with_plate,
+                       contact_iterations)  # fmt: skip
     t, pos, vel, stuck, angles, spins, left = _run(
         ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact
     )

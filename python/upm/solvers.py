@@ -125,9 +125,8 @@ def _curls(
     return points, values
 
 
-def _warn_rank(rank: Any, constraints: int) -> None:
-    # A single plan's rank is an int: no NumPy reduction on the hot path of one solve.
-    low = rank if isinstance(rank, int) else int(np.min(rank))
+def _warn_rank(low: int, constraints: int) -> None:
+    """Warn when the lowest rank of the plans solved is below the number of constraints."""
     if low < constraints:
         warnings.warn(
             f"the system is rank deficient (rank {low} < {constraints} constraints): parts coincide "
@@ -286,7 +285,7 @@ def solve_rotations_batch(
         p, f, np.ascontiguousarray(c), np.ascontiguousarray(q), k, float(mu_m_g),
         *_options(rcond, damping, max_strength),
     )  # fmt: skip
-    _warn_rank(rank, 2 * p.shape[1] + k.shape[1])
+    _warn_rank(int(np.min(rank)), 2 * p.shape[1] + k.shape[1])
     return RotationPlan(s, o, res, cost, sv, rank, cond, p, c, pred, pc, float(mu_m_g))
 
 

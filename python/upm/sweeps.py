@@ -189,13 +189,10 @@ def _mchip_feed(p: dict[str, FloatArray]) -> Outputs:
         )
         run = mchip.simulate(design, mchip.Drive(duty=float(p["duty"][i])), duration=float(p["duration"][i]),
                              record_every=20)  # fmt: skip
-        gaps = run.inter_arrival()
-        e = run.energy
-        part = e["part_x"] + e["part_y"] + e["part_z"] + e["part_rotation"]
         out["feed_rate"][i] = run.feed_rate(skip=min(0.01, 0.3 * float(p["duration"][i])))
-        out["rebound_share"][i] = float(np.mean(gaps < 0.05e-3)) if len(gaps) else 0.0
+        out["rebound_share"][i] = run.rebound_share()
         out["collisions"][i] = len(run.collisions)
-        out["hop_energy_share"][i] = e["part_z"] / part if part > 0 else np.nan
+        out["hop_energy_share"][i] = run.hop_energy_share()
     return out
 
 

@@ -10,7 +10,8 @@
 //!
 //! Solutions come from the singular value decomposition of the system (nalgebra): square systems
 //! are solved exactly, redundant ones (more centres than constraints) give the minimum-norm
-//! solution; singular values below `rcond * s_max` are truncated and `damping` adds Tikhonov
+//! solution (undamped full-rank systems reach the same solution through one Householder
+//! bidiagonalisation and the bidiagonal's singular values, without the SVD's vectors); singular values below `rcond * s_max` are truncated and `damping` adds Tikhonov
 //! regularisation. `max_strength` bounds every `|k_j|` by an active-set bounded least-squares
 //! solve (Lawson–Hanson, extended to two-sided bounds) and reports the residual it costs.
 
@@ -282,7 +283,8 @@ fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
 type Solved = (DVector<f64>, Vec<f64>, usize);
 
 /// A Householder reflector `H = I - tau v v^T` (`v[0] = 1`) mapping `x` to `beta e_1`: returns
-/// `(beta, tau)` and leaves `v[1..]` in `x[1..]` (`x` read through `at(i)` with stride).
+/// `(beta, tau)` and leaves `v[1..]` in `x[1..]`; `x` holds the vector's `len` entries `stride`
+/// apart.
 fn householder(x: &mut [f64], stride: usize, len: usize) -> (f64, f64) {
     let alpha = x[0];
     let sigma: f64 = (1..len).map(|i| x[i * stride] * x[i * stride]).sum();
@@ -406,13 +408,13 @@ impl Bidiagonal {
 /// or, when `A` is wide, of `A^T`): `x = Q B^-T P^T b` (minimum norm) for a wide `A = P B^T Q^T`,
 /// `x = P B^-1 Q^T b` (least squares) for a tall `A = Q B P^T`, with the singular values of `B`
 /// (those of `A`). `None` when `A` is rank-deficient at `rcond` (the SVD solve then truncates).
-/// About 5x cheaper than the checked SVD for the 20 x 24 systems of the solvers.
+/// About half the time of the checked SVD for the 20 x 24 systems of the solvers.
 fn bidiagonal_solve(a: &DMatrix<f64>, b: &DVector<f64>, rcond: f64) -> Result<Option<Solved>> {
     let (m, n) = a.shape();
     let wide = m < n;
     let (rows, cols) = if wide { (n, m) } else { (m, n) };
     let data: Vec<f64> = if wide {
-        a.transpose().as_slice().to_vec()
+        a.transpose().data.into()
     } else {
         a.as_slice().to_vec()
     };

@@ -258,16 +258,18 @@ class BoardEmulator:
                 pid = self.pulse[0]
                 self._end_pulse(background=self.plant.part_radius is not None)
                 if self.settling is None:
-                    self.state = p.State.IDLE
-                    self.pulses += 1
-                    out += self._send(p.PulseDone(pid, self.produced))
+                    out += self._pulse_done(pid)
         if self.settling is not None and not self.settling[0].is_alive():
             pid = self.settling[1]
             self.settling = None
-            self.state = p.State.IDLE
-            self.pulses += 1
-            out += self._send(p.PulseDone(pid, self.produced))
+            out += self._pulse_done(pid)
         return bytes(out)
+
+    def _pulse_done(self, pid: int) -> bytes:
+        """Back to idle, the pulse counted, and its PULSE_DONE."""
+        self.state = p.State.IDLE
+        self.pulses += 1
+        return self._send(p.PulseDone(pid, self.produced))
 
 
 class CameraServer:

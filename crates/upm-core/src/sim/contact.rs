@@ -28,7 +28,7 @@
 //!   2% (rapier's);
 //! * no sleeping (every step sets the velocities anyway), no contact recycling (manifolds are
 //!   recomputed every step: parts moving ~1e-3 radii per step would otherwise keep stale normals),
-//!   no CCD (a step moves a part far less than its radius: [`Contacts::check_step`]);
+//!   no CCD (a step moves a part far less than its radius);
 //! * the maximal linear speed is lifted to 1e6 radii/s so rapier never clamps a part.
 //!
 //! Masses: only their ratios matter (gravity and the plate's friction act through the friction
@@ -137,40 +137,28 @@ impl Contacts {
                 }
             }
         }
-        // Sweep along x: only disks whose x-extents overlap are compared.
-        let mut order: Vec<usize> = (0..disks.len()).collect();
-        order.sort_by(|&a, &b| {
-            let (pa, ra, _) = disks[a];
-            let (pb, rb, _) = disks[b];
-            (pa[0] - ra).total_cmp(&(pb[0] - rb))
-        });
-        for (n, &a) in order.iter().enumerate() {
-            let (pa, ra, ia) = disks[a];
-            for &b in &order[n + 1..] {
-                let (pb, rb, ib) = disks[b];
-                if pb[0] - rb > pa[0] + ra {
-                    break;
-                }
-                let gap = (pa[0] - pb[0]).hypot(pa[1] - pb[1]) - (ra + rb);
-                if gap < -1e-9 * (ra + rb) {
-                    let (i, j) = (ia.min(ib), ia.max(ib));
-                    return Err(Error::parameter(
-                        "parts",
-                        format!(
-                            "disks {i} and {j} overlap by {:.6e} m at the start; contacts need \
-                             separated disks",
-                            -gap
-                        ),
-                    ));
-                }
+        let centres: Vec<([f64; 2], f64)> = disks.iter().map(|&(p, r, _)| (p, r)).collect();
+        if let Some((gap, a, b)) = closest_pair(&centres) {
+            let (ra, rb) = (centres[a].1, centres[b].1);
+            if gap < -1e-9 * (ra + rb) {
+                let (i, j) = (disks[a].2.min(disks[b].2), disks[a].2.max(disks[b].2));
+                return Err(Error::parameter(
+                    "parts",
+                    format!(
+                        "disks {i} and {j} overlap by {:.6e} m at the start; contacts need \
+                         separated disks",
+                        -gap
+                    ),
+                ));
             }
-            for (k, &w) in self.walls.iter().enumerate() {
-                let gap = segment_distance(pa, w) - ra;
-                if gap < -1e-9 * ra {
+        }
+        for &(p, r, i) in disks {
+            if let Some((gap, k)) = wall_gap(p, r, &self.walls) {
+                if gap < -1e-9 * r {
                     return Err(Error::parameter(
                         "walls",
                         format!(
-                            "wall {k} cuts disk {ia} by {:.6e} m at the start; move the disk or \
+                            "wall {k} cuts disk {i} by {:.6e} m at the start; move the disk or \
                              the wall",
                             -gap
                         ),
@@ -182,20 +170,37 @@ impl Contacts {
     }
 }
 
-/// Smallest rim-to-rim gap between two of `disks` (`(position, radius)`) [m], by a sweep along x
-/// that skips pairs farther apart in x than the best gap so far; infinite for fewer than two.
-fn smallest_gap(disks: &mut [([f64; 2], f64)]) -> f64 {
-    disks.sort_by(|a, b| (a.0[0] - a.1).total_cmp(&(b.0[0] - b.1)));
-    let mut best = f64::INFINITY;
-    for (n, &(pa, ra)) in disks.iter().enumerate() {
-        for &(pb, rb) in &disks[n + 1..] {
-            if pb[0] - rb - (pa[0] + ra) >= best {
+/// The closest two of `disks` (`(position, radius)`): `(rim-to-rim gap [m], i, j)` with `i`, `j`
+/// their indices, by a sweep along x that skips pairs farther apart in x than the best gap so
+/// far; `None` for fewer than two.
+fn closest_pair(disks: &[([f64; 2], f64)]) -> Option<(f64, usize, usize)> {
+    let mut order: Vec<usize> = (0..disks.len()).collect();
+    order.sort_by(|&a, &b| (disks[a].0[0] - disks[a].1).total_cmp(&(disks[b].0[0] - disks[b].1)));
+    let mut best: Option<(f64, usize, usize)> = None;
+    for (n, &a) in order.iter().enumerate() {
+        let (pa, ra) = disks[a];
+        for &b in &order[n + 1..] {
+            let (pb, rb) = disks[b];
+            let bound = best.map_or(f64::INFINITY, |(g, _, _)| g);
+            if pb[0] - rb - (pa[0] + ra) >= bound {
                 break;
             }
-            best = best.min((pa[0] - pb[0]).hypot(pa[1] - pb[1]) - ra - rb);
+            let gap = (pa[0] - pb[0]).hypot(pa[1] - pb[1]) - ra - rb;
+            if gap < bound {
+                best = Some((gap, a, b));
+            }
         }
     }
     best
+}
+
+/// The nearest of `walls` to a disk at `p` of radius `r`: `(rim-to-wall gap [m], wall index)`.
+fn wall_gap(p: [f64; 2], r: f64, walls: &[[[f64; 2]; 2]]) -> Option<(f64, usize)> {
+    walls
+        .iter()
+        .enumerate()
+        .map(|(k, &w)| (segment_distance(p, w) - r, k))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
 }
 
 /// Steps after a failed [`ContactWorld::free_steps`] before the next try.
@@ -210,9 +215,8 @@ pub(super) struct ContactWorld {
     plate: Option<RigidBodyHandle>,
     /// Lengths in rapier = metres x `scale`.
     scale: f64,
-    /// Fixed walls (checked by [`Self::free_steps`]); whether walls move with the plate.
+    /// The walls (checked by [`Self::free_steps`]).
     walls: Vec<[[f64; 2]; 2]>,
-    moving_walls: bool,
     /// Steps before `free_until` need no contact solve; none is tried before `recheck_at`.
     free_until: usize,
     recheck_at: usize,
@@ -290,7 +294,6 @@ impl ContactWorld {
             plate,
             scale,
             walls: contacts.walls.clone(),
-            moving_walls: contacts.walls_move_with_plate,
             free_until: 0,
             recheck_at: 0,
         }
@@ -302,15 +305,16 @@ impl ContactWorld {
     /// it moves at most `|v| T + mu_s g T^2 / 2`; no two disks (nor a disk and a fixed wall) can
     /// come within rapier's prediction distance while twice that reach stays below their gap.
     fn free_steps(&self, disks: &[DiskState], dt: f64) -> usize {
-        if self.moving_walls {
-            return 0;
+        if self.plate.is_some() {
+            return 0; // walls moving with the plate
         }
         let on: Vec<&DiskState> = disks.iter().filter(|d| d.active).collect();
-        let mut gap = smallest_gap(&mut on.iter().map(|d| (d.p, d.radius)).collect::<Vec<_>>());
+        let centres: Vec<([f64; 2], f64)> = on.iter().map(|d| (d.p, d.radius)).collect();
+        let mut gap = closest_pair(&centres).map_or(f64::INFINITY, |(g, _, _)| g);
         for d in &on {
-            for &w in &self.walls {
-                // A wall does not move: only one reach is needed, but twice is as safe.
-                gap = gap.min(segment_distance(d.p, w) - d.radius);
+            // A wall does not move: only one reach is needed, but twice is as safe.
+            if let Some((g, _)) = wall_gap(d.p, d.radius, &self.walls) {
+                gap = gap.min(g);
             }
         }
         let margin = 0.05 / self.scale;
@@ -357,13 +361,9 @@ impl ContactWorld {
             }
             if step < self.free_until {
                 for (d, body) in disks.iter_mut().zip(&mut self.bodies) {
-                    if let Some(h) = *body {
-                        let (v, spin, stuck) = d.friction(u);
-                        d.advance(v, spin, stuck, dt);
-                        if d.leaves(step, cfg) {
-                            self.world.remove_body(h);
-                            *body = None;
-                        }
+                    if let (true, Some(h)) = (d.step(u, step, cfg), *body) {
+                        self.world.remove_body(h);
+                        *body = None;
                     }
                     d.record_step(step, cfg, steps);
                 }

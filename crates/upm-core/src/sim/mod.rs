@@ -492,14 +492,21 @@ impl DiskState {
         }
     }
 
+    /// Step `s` (0-based) under the plate velocity `u` without contacts, if the disk is still on
+    /// the plate; whether it left it in this step.
+    fn step(&mut self, u: [f64; 3], s: usize, cfg: &Config) -> bool {
+        if !self.active {
+            return false;
+        }
+        let (v, spin, stuck) = self.friction(u);
+        self.advance(v, spin, stuck, cfg.dt);
+        self.leaves(s, cfg)
+    }
+
     /// Advances through one block with the disk's implicit step ([`crate::disk::implicit_step`]).
     fn run(&mut self, table: &[[f64; 3]], first: usize, cfg: &Config, steps: usize) {
         for (k, &u) in table.iter().enumerate() {
-            if self.active {
-                let (v, spin, stuck) = self.friction(u);
-                self.advance(v, spin, stuck, cfg.dt);
-                self.leaves(first + k, cfg);
-            }
+            self.step(u, first + k, cfg);
             self.record_step(first + k, cfg, steps);
         }
     }
