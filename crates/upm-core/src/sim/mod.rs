@@ -18,13 +18,14 @@
 //! instead, one disk at a time (in parallel over disks).
 //!
 //! Layout for speed: point parts are processed in chunks of [`CHUNK_PARTS`] with structure-of-arrays
-//! state and the time loop inside, so the state stays in cache and the per-part update vectorises;
-//! the plate velocity is tabulated once per block of steps and shared by all chunks. Chunks run on
+//! state and the time loop inside, so the state stays in cache; [`kernel`] is the per-step update
+//! (portable, and an explicit AVX2 build chosen at run time); the plate velocity is tabulated once per block of steps and shared by all chunks. Chunks run on
 //! rayon threads; each part is independent, so results are bitwise identical for any thread
 //! count. Disks may collide with each other and with walls: [`contact`] (rapier2d) runs after
 //! each friction step when contacts are asked for.
 
 pub mod contact;
+mod kernel;
 
 use rayon::prelude::*;
 
@@ -278,82 +279,6 @@ struct Row {
     stuck: Vec<bool>,
 }
 
-/// One step of the implicit Coulomb update for every part of a chunk (see the module docs).
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn step_kernel(
-    u: [f64; 3],
-    dt: f64,
-    x: &mut [f64],
-    y: &mut [f64],
-    vx: &mut [f64],
-    vy: &mut [f64],
-    stuck: &mut [f64],
-    active: &[f64],
-    slide: &[f64],
-    hold: &[f64],
-) {
-    let n = x.len();
-    let (y, vx, vy, stuck, active, slide, hold) = (
-        &mut y[..n],
-        &mut vx[..n],
-        &mut vy[..n],
-        &mut stuck[..n],
-        &active[..n],
-        &slide[..n],
-        &hold[..n],
-    );
-    let [u1, u2, u3] = u;
-    for i in 0..n {
-        let (sx, sy) = (u1 - u3 * y[i], u2 + u3 * x[i]);
-        let (wx, wy) = (vx[i] - sx, vy[i] - sy);
-        let wn = (wx * wx + wy * wy).sqrt();
-        let stick = (wn <= slide[i]) | ((stuck[i] > 0.0) & (wn <= hold[i]));
-        let keep = if stick { 0.0 } else { 1.0 - slide[i] / wn };
-        let (nvx, nvy) = (sx + wx * keep, sy + wy * keep);
-        // Parts that left the plate (active = 0) keep their state.
-        let a = active[i];
-        let (nvx, nvy) = (a * nvx + (1.0 - a) * vx[i], a * nvy + (1.0 - a) * vy[i]);
-        // Trapezoidal position update: second order where the velocity is smooth.
-        x[i] += 0.5 * (vx[i] + nvx) * dt * a;
-        y[i] += 0.5 * (vy[i] + nvy) * dt * a;
-        vx[i] = nvx;
-        vy[i] = nvy;
-        stuck[i] = a * f64::from(u8::from(stick)) + (1.0 - a) * stuck[i];
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[allow(clippy::too_many_arguments)]
-unsafe fn step_kernel_avx2(
-    u: [f64; 3],
-    dt: f64,
-    x: &mut [f64],
-    y: &mut [f64],
-    vx: &mut [f64],
-    vy: &mut [f64],
-    stuck: &mut [f64],
-    active: &[f64],
-    slide: &[f64],
-    hold: &[f64],
-) {
-    step_kernel(u, dt, x, y, vx, vy, stuck, active, slide, hold)
-}
-
-/// Whether the AVX2 + FMA build of the kernel can run here (checked once, at run time).
-fn use_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        static AVX2: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-        *AVX2.get_or_init(|| is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"))
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 impl Chunk {
     fn row(&self) -> Row {
         Row {
@@ -370,27 +295,19 @@ impl Chunk {
 
     /// Advances through one block: `table[k] = (u1, u2, u3)` at the end of step `first + k`.
     fn run(&mut self, table: &[[f64; 3]], first: usize, cfg: &Config, steps: usize) {
-        let half = cfg.plate_size.map(|s| 0.5 * s);
-        let avx2 = use_avx2();
+        let half = half_side(cfg);
         for (k, &u) in table.iter().enumerate() {
-            let (x, y, vx, vy, st) = (
-                &mut self.x,
-                &mut self.y,
-                &mut self.vx,
-                &mut self.vy,
-                &mut self.stuck,
-            );
-            let (active, slide, hold) = (&self.active, &self.slide, &self.hold);
-            if avx2 {
-                #[cfg(target_arch = "x86_64")]
-                // SAFETY: the CPU supports AVX2 and FMA (checked at run time by `use_avx2`).
-                unsafe {
-                    step_kernel_avx2(u, cfg.dt, x, y, vx, vy, st, active, slide, hold)
-                };
-            } else {
-                step_kernel(u, cfg.dt, x, y, vx, vy, st, active, slide, hold);
-            }
-            if let Some(half) = half {
+            let mut lanes = kernel::Lanes {
+                x: &mut self.x,
+                y: &mut self.y,
+                vx: &mut self.vx,
+                vy: &mut self.vy,
+                stuck: &mut self.stuck,
+                active: &self.active,
+                slide: &self.slide,
+                hold: &self.hold,
+            };
+            if kernel::step(u, cfg.dt, half, &mut lanes) {
                 for i in 0..self.x.len() {
                     if self.active[i] > 0.0 && off_plate(self.x[i], self.y[i], half) {
                         self.active[i] = 0.0;
