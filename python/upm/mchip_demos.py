@@ -86,11 +86,15 @@ def _duty(quick: bool, out: Path) -> dict[str, Any]:
     return _compare(runs, 0.04 if quick else 0.2, out, "duty")
 
 
-def _sweep_plot(x: list[float], y: list[float], xlabel: str, out: Path, name: str) -> None:
+def _sweep_plot(x: list[float], ys: dict[str, list[float]], xlabel: str, out: Path, name: str) -> None:
+    """Feed rate against ``x``, one line per entry of ``ys`` (its key the legend, if several)."""
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 4))
-    ax.plot(x, y, "o-")
+    for label, y in ys.items():
+        ax.plot(x, y, "o-", label=label)
+    if len(ys) > 1:
+        ax.legend()
     ax.set(xlabel=xlabel, ylabel="feed rate [mm/s]")
     fig.tight_layout()
     fig.savefig(out / f"{name}.png", dpi=110)
@@ -105,13 +109,13 @@ def _mass(quick: bool, out: Path) -> dict[str, Any]:
         r = _run(replace(base, part_mass=base.mass() * f), Drive(), 0.03 if quick else 0.1)
         rates.append(1e3 * r.feed_rate())
     masses = [1e9 * base.mass() * f for f in factors]
-    _sweep_plot(masses, rates, "part mass [µg]", out, "mass")
+    _sweep_plot(masses, {"": rates}, "part mass [µg]", out, "mass")
     return {"part_mass_ug": masses, "feed_rate_mm_s": rates}
 
 
 def _shape(quick: bool, out: Path) -> dict[str, Any]:
-    ls = [70e-6, 130e-6] if quick else [40e-6, 70e-6, 100e-6, 130e-6]
-    hs = [5e-6] if quick else [2.5e-6, 5e-6, 10e-6]
+    ls = [70e-6, 130e-6] if quick else [20e-6, 70e-6, 134e-6]
+    hs = [5e-6] if quick else [1.25e-6, 5e-6, 20e-6]
     grid = []
     for h in hs:
         row = []
@@ -121,9 +125,8 @@ def _shape(quick: bool, out: Path) -> dict[str, Any]:
             )
             row.append(1e3 * r.feed_rate())
         grid.append(row)
-    _sweep_plot(
-        [1e6 * v for v in ls], grid[-1], f"ridge distance L [µm] (H = {1e6 * hs[-1]:g} µm)", out, "shape"
-    )
+    lines = {f"H = {1e6 * h:g} µm": row for h, row in zip(hs, grid, strict=True)}
+    _sweep_plot([1e6 * v for v in ls], lines, "ridge distance L [µm]", out, "shape")
     return {"ridge_distance_um": [1e6 * v for v in ls], "ridge_height_um": [1e6 * v for v in hs],
             "feed_rate_mm_s": grid}  # fmt: skip
 
@@ -143,7 +146,8 @@ def _force(quick: bool, out: Path) -> dict[str, Any]:
                  linear_fit_rms_mm_s=float(1e3 * np.sqrt(np.mean((np.array(rates) - fit) ** 2))))  # fmt: skip
     except ParameterError as error:
         m["fit"] = str(error)
-    _sweep_plot([1e9 * -f for f in forces], m["feed_rate_mm_s"], "force against the feed [nN]", out, "force")
+    newtons = [1e9 * -f for f in forces]
+    _sweep_plot(newtons, {"": m["feed_rate_mm_s"]}, "force against the feed [nN]", out, "force")
     return m
 
 

@@ -266,7 +266,8 @@ impl Design {
         let half = 0.5 * self.slab[0] - 0.5 * self.ridge_width;
         if !(self.ridge_distance.is_finite()
             && self.ridge_distance >= 0.0
-            && self.ridge_distance <= half)
+            // The edge itself, however it rounds.
+            && self.ridge_distance <= half * (1.0 + 1e-12))
         {
             return Err(Error::parameter(
                 "ridge_distance",
@@ -699,4 +700,24 @@ where
         resonator_spring: energy.resonator_spring * scale,
     };
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A ridge flush with the slab's rear edge is allowed, however `140e-6 - 5e-6` rounds.
+    #[test]
+    fn the_ridge_may_sit_at_the_slab_edge() {
+        let edge = Design {
+            ridge_distance: 135e-6,
+            ..Design::default()
+        };
+        assert!(edge.check().is_ok());
+        let beyond = Design {
+            ridge_distance: 135.01e-6,
+            ..Design::default()
+        };
+        assert!(beyond.check().unwrap_err().to_string().starts_with("ridge_distance"));
+    }
 }
