@@ -41,6 +41,19 @@ def test_collisions_come_once_a_cycle_with_rebounds_just_after(run: mchip.MChipR
     assert c["impulse_x"].sum() > 0
 
 
+def test_row_impulse_splits_the_collision_log_by_row(run: mchip.MChipResult) -> None:
+    per_row = run.row_impulse()
+    assert per_row.shape == (8,)
+    np.testing.assert_allclose(per_row.sum(), run.collisions["impulse_x"].sum(), rtol=1e-12)
+    # The part starts over rows 0-3 (centre 600 µm, 1150 µm long; pitch 300 µm): in 20 ms it
+    # cannot reach row 5's ridge at 1370 µm, so rows 5-7 gave nothing; the rows under it push
+    # it forward on balance.
+    assert np.all(per_row[5:] == 0)
+    assert per_row[:5].sum() > 0
+    rows = run.collisions["resonator"] // 5
+    assert np.isclose(per_row[2], run.collisions["impulse_x"][rows == 2].sum(), rtol=1e-12)
+
+
 def test_no_drive_no_feed() -> None:
     still = mchip.simulate(drive=mchip.Drive(scheme="off"), duration=0.01)
     # It drops 2 µm onto the ridges and rocks there (a few nm, damped) for a few ms; then it rests.

@@ -162,6 +162,14 @@ class MChipResult:
         gaps = self.inter_arrival()
         return float(np.mean(gaps < within)) if len(gaps) else 0.0
 
+    def row_impulse(self) -> FloatArray:
+        """Net x impulse [N s] each resonator row gave the part over the run, ``(rows,)``, rows
+        numbered along the feed. A row that brakes the part (the blocking row of a jam, thesis
+        2.2.1) has a negative entry; rows the part never touched have 0."""
+        rows = self.collisions["resonator"] // self.design.cols
+        per_row = np.bincount(rows, weights=self.collisions["impulse_x"], minlength=self.design.rows)
+        return per_row.astype(np.float64)
+
     def hop_energy_share(self) -> float:
         """Share of the part's kinetic energy in its vertical motion (thesis 2.2.4, Table 2.1)."""
         e = self.energy

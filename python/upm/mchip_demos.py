@@ -27,6 +27,7 @@ def _summary(r: MChipResult) -> dict[str, Any]:
         "double_bounce_share": r.rebound_share(),
         "jam_time_s": float(sum(b - a for a, b in r.jams())),
         "energy_share_vertical_hop": r.hop_energy_share(),
+        "row_impulse_x_n_s": r.row_impulse().tolist(),
     }
 
 
