@@ -718,6 +718,10 @@ mod tests {
             ridge_distance: 135.01e-6,
             ..Design::default()
         };
-        assert!(beyond.check().unwrap_err().to_string().starts_with("ridge_distance"));
+        assert!(beyond
+            .check()
+            .unwrap_err()
+            .to_string()
+            .starts_with("ridge_distance"));
     }
 }

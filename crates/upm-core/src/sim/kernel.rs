@@ -1,6 +1,6 @@
 //! The point-part step: one implicit Coulomb step (see [`super`]) for every part of a chunk.
 //!
-//! Two builds of the same, correctly rounded update:
+//! Two builds of the same update, both with a true square root and division (no approximations):
 //!
 //! * [`step_portable`]: plain Rust; it runs on any CPU and the compiler vectorises it as it can.
 //! * an AVX2 + FMA build (x86-64, chosen at run time by CPU feature detection, never by

@@ -19,10 +19,11 @@
 //!
 //! Layout for speed: point parts are processed in chunks of [`CHUNK_PARTS`] with structure-of-arrays
 //! state and the time loop inside, so the state stays in cache; [`kernel`] is the per-step update
-//! (portable, and an explicit AVX2 build chosen at run time); the plate velocity is tabulated once per block of steps and shared by all chunks. Chunks run on
-//! rayon threads; each part is independent, so results are bitwise identical for any thread
-//! count. Disks may collide with each other and with walls: [`contact`] (rapier2d) runs after
-//! each friction step when contacts are asked for.
+//! (portable, and an explicit AVX2 build chosen at run time). The plate velocity is tabulated once
+//! per block of steps and shared by all chunks. Chunks run on rayon threads; each part is
+//! independent, so results are bitwise identical for any thread count. Disks may collide with
+//! each other and with walls: [`contact`] (rapier2d) runs after each friction step when contacts
+//! are asked for.
 
 pub mod contact;
 mod kernel;
