@@ -132,6 +132,39 @@ def _shape(quick: bool, out: Path) -> dict[str, Any]:
             "feed_rate_mm_s": grid}  # fmt: skip
 
 
+def _jam(quick: bool, out: Path) -> dict[str, Any]:
+    """The part started with its front 20 µm behind row 5's ridge (2.2.1): does the row block it,
+    and does strobing help? At the simulated 0.08 rad and at the device's nominal 2°."""
+    import matplotlib.pyplot as plt
+
+    design = Design()
+    pitch = design.slab[0] + design.gap
+    ridge = 5 * pitch - design.ridge_distance - 0.5 * design.ridge_width  # row 5's ridge, rear face
+    start = ridge - 20e-6 - 0.5 * design.part_size[0]
+    runs = {
+        "0.08 rad, all rows": Drive(),
+        "0.08 rad, strobed": Drive(scheme="strobe"),
+        "2°, all rows": Drive(peak_angle=0.035),
+        "2°, strobed": Drive(peak_angle=0.035, scheme="strobe"),
+    }
+    m: dict[str, Any] = {"part_start_m": start, "row5_ridge_m": ridge}
+    fig, ax = plt.subplots(2, 1, figsize=(7, 7))
+    for k, (label, drive) in enumerate(runs.items()):
+        r = _run(design, drive, 0.03 if quick else 0.1, part_start=(start, 400e-6))
+        front = r.position[:, 0] + 0.5 * design.part_size[0]
+        m[label] = _summary(r) | {"crossed_row5_ridge": bool(front.max() > ridge + design.ridge_width)}
+        ax[0].plot(1e3 * r.t, 1e6 * (front - ridge), label=label)
+        ax[1].bar(np.arange(design.rows) + 0.2 * (k - 1.5), 1e10 * r.row_impulse(), width=0.2, label=label)
+    ax[0].axhline(0, color="k", lw=0.8)
+    ax[0].set(xlabel="t [ms]", ylabel="part front - row 5 ridge [µm]", title="Approaching the next row")
+    ax[0].legend()
+    ax[1].set(xlabel="resonator row (along the feed)", ylabel="net x impulse [1e-10 N s]")
+    fig.tight_layout()
+    fig.savefig(out / "jam.png", dpi=110)
+    plt.close(fig)
+    return m
+
+
 def _force(quick: bool, out: Path) -> dict[str, Any]:
     weight = Design().mass() * 9.81
     fractions = [0.0, 0.05, 0.1] if quick else [0.0, 0.025, 0.05, 0.075, 0.1, 0.15]
@@ -155,6 +188,7 @@ def _force(quick: bool, out: Path) -> dict[str, Any]:
 DEMOS: dict[str, tuple[str, Callable[[bool, Path], dict[str, Any]]]] = {
     "mchip-feed": ("the part fed by the array; collisions and inter-arrival times (Figs. 2.5–2.7)", _feed),
     "mchip-strobe": ("all rows on against row strobing (2.2.1, Fig. 2.4)", _strobe),
+    "mchip-jam": ("the part started just behind the next row's ridge: blocking and strobing (2.2.1)", _jam),
     "mchip-duty": ("torque duty cycle 50% against 36%: double bounces (2.2.2)", _duty),
     "mchip-mass": ("feed rate against part mass (Fig. 2.9)", _mass),
     "mchip-shape": ("feed rate against ridge distance L and height H (Figs. 2.8, 2.9)", _shape),
