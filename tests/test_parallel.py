@@ -61,7 +61,11 @@ def test_the_gil_is_released_during_a_long_call():
 
 def _calls_completed_before_ctrl_c(call):
     """Sends SIGINT after 0.2 s while ``call`` runs (up to three times); returns how many calls
-    finished before the KeyboardInterrupt, which must come."""
+    finished before the KeyboardInterrupt, which must come.
+
+    Python's own SIGINT handler is installed for the duration: a process started in the background
+    by a non-interactive shell inherits SIGINT ignored, and the signal would never arrive."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(0.2, os.kill, (os.getpid(), signal.SIGINT))
     completed = 0
     timer.start()
@@ -72,6 +76,7 @@ def _calls_completed_before_ctrl_c(call):
                 completed += 1
     finally:
         timer.cancel()
+        signal.signal(signal.SIGINT, previous)
     return completed
 
 
