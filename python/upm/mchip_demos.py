@@ -115,7 +115,7 @@ def _mass(quick: bool, out: Path) -> dict[str, Any]:
 
 
 def _shape(quick: bool, out: Path) -> dict[str, Any]:
-    ls = [70e-6, 130e-6] if quick else [20e-6, 70e-6, 134e-6]
+    ls = [70e-6, 130e-6] if quick else [20e-6, 70e-6, 135e-6]
     hs = [5e-6] if quick else [1.25e-6, 5e-6, 20e-6]
     grid = []
     for h in hs:
