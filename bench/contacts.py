@@ -20,6 +20,7 @@ import time
 import numpy as np
 
 import upm
+from mujoco_plate import drive, plate_world
 
 F, G, MU, R, DT = 35.0, 9.81, 0.3, 0.005, 1e-4
 
@@ -67,8 +68,6 @@ def ours(n: int, steps: int, contacts: bool) -> tuple[float, upm.SimResult]:
 
 def mujoco_peer(n: int, steps: int) -> float:
     """Seconds MuJoCo takes for ``steps`` steps of the same scene with boxes for disks."""
-    import mujoco
-
     pos, size = grid(n)
     h = size / 2
     boxes = "\n".join(
@@ -85,30 +84,10 @@ def mujoco_peer(n: int, steps: int) -> float:
             (0, -h - 0.005, h, 0.005),
         ]
     )
-    xml = f"""
-    <mujoco>
-      <option timestep="{DT}" cone="elliptic" impratio="100" gravity="0 0 -{G}"/>
-      <default><geom solref="0.001 1" friction="{MU} 0.005 0.0001" condim="3"/></default>
-      <worldbody>
-        {walls}
-        <body name="plate">
-          <joint type="slide" axis="1 0 0"/><joint type="slide" axis="0 1 0"/>
-          <joint type="hinge" axis="0 0 1"/>
-          <geom type="box" size="{h} {h} 0.01" mass="10000" contype="1" conaffinity="1"/>
-        </body>
-        {boxes}
-      </worldbody>
-    </mujoco>"""
-    model = mujoco.MjModel.from_xml_string(xml)
-    data = mujoco.MjData(model)
-    for _ in range(100):  # settle onto the still plate
-        mujoco.mj_step(model, data)
-    u = feed().velocity(np.arange(1, steps + 1) * DT)
-    start = time.perf_counter()
-    for k in range(steps):
-        data.qvel[:3] = u[k]
-        mujoco.mj_step(model, data)
-    return time.perf_counter() - start
+    model, data = plate_world(
+        boxes, half=h, dt=DT, mu=MU, g=G, settle=100, fixed=walls, plate='contype="1" conaffinity="1"'
+    )
+    return drive(model, data, feed().velocity(np.arange(1, steps + 1) * DT))
 
 
 def main() -> None:

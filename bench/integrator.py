@@ -18,6 +18,7 @@ import time
 import numpy as np
 
 import upm
+from mujoco_plate import drive, plate_world
 
 F, G, MU, MU_S = 35.0, 9.81, 0.3, 0.4
 HALF = 0.0005  # half-size of MuJoCo's point-like box parts [m]
@@ -60,36 +61,14 @@ def mujoco_peer(motion: upm.PlateMotion, pos: np.ndarray, steps: int, dt: float)
     would roll instead of sliding).
     Elliptic friction cones, impratio 100, solref 0.001, timestep ``dt``. Returns the seconds the
     steps took and the parts' final (x, y)."""
-    import mujoco
-
     spheres = "\n".join(
         f'<body pos="{x:.6f} {y:.6f} 0.0105"><freejoint/>'
         f'<geom type="box" size="{HALF} {HALF} {HALF}" mass="0.001"/></body>'
         for x, y in pos
     )
-    xml = f"""
-    <mujoco>
-      <option timestep="{dt}" cone="elliptic" impratio="100" gravity="0 0 -{G}"/>
-      <default><geom solref="0.001 1" friction="{MU} 0.005 0.0001" condim="3"/></default>
-      <worldbody>
-        <body name="plate">
-          <joint type="slide" axis="1 0 0"/><joint type="slide" axis="0 1 0"/>
-          <joint type="hinge" axis="0 0 1"/>
-          <geom type="box" size="0.3 0.3 0.01" mass="10000"/>
-        </body>
-        {spheres}
-      </worldbody>
-    </mujoco>"""
-    model = mujoco.MjModel.from_xml_string(xml)
-    data = mujoco.MjData(model)
-    for _ in range(200):  # let the spheres settle onto the still plate
-        mujoco.mj_step(model, data)
-    u = motion.velocity(np.arange(1, steps + 1) * dt)
-    start = time.perf_counter()
-    for k in range(steps):
-        data.qvel[:3] = u[k]
-        mujoco.mj_step(model, data)
-    elapsed = time.perf_counter() - start
+    # Let the parts settle onto the still plate first.
+    model, data = plate_world(spheres, half=0.3, dt=dt, mu=MU, g=G, settle=200)
+    elapsed = drive(model, data, motion.velocity(np.arange(1, steps + 1) * dt))
     xy = data.qpos[3:].reshape(-1, 7)[:, :2].copy()
     return elapsed, xy
 

@@ -629,12 +629,18 @@ where
     let mut energy = Energy::default();
     let lead = spring_lead(settings.iterations) * dt;
     let energy_unit = UM * UL * UL / (UT * UT);
+    // Every resonator's (angle, angular speed) at the current step's start: read once after each
+    // step, for the collision log, the energies and the next step's torques.
+    let read = |world: &PhysicsWorld, h: RigidBodyHandle| {
+        let b = &world.bodies[h];
+        (angle_of(b), b.angvel().y)
+    };
+    let mut joint_state: Vec<(f64, f64)> = resonators.iter().map(|&h| read(&world, h)).collect();
     for s in 0..steps {
         let t = s as f64 * settings.dt;
-        for (i, &h) in resonators.iter().enumerate() {
+        for (i, (&h, &(theta, omega))) in resonators.iter().zip(&joint_state).enumerate() {
             let row = i / design.cols;
             let b = &mut world.bodies[h];
-            let (theta, omega) = (angle_of(b), b.angvel().y);
             let drive_t = if drive.on(row, design.rows, t) {
                 torque
             } else {
@@ -656,6 +662,9 @@ where
             b.linvel()
         };
         world.step();
+        for (state, &h) in joint_state.iter_mut().zip(&resonators) {
+            *state = read(&world, h);
+        }
         let t_end = (s + 1) as f64 * settings.dt;
         // Contact impulses on the part this step, per resonator.
         touching.iter_mut().for_each(|v| *v = 0.0);
@@ -673,12 +682,12 @@ where
         for i in 0..n_res {
             if touching[i] > 0.0 {
                 let k = *open[i].get_or_insert_with(|| {
-                    let r = &world.bodies[resonators[i]];
+                    let (angle, omega) = joint_state[i];
                     out.collisions.push(Collision {
                         time: t_end,
                         resonator: i,
-                        angle: angle_of(r),
-                        angular_speed: r.angvel().y / UT,
+                        angle,
+                        angular_speed: omega / UT,
                         impulse_x: 0.0,
                         impulse_normal: 0.0,
                     });
@@ -697,9 +706,7 @@ where
         energy.part_translation[1] += 0.5 * m_part * v.y * v.y;
         energy.part_translation[2] += 0.5 * m_part * v.z * v.z;
         energy.part_rotation += b.kinetic_energy() - 0.5 * m_part * v.length_squared();
-        for &h in &resonators {
-            let r = &world.bodies[h];
-            let (theta, omega) = (angle_of(r), r.angvel().y);
+        for &(theta, omega) in &joint_state {
             energy.resonator_kinetic += 0.5 * (inertia / (UM * UL * UL)) * omega * omega;
             energy.resonator_spring += 0.5 * (stiffness / torque_unit) * theta * theta;
         }

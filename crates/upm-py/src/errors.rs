@@ -92,6 +92,12 @@ where
     result.map_err(|f| failure_to_py(py, f))
 }
 
+/// The Ctrl-C check long calls run between blocks (`_done`: their progress): a pending SIGINT
+/// becomes the call's error.
+pub fn interrupted(_done: usize) -> Result<(), Failure> {
+    Python::attach(|py| py.check_signals()).map_err(Failure::from)
+}
+
 /// `f(i)` for `i` in `0..n`, in parallel, GIL released, checking for Ctrl-C between chunks.
 pub fn batch<T, F>(py: Python<'_>, n: usize, f: F) -> PyResult<Vec<T>>
 where
@@ -99,9 +105,7 @@ where
     F: Fn(usize) -> upm_core::Result<T> + Sync + Send,
 {
     detached(py, || {
-        upm_core::parallel::try_map_chunked(n, f, |_| {
-            Python::attach(|py| py.check_signals()).map_err(Failure::from)
-        })
+        upm_core::parallel::try_map_chunked(n, f, interrupted)
     })
 }
 

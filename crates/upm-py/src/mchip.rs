@@ -6,7 +6,7 @@ use pyo3::types::PyTuple;
 use upm_core::mchip::{self, Design, Drive, Scheme, Settings};
 use upm_core::Error;
 
-use crate::errors::{detached, Failure};
+use crate::errors::{detached, interrupted};
 
 /// Simulates the array; returns `(t, position, velocity, angles, collisions, energy, joint)`:
 /// arrays `(T,)`, `(T, 3)`, `(T, 3)`, `(T, R*C)`, `(K, 6)` (time, resonator, angle, angular
@@ -99,9 +99,7 @@ pub fn mchip_simulate<'py>(
         part,
     };
     let out = detached(py, || {
-        mchip::simulate_with(&design, &drive, &settings, |_| {
-            Python::attach(|py| py.check_signals()).map_err(Failure::from)
-        })
+        mchip::simulate_with(&design, &drive, &settings, interrupted)
     })?;
     let rows_t = out.t.len();
     let n_res = design.rows * design.cols;
