@@ -5,6 +5,7 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -92,3 +93,17 @@ def test_ctrl_c_interrupts_a_long_simulation():
     # 2e10 part-steps: minutes of work unless the interrupt stops it between blocks.
     run = lambda: upm.simulate(motion, parts, duration=70.0, dt=7e-5, mu=0.3, record_every=10**6)  # noqa: E731
     assert _calls_completed_before_ctrl_c(run) == 0
+
+
+def test_ctrl_c_interrupts_a_simulation_on_its_own_pool():
+    # With ``threads=`` the work runs on a pool worker, where CPython never acts on signals: the
+    # calling thread has to watch for them. Uninterrupted, this call is about 4e10 part-steps
+    # (over a minute of CPU time); an interrupt at 0.2 s must stop it long before. Measured in
+    # this process's CPU time (the work done, not the machine's load), with a 10x margin.
+    motion = upm.PlateMotion.translation((1, 0), upm.TwoHarmonic(0.5, 1.0, amplitude=0.02, frequency=35.0))
+    parts = np.zeros((20_000, 2))
+    run = lambda: upm.simulate_batch([motion, motion], parts, duration=70.0, dt=7e-5, mu=0.3,  # noqa: E731
+                                     record_every=10**6, threads=2)  # fmt: skip
+    cpu = time.process_time()
+    assert _calls_completed_before_ctrl_c(run) == 0
+    assert time.process_time() - cpu < 8.0

@@ -58,15 +58,19 @@ where
 {
     match threads {
         None => Ok(f()),
-        Some(0) => Err(crate::Error::parameter("threads", "must be >= 1")),
-        Some(n) => {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build()
-                .map_err(|e| crate::Error::parameter("threads", format!("no pool of {n}: {e}")))?;
-            Ok(pool.install(f))
-        }
+        Some(n) => Ok(pool(n)?.install(f)),
     }
+}
+
+/// A dedicated pool of `n` threads.
+pub fn pool(n: usize) -> Result<rayon::ThreadPool> {
+    if n == 0 {
+        return Err(crate::Error::parameter("threads", "must be >= 1"));
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build()
+        .map_err(|e| crate::Error::parameter("threads", format!("no pool of {n}: {e}")))
 }
 
 #[cfg(test)]

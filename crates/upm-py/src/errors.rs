@@ -6,6 +6,9 @@
 //! `upm.InternalError` instead of crossing into Python.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::mpsc::{self, RecvTimeoutError};
+use std::sync::Mutex;
+use std::time::Duration;
 
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -96,6 +99,59 @@ where
 /// becomes the call's error.
 pub fn interrupted(_done: usize) -> Result<(), Failure> {
     Python::attach(|py| py.check_signals()).map_err(Failure::from)
+}
+
+/// `work(between)` on a pool of `threads` threads, or on this thread with rayon's global pool
+/// (`None`); `between` is the Ctrl-C check `work` runs between its blocks.
+///
+/// CPython acts on signals only on its main thread, and `pool.install` runs `work` on a pool
+/// worker, so with a pool this thread waits for `work` and checks for signals itself, every 20 ms;
+/// a pending SIGINT is handed to `work`'s next `between`, which stops it with that error (and
+/// ends the call with it if `work` had already passed its last check).
+pub fn on_threads<T, F>(threads: Option<usize>, work: F) -> Result<T, Failure>
+where
+    T: Send,
+    F: FnOnce(&(dyn Fn(usize) -> Result<(), Failure> + Sync)) -> Result<T, Failure> + Send,
+{
+    let Some(n) = threads else {
+        return work(&interrupted);
+    };
+    let pool = upm_core::parallel::pool(n)?;
+    let signal: Mutex<Option<PyErr>> = Mutex::new(None);
+    let between = |_done: usize| match signal.lock().map(|mut s| s.take()) {
+        Ok(Some(e)) => Err(Failure::Python(e)),
+        _ => Ok(()),
+    };
+    std::thread::scope(|scope| {
+        let (sender, receiver) = mpsc::channel();
+        let worker = scope.spawn(move || {
+            let result = pool.install(|| work(&between));
+            // The receiver only goes away once this thread is joined.
+            let _ = sender.send(());
+            result
+        });
+        let mut pending = true;
+        while let Err(RecvTimeoutError::Timeout) = receiver.recv_timeout(Duration::from_millis(20))
+        {
+            if pending {
+                if let Err(e) = Python::attach(|py| py.check_signals()) {
+                    pending = false;
+                    if let Ok(mut s) = signal.lock() {
+                        *s = Some(e);
+                    }
+                }
+            }
+        }
+        let result = match worker.join() {
+            Ok(result) => result,
+            Err(p) => std::panic::resume_unwind(p),
+        };
+        // A signal caught after `work`'s last check still ends the call with its error.
+        match signal.lock().ok().and_then(|mut s| s.take()) {
+            Some(e) => Err(Failure::Python(e)),
+            None => result,
+        }
+    })
 }
 
 /// `f(i)` for `i` in `0..n`, in parallel, GIL released, checking for Ctrl-C between chunks.

@@ -7,7 +7,7 @@ use upm_core::motion::PlateMotion as CoreMotion;
 use upm_core::sim::{self, Config, Parts, Trajectory};
 use upm_core::{Error, Waveform};
 
-use crate::errors::{core, detached, interrupted, shape_error, Failure};
+use crate::errors::{core, detached, on_threads, shape_error, Failure};
 use crate::{pairs, WaveformBatch};
 
 /// A plate motion program (see `upm.PlateMotion`).
@@ -269,9 +269,9 @@ pub fn simulate<'py>(
     };
     let runs = detached(py, || {
         // Every world advances one block at a time; Ctrl-C is honoured between blocks.
-        upm_core::parallel::with_threads(threads, || {
-            sim::simulate_worlds_with(&motions, &parts, &cfg, contacts.as_ref(), interrupted)
-        })?
+        on_threads(threads, |between| {
+            sim::simulate_worlds_with(&motions, &parts, &cfg, contacts.as_ref(), between)
+        })
     })?;
     to_arrays(py, runs, m)
 }
