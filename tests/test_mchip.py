@@ -41,6 +41,25 @@ def test_collisions_come_once_a_cycle_with_rebounds_just_after(run: mchip.MChipR
     assert c["impulse_x"].sum() > 0
 
 
+def test_double_bounces_come_in_slower_and_brake(run: mchip.MChipResult) -> None:
+    # Thesis Fig. 2.7(a-c): the rebounds a few hundredths of a ms after an impact meet the part at
+    # a lower angle and a much lower angular speed than the once-a-cycle impacts, and push it
+    # backward on average.
+    c, gaps = run.collisions, run.collision_gaps()
+    assert gaps.shape == (len(c),) and np.isnan(gaps).sum() == len(np.unique(c["resonator"]))
+    np.testing.assert_array_equal(np.sort(gaps[~np.isnan(gaps)]), np.sort(run.inter_arrival()))
+    # Contact resumed within 5 µs is the same collision.
+    assert np.nanmin(gaps) > 5e-6
+    rebound = gaps < 0.05e-3
+    cycle = np.abs(gaps - 0.2e-3) < 0.03e-3
+    assert rebound.sum() > 10 and cycle.sum() > 10
+    assert np.median(c["angular_speed"][rebound]) < 0.5 * np.median(c["angular_speed"][cycle])
+    assert np.median(c["angle"][rebound]) < np.median(c["angle"][cycle])
+    assert c["impulse_x"][rebound].mean() < 0 < c["impulse_x"][cycle].mean()
+    # The once-a-cycle impacts catch the resonator on its way up (Fig. 2.6).
+    assert np.median(c["angular_speed"][cycle]) > 0
+
+
 def test_row_impulse_splits_the_collision_log_by_row(run: mchip.MChipResult) -> None:
     per_row = run.row_impulse()
     assert per_row.shape == (8,)

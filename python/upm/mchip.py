@@ -103,8 +103,10 @@ class MChipResult:
     angles: FloatArray
     """Resonator angles [rad], ``(T, rows * cols)`` (index ``row * cols + col``)."""
     collisions: NDArray[Any]
-    """One record per part–resonator contact episode: ``time``, ``resonator``, ``angle``,
-    ``angular_speed`` (when it began), ``impulse_x``, ``impulse_normal`` [N s]."""
+    """One record per part–resonator collision, in time order: ``time`` (when it began),
+    ``resonator``, ``angle`` and ``angular_speed`` (the resonator's as it came in, before the
+    impact), ``impulse_x``, ``impulse_normal`` [N s]. Contact that breaks off and resumes within
+    5 µs is the same collision (``REJOIN`` in ``docs/mchip.md``)."""
     energy: dict[str, float]
     """Time-averaged energy per degree of freedom [J]: ``part_x``, ``part_y``, ``part_z``,
     ``part_rotation``, ``resonators_kinetic``, ``resonators_spring``."""
@@ -148,13 +150,21 @@ class MChipResult:
             out.append((start, float(t[-1])))
         return out
 
+    def collision_gaps(self) -> FloatArray:
+        """For each collision, the time [s] since the same resonator's previous one (its
+        inter-arrival time, thesis Fig. 2.7; NaN for each resonator's first), ``(len(collisions),)``."""
+        c = self.collisions
+        gaps = np.full(len(c), np.nan)
+        for r in np.unique(c["resonator"]):
+            index = np.flatnonzero(c["resonator"] == r)  # already in time order
+            gaps[index[1:]] = np.diff(c["time"][index])
+        return gaps
+
     def inter_arrival(self) -> FloatArray:
-        """Times between successive collisions of the same resonator [s] (all resonators)."""
-        gaps = []
-        for r in np.unique(self.collisions["resonator"]):
-            times = np.sort(self.collisions["time"][self.collisions["resonator"] == r])
-            gaps.append(np.diff(times))
-        return np.concatenate(gaps) if gaps else np.zeros(0)
+        """Times between successive collisions of the same resonator [s] (all resonators, in the
+        order of the later collision)."""
+        gaps = self.collision_gaps()
+        return gaps[~np.isnan(gaps)]
 
     def rebound_share(self, within: float = 0.05e-3) -> float:
         """Share of collisions that came within ``within`` [s] of the same resonator's previous

@@ -20,11 +20,27 @@ def _run(design: Design, drive: Drive, duration: float, **kw: Any) -> MChipResul
     return simulate(design, drive, duration=duration, record_every=20, **kw)
 
 
+def _median(values: np.ndarray) -> float:
+    return float(np.median(values)) if len(values) else float("nan")
+
+
+def _mean(values: np.ndarray) -> float:
+    return float(np.mean(values)) if len(values) else float("nan")
+
+
 def _summary(r: MChipResult) -> dict[str, Any]:
+    c, gaps = r.collisions, r.collision_gaps()
+    rebound = gaps < 0.05e-3
+    cycle = np.abs(gaps - 1 / r.drive.frequency) < 0.15 / r.drive.frequency
     return {
         "feed_rate_mm_s": 1e3 * r.feed_rate(),
         "collisions": len(r.collisions),
         "double_bounce_share": r.rebound_share(),
+        # Fig. 2.7: the once-a-cycle impacts against the rebounds just after them.
+        "impact_angular_speed_median_rad_s": _median(c["angular_speed"][cycle]),
+        "rebound_angular_speed_median_rad_s": _median(c["angular_speed"][rebound]),
+        "impact_impulse_x_mean_n_s": _mean(c["impulse_x"][cycle]),
+        "rebound_impulse_x_mean_n_s": _mean(c["impulse_x"][rebound]),
         "jam_time_s": float(sum(b - a for a, b in r.jams())),
         "energy_share_vertical_hop": r.hop_energy_share(),
         "row_impulse_x_n_s": r.row_impulse().tolist(),
@@ -57,13 +73,16 @@ def _feed(quick: bool, out: Path) -> dict[str, Any]:
     return m
 
 
-def _compare(runs: dict[str, tuple[Design, Drive]], duration: float, out: Path, name: str) -> dict[str, Any]:
+def _compare(
+    runs: dict[str, tuple[Design, Drive]], duration: float, out: Path, name: str
+) -> tuple[dict[str, Any], dict[str, MChipResult]]:
     import matplotlib.pyplot as plt
 
     m: dict[str, Any] = {}
+    results = {}
     fig, ax = plt.subplots(figsize=(7, 4))
     for label, (design, drive) in runs.items():
-        r = _run(design, drive, duration)
+        r = results[label] = _run(design, drive, duration)
         m[label] = _summary(r)
         ax.plot(1e3 * r.t, 1e6 * (r.position[:, 0] - r.position[0, 0]), label=label)
     ax.set(xlabel="t [ms]", ylabel="x [µm]")
@@ -71,7 +90,7 @@ def _compare(runs: dict[str, tuple[Design, Drive]], duration: float, out: Path, 
     fig.tight_layout()
     fig.savefig(out / f"{name}.png", dpi=110)
     plt.close(fig)
-    return m
+    return m, results
 
 
 def _strobe(quick: bool, out: Path) -> dict[str, Any]:
@@ -79,12 +98,32 @@ def _strobe(quick: bool, out: Path) -> dict[str, Any]:
         "all rows on": (Design(), Drive()),
         "row strobing (tau 50, delta 4)": (Design(), Drive(scheme="strobe", tau=50, delta=4)),
     }
-    return _compare(runs, 0.06 if quick else 0.4, out, "strobe")
+    return _compare(runs, 0.06 if quick else 0.4, out, "strobe")[0]
 
 
 def _duty(quick: bool, out: Path) -> dict[str, Any]:
+    """Fig. 2.7: each collision's angle, angular speed and x impulse against its inter-arrival
+    time, at duty 50% (a-c) and 36% (d-f)."""
+    import matplotlib.pyplot as plt
+
     runs = {"duty 50%": (Design(), Drive()), "duty 36%": (Design(), Drive(duty=0.36))}
-    return _compare(runs, 0.04 if quick else 0.2, out, "duty")
+    m, results = _compare(runs, 0.04 if quick else 0.2, out, "duty")
+    fig, ax = plt.subplots(3, 2, figsize=(9, 9), sharex=True, sharey="row")
+    for j, (label, r) in enumerate(results.items()):
+        c, gaps = r.collisions, 1e3 * r.collision_gaps()
+        keep = gaps < 0.5
+        for i, (key, scale, unit) in enumerate(
+            [("angle", 1.0, "angle [rad]"), ("angular_speed", 1.0, "angular speed [rad/s]"),
+             ("impulse_x", 1e12, "x impulse [1e-12 N s]")]
+        ):  # fmt: skip
+            ax[i, j].scatter(gaps[keep], scale * c[key][keep], s=3)
+            ax[i, j].set(ylabel=unit if j == 0 else "")
+        ax[0, j].set(title=label)
+        ax[2, j].set(xlabel="inter-arrival time [ms]")
+    fig.tight_layout()
+    fig.savefig(out / "collisions.png", dpi=110)
+    plt.close(fig)
+    return m
 
 
 def _sweep_plot(x: list[float], ys: dict[str, list[float]], xlabel: str, out: Path, name: str) -> None:

@@ -173,16 +173,17 @@ impl Default for Settings {
     }
 }
 
-/// One part–resonator collision (a contact episode: the steps in a row with an impulse).
+/// One part–resonator collision (a contact episode: the steps with an impulse, gaps shorter than
+/// [`REJOIN`] included).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Collision {
     /// When it began [s].
     pub time: f64,
     /// Resonator index (`row * cols + col`).
     pub resonator: usize,
-    /// The resonator's angle [rad] when it began.
+    /// The resonator's angle [rad] as it came in (at the start of the step it began in).
     pub angle: f64,
-    /// Angular speed [rad/s] when it began.
+    /// Angular speed [rad/s] as it came in (before the impact).
     pub angular_speed: f64,
     /// Impulse given to the part along x over the episode [N s] (the part's momentum change net
     /// of gravity and the external force, shared among the resonators touching it by their
@@ -479,6 +480,12 @@ pub fn simulate(design: &Design, drive: &Drive, settings: &Settings) -> Result<O
     simulate_with(design, drive, settings, |_| Ok::<(), Error>(()))
 }
 
+/// Contact gaps shorter than this [s] do not end a collision: rapier's soft contacts resolve a
+/// resonator's impact on the part over a few steps and may let go for a step or two in between
+/// (at the default 1 µs step such re-contacts cluster 2–5 µs after an impact's start). A real
+/// rebound takes longer: the drive must first turn the resonator back up (thesis 2.2.2: 20 µs).
+pub const REJOIN: f64 = 5e-6;
+
 /// Steps between calls of the `between` callback of [`simulate_with`].
 pub const CHECK_EVERY: usize = 20_000;
 
@@ -636,6 +643,13 @@ where
         (angle_of(b), b.angvel().y)
     };
     let mut joint_state: Vec<(f64, f64)> = resonators.iter().map(|&h| read(&world, h)).collect();
+    // The state at the step's start, kept for the collision log: a collision's angle and angular
+    // speed are the resonator's as it came in, before the impact reversed it.
+    let mut before = joint_state.clone();
+    // A contact that breaks off and resumes within `REJOIN` is the same impact (the soft contact
+    // resolving it over a few steps), not a new collision.
+    let rejoin = (REJOIN / settings.dt).ceil() as usize;
+    let mut last_touch = vec![0usize; n_res];
     for s in 0..steps {
         let t = s as f64 * settings.dt;
         for (i, (&h, &(theta, omega))) in resonators.iter().zip(&joint_state).enumerate() {
@@ -662,6 +676,7 @@ where
             b.linvel()
         };
         world.step();
+        before.copy_from_slice(&joint_state);
         for (state, &h) in joint_state.iter_mut().zip(&resonators) {
             *state = read(&world, h);
         }
@@ -680,9 +695,13 @@ where
         let b = &world.bodies[part];
         let dpx = m_part * (b.linvel().x - v_before.x) - fx_ext * dt;
         for i in 0..n_res {
+            if open[i].is_some() && s - last_touch[i] > rejoin {
+                open[i] = None;
+            }
             if touching[i] > 0.0 {
+                last_touch[i] = s;
                 let k = *open[i].get_or_insert_with(|| {
-                    let (angle, omega) = joint_state[i];
+                    let (angle, omega) = before[i];
                     out.collisions.push(Collision {
                         time: t_end,
                         resonator: i,
@@ -696,8 +715,6 @@ where
                 let c = &mut out.collisions[k];
                 c.impulse_normal += touching[i] * force_unit * UT;
                 c.impulse_x += dpx * touching[i] / total * force_unit * UT;
-            } else {
-                open[i] = None;
             }
         }
         // Energies (scaled units, converted at the end).
