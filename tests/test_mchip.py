@@ -41,6 +41,18 @@ def test_collisions_come_once_a_cycle_with_rebounds_just_after(run: mchip.MChipR
     assert c["impulse_x"].sum() > 0
 
 
+def test_the_part_pose_is_recorded(run: mchip.MChipResult) -> None:
+    q, w = run.orientation, run.angular_velocity
+    assert q.shape == (len(run.t), 4) and w.shape == (len(run.t), 3)
+    np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-12)
+    np.testing.assert_array_equal(q[0], [0.0, 0.0, 0.0, 1.0])
+    # The part rocks by small angles, so the pitch's rate is the angular velocity about y.
+    pitch = run.pitch()
+    assert 1e-5 < np.abs(pitch).max() < 0.1
+    rate = np.gradient(pitch, run.t)
+    assert np.corrcoef(rate[5:-5], w[5:-5, 1])[0, 1] > 0.99
+
+
 def test_double_bounces_come_in_slower_and_brake(run: mchip.MChipResult) -> None:
     # Thesis Fig. 2.7(a-c): the rebounds a few hundredths of a ms after an impact meet the part at
     # a lower angle and a much lower angular speed than the once-a-cycle impacts, and push it

@@ -100,6 +100,11 @@ class MChipResult:
     """Part centre [m], ``(T, 3)``; x along the feed, z up (z = 0: the slabs' top at rest)."""
     velocity: FloatArray
     """Part velocity [m/s], ``(T, 3)``."""
+    orientation: FloatArray
+    """Part orientation, ``(T, 4)``: the unit quaternion ``(x, y, z, w)`` of its rotation from the
+    start (scalar last, as ``scipy.spatial.transform.Rotation.from_quat`` takes it)."""
+    angular_velocity: FloatArray
+    """Part angular velocity [rad/s], ``(T, 3)``."""
     angles: FloatArray
     """Resonator angles [rad], ``(T, rows * cols)`` (index ``row * cols + col``)."""
     collisions: NDArray[Any]
@@ -118,6 +123,13 @@ class MChipResult:
     """Joint damper [N m s/rad]."""
     inertia: float
     """Resonator inertia about its joint [kg m^2]."""
+
+    def pitch(self) -> FloatArray:
+        """The part's pitch [rad] at the recorded times, ``(T,)``: its rotation about y, positive
+        nose down (front edge, +x, lowered)."""
+        x, y, z, w = self.orientation.T
+        pitch: FloatArray = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
+        return pitch
 
     def feed_rate(self, skip: float = 0.01) -> float:
         """Mean feed velocity along x [m/s]: the least-squares slope of ``x(t)`` after ``skip`` [s]
@@ -238,7 +250,7 @@ def simulate(
     start = np.asarray(part_start, dtype=float).reshape(-1)
     if force.size != 2 or start.size != 2:
         raise ParameterError("external_force and part_start must be (x, y) pairs")
-    t, pos, vel, angles, coll, energy, joint = _core.mchip_simulate(
+    t, pos, vel, orientation, spin, angles, coll, energy, joint = _core.mchip_simulate(
         **d,
         **v,
         phases=phases,
@@ -256,10 +268,8 @@ def simulate(
     for k, name in enumerate(_COLLISION.names or ()):
         records[name] = coll[:, k]
     names = ("part_x", "part_y", "part_z", "part_rotation", "resonators_kinetic", "resonators_spring")
-    return MChipResult(
-        design, drive, t, pos, vel, angles, records, dict(zip(names, map(float, energy), strict=True)),
-        *joint,
-    )  # fmt: skip
+    energies = dict(zip(names, map(float, energy), strict=True))
+    return MChipResult(design, drive, t, pos, vel, orientation, spin, angles, records, energies, *joint)
 
 
 def conveyor_fit(forces: ArrayLike, feed_rates: ArrayLike) -> tuple[float, float]:

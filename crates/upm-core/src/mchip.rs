@@ -215,6 +215,11 @@ pub struct Output {
     pub position: Vec<[f64; 3]>,
     /// Part velocity [m/s] at those times.
     pub velocity: Vec<[f64; 3]>,
+    /// Part orientation at those times: the unit quaternion `(x, y, z, w)` of its rotation from
+    /// the start (axes as the world's: x along the feed, z up).
+    pub orientation: Vec<[f64; 4]>,
+    /// Part angular velocity [rad/s] at those times.
+    pub angular_velocity: Vec<[f64; 3]>,
     /// Angle of every resonator [rad] at those times, `(rows, resonators)`.
     pub angles: Vec<f64>,
     /// Collisions in the order they began.
@@ -607,6 +612,8 @@ where
         t: Vec::new(),
         position: Vec::new(),
         velocity: Vec::new(),
+        orientation: Vec::new(),
+        angular_velocity: Vec::new(),
         angles: Vec::new(),
         collisions: Vec::new(),
         energy: Energy::default(),
@@ -622,6 +629,9 @@ where
         out.position.push([tr.x * UL, tr.y * UL, tr.z * UL]);
         out.velocity
             .push([v.x * UL / UT, v.y * UL / UT, v.z * UL / UT]);
+        let (q, w) = (b.rotation(), b.angvel());
+        out.orientation.push([q.x, q.y, q.z, q.w]);
+        out.angular_velocity.push([w.x / UT, w.y / UT, w.z / UT]);
         for &h in &resonators {
             out.angles.push(angle_of(&world.bodies[h]));
         }

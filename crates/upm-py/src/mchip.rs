@@ -108,6 +108,11 @@ pub fn mchip_simulate<'py>(
         .reshape([rows_t, 3])?;
     let vel = PyArray1::from_vec(py, out.velocity.into_iter().flatten().collect())
         .reshape([rows_t, 3])?;
+    let orientation = PyArray1::from_vec(py, out.orientation.into_iter().flatten().collect())
+        .reshape([rows_t, 4])?;
+    let angular_velocity =
+        PyArray1::from_vec(py, out.angular_velocity.into_iter().flatten().collect())
+            .reshape([rows_t, 3])?;
     let angles = PyArray1::from_vec(py, out.angles).reshape([rows_t, n_res])?;
     let k = out.collisions.len();
     let coll: Vec<f64> = out
@@ -144,6 +149,8 @@ pub fn mchip_simulate<'py>(
             t.into_any(),
             pos.into_any(),
             vel.into_any(),
+            orientation.into_any(),
+            angular_velocity.into_any(),
             angles.into_any(),
             coll.into_any(),
             energy.into_any(),
