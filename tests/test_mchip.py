@@ -4,6 +4,8 @@ spring–conveyor fit. The physics checks (ring-down Q, drive off/on, dt halving
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -70,6 +72,23 @@ def test_double_bounces_come_in_slower_and_brake(run: mchip.MChipResult) -> None
     assert c["impulse_x"][rebound].mean() < 0 < c["impulse_x"][cycle].mean()
     # The once-a-cycle impacts catch the resonator on its way up (Fig. 2.6).
     assert np.median(c["angular_speed"][cycle]) > 0
+
+
+def test_hop_frequency_finds_the_bounce_under_a_drift(run: mchip.MChipResult) -> None:
+    # A synthetic height record: the part sinking (a slow drift much larger than the hop), a
+    # 430 Hz bounce and the 5 kHz impacts. The estimator must find the bounce.
+    t = np.arange(0.0, 0.2, 2e-5)
+    z = 30e-6 - 1e-6 * np.sin(2 * np.pi * 20.0 * t) + 0.3e-6 * np.sin(2 * np.pi * 430.0 * t)
+    z += 0.1e-6 * np.sin(2 * np.pi * 5000.0 * t)
+    pos = np.zeros((len(t), 3))
+    pos[:, 2] = z
+    synthetic = dataclasses.replace(run, t=t, position=pos)
+    assert abs(synthetic.hop_frequency() - 430.0) <= 1 / 0.19
+    m = run.design.mass()
+    np.testing.assert_allclose(synthetic.array_stiffness(), m * (2 * np.pi * synthetic.hop_frequency()) ** 2)
+    # Too short a window to hold ten cycles of anything below 2.5 kHz.
+    with pytest.raises(upm.ParameterError, match="longer run"):
+        dataclasses.replace(run, t=t[:300], position=pos[:300]).hop_frequency(skip=0.0, cycles=1e4)
 
 
 def test_row_impulse_splits_the_collision_log_by_row(run: mchip.MChipResult) -> None:

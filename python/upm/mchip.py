@@ -198,22 +198,34 @@ class MChipResult:
         part = e["part_x"] + e["part_y"] + e["part_z"] + e["part_rotation"]
         return e["part_z"] / part if part > 0 else float("nan")
 
-    def hop_frequency(self, skip: float = 0.01) -> float:
-        """Dominant frequency [Hz] of the part's vertical motion below the drive frequency (the
-        array as a spring under the part, thesis 2.2.4)."""
+    def hop_frequency(self, skip: float = 0.01, cycles: float = 10.0) -> float:
+        """Dominant frequency [Hz] of the part's vertical motion below half the drive frequency
+        (the array as a spring under the part, thesis 2.3.1), after ``skip`` [s].
+
+        The height is detrended (a straight line) and only frequencies the run holds at least
+        ``cycles`` periods of are searched: slower changes of height (the part settling, or
+        sinking as it crosses onto fewer rows) are not a hop, and over a short window they would
+        outweigh it."""
         keep = self.t >= skip
-        z = self.position[keep, 2] - self.position[keep, 2].mean()
-        dt = float(np.median(np.diff(self.t[keep])))
+        t = self.t[keep]
+        if len(t) < 8:
+            raise ParameterError("hop_frequency needs a longer run (at least 8 rows after skip)")
+        z = self.position[keep, 2]
+        z = z - np.polyval(np.polyfit(t, z, 1), t)
+        dt = float(np.median(np.diff(t)))
         spectrum = np.abs(np.fft.rfft(z * np.hanning(len(z))))
         f = np.fft.rfftfreq(len(z), dt)
-        band = (f > 2.0 / (len(z) * dt)) & (f < 0.5 * self.drive.frequency)
+        band = (f >= cycles / (t[-1] - t[0])) & (f < 0.5 * self.drive.frequency)
         if not band.any():
-            raise ParameterError("hop_frequency needs a longer run")
+            raise ParameterError(
+                f"hop_frequency needs a longer run: {t[-1] - t[0]:.3g} s after skip hold {cycles:g} "
+                f"cycles of nothing below half the drive frequency"
+            )
         return float(f[band][np.argmax(spectrum[band])])
 
-    def array_stiffness(self, skip: float = 0.01) -> float:
+    def array_stiffness(self, skip: float = 0.01, cycles: float = 10.0) -> float:
         """The array's vertical stiffness under the part [N/m]: ``m (2 pi f_hop)^2``."""
-        return self.design.mass() * (2 * math.pi * self.hop_frequency(skip)) ** 2
+        return self.design.mass() * (2 * math.pi * self.hop_frequency(skip, cycles)) ** 2
 
 
 def simulate(
