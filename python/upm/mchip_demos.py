@@ -28,10 +28,17 @@ def _mean(values: np.ndarray) -> float:
     return float(np.mean(values)) if len(values) else float("nan")
 
 
-def _summary(r: MChipResult) -> dict[str, Any]:
-    c, gaps = r.collisions, r.collision_gaps()
-    rebound = gaps < 0.05e-3
+def _impacts(r: MChipResult) -> tuple[np.ndarray, np.ndarray]:
+    """Masks over the collisions: the once-a-cycle impacts (a drive period, +-15%, after the same
+    resonator's previous one) and the rebounds (within 0.05 ms of it)."""
+    gaps = r.collision_gaps()
     cycle = np.abs(gaps - 1 / r.drive.frequency) < 0.15 / r.drive.frequency
+    return cycle, gaps < 0.05e-3
+
+
+def _summary(r: MChipResult) -> dict[str, Any]:
+    c = r.collisions
+    cycle, rebound = _impacts(r)
     return {
         "feed_rate_mm_s": 1e3 * r.feed_rate(),
         "collisions": len(r.collisions),
@@ -162,9 +169,7 @@ def _mass(quick: bool, out: Path) -> dict[str, Any]:
         rates.append(1e3 * r.feed_rate())
         landed = r.t >= 0.01
         heights.append(1e6 * float(np.mean(r.position[landed, 2] - 0.5 * base.part_size[2])))
-        gaps = r.collision_gaps()
-        cycle = np.abs(gaps - 1 / r.drive.frequency) < 0.15 / r.drive.frequency
-        speeds.append(_median(r.collisions["angular_speed"][cycle]))
+        speeds.append(_median(r.collisions["angular_speed"][_impacts(r)[0]]))
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.plot(masses, rates, "o-", color="C0")
     ax.set(xlabel="part mass [µg]", ylabel="feed rate [mm/s]")
@@ -273,8 +278,8 @@ def _force(quick: bool, out: Path) -> dict[str, Any]:
 DEMOS: dict[str, tuple[str, Callable[[bool, Path], dict[str, Any]]]] = {
     "mchip-feed": ("the part fed by the array; collisions and inter-arrival times (Figs. 2.5–2.7)", _feed),
     "mchip-strobe": ("all rows on against row strobing (2.2.1, Fig. 2.4)", _strobe),
-    "mchip-jam": ("the part started just behind the next row's ridge: blocking and strobing (2.2.1)", _jam),
-    "mchip-duty": ("torque duty cycle 50% against 36%: double bounces (2.2.2)", _duty),
+    "mchip-jam": ("crossing into the next row: blocking, stalls and strobing (2.2.1)", _jam),
+    "mchip-duty": ("torque duty cycle 50% against 36%: double bounces (2.2.2, Fig. 2.7)", _duty),
     "mchip-mass": ("feed rate against part mass, the thesis's part size (Fig. 2.9a)", _mass),
     "mchip-shape": ("feed rate against ridge distance L and height H (Figs. 2.8, 2.9)", _shape),
     "mchip-force": ("feed rate under an external force: the viscous model (Fig. 2.10, Table 2.1)", _force),
