@@ -49,20 +49,8 @@ where
     Ok(out)
 }
 
-/// Runs `f` on a dedicated pool of `threads` threads (every rayon call inside uses it), or on the
-/// global pool when `threads` is `None`. Results do not depend on the choice (see above).
-pub fn with_threads<R, F>(threads: Option<usize>, f: F) -> Result<R>
-where
-    R: Send,
-    F: FnOnce() -> R + Send,
-{
-    match threads {
-        None => Ok(f()),
-        Some(n) => Ok(pool(n)?.install(f)),
-    }
-}
-
-/// A dedicated pool of `n` threads.
+/// A dedicated pool of `n` threads (every rayon call inside its `install` uses it). Results do not
+/// depend on the thread count (see above).
 pub fn pool(n: usize) -> Result<rayon::ThreadPool> {
     if n == 0 {
         return Err(crate::Error::parameter("threads", "must be >= 1"));
@@ -79,30 +67,16 @@ mod tests {
     use crate::Error;
 
     #[test]
-    fn with_threads_uses_a_pool_of_that_size() {
-        assert_eq!(
-            with_threads(Some(1), rayon::current_num_threads).unwrap(),
-            1
-        );
-        assert_eq!(
-            with_threads(Some(3), rayon::current_num_threads).unwrap(),
-            3
-        );
-        assert!(with_threads(Some(0), || ()).is_err());
-        assert_eq!(with_threads(None, || 7).unwrap(), 7);
+    fn pool_has_that_many_threads() {
+        assert_eq!(pool(1).unwrap().install(rayon::current_num_threads), 1);
+        assert_eq!(pool(3).unwrap().install(rayon::current_num_threads), 3);
+        assert!(pool(0).is_err());
     }
 
     #[test]
     fn identical_for_one_and_two_threads() {
         let f = |i: usize| Ok(((i as f64) * 0.37).sin().powi(3));
-        let one = rayon::ThreadPoolBuilder::new()
-            .num_threads(1)
-            .build()
-            .unwrap();
-        let two = rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .unwrap();
+        let (one, two) = (pool(1).unwrap(), pool(2).unwrap());
         let a: Vec<f64> = one.install(|| try_map(0..10_000, f)).unwrap();
         let b: Vec<f64> = two.install(|| try_map(0..10_000, f)).unwrap();
         assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));

@@ -8,10 +8,11 @@ use upm_core::Error;
 
 use crate::errors::{detached, interrupted};
 
-/// Simulates the array; returns `(t, position, velocity, angles, collisions, energy, joint)`:
-/// arrays `(T,)`, `(T, 3)`, `(T, 3)`, `(T, R*C)`, `(K, 6)` (time, resonator, angle, angular
-/// speed, x impulse, normal impulse), `(6,)` (part x, y, z, rotation, resonators' kinetic and
-/// spring energy) and `(torque, stiffness, damping, inertia)`.
+/// Simulates the array; returns `(t, position, velocity, orientation, angular_velocity, angles,
+/// collisions, energy, joint)`: arrays `(T,)`, `(T, 3)`, `(T, 3)`, `(T, 4)` (quaternion x, y, z,
+/// w), `(T, 3)`, `(T, R*C)`, `(K, 6)` (time, resonator, angle, angular speed, x impulse, normal
+/// impulse), `(6,)` (part x, y, z, rotation, resonators' kinetic and spring energy) and
+/// `(torque, stiffness, damping, inertia)`.
 #[pyfunction]
 #[pyo3(signature = (*, rows, cols, slab, gap, ridge_distance, ridge_height, ridge_width, density, natural_frequency, quality, part_size, part_mass, friction, restitution, frequency, duty, torque, peak_angle, scheme, tau, delta, phases, dt, duration, record_every, external_force, iterations, part_start, drop_height, initial_angle, part))]
 #[allow(clippy::too_many_arguments)]
