@@ -5,6 +5,8 @@ spring–conveyor fit. The physics checks (ring-down Q, drive off/on, dt halving
 from __future__ import annotations
 
 import dataclasses
+import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -91,6 +93,37 @@ def test_hop_frequency_finds_the_bounce_under_a_drift(run: mchip.MChipResult) ->
         dataclasses.replace(run, t=t[:300], position=pos[:300]).hop_frequency(skip=0.0, cycles=1e4)
 
 
+def test_jams_finds_stalls_against_the_free_rate(run: mchip.MChipResult) -> None:
+    # A synthetic record: 1 mm/s, a stall at a fifth of that from 0.1 to 0.25 s (longer than
+    # the free stretches together, so the run's average would itself be near a stall's rate),
+    # then 1 mm/s again; the hop's wobble on top.
+    t = np.arange(0.0, 0.3, 2e-5)
+    v = np.where((t >= 0.1) & (t < 0.25), 0.2e-3, 1e-3)
+    x = np.concatenate(([0.0], np.cumsum(v[:-1] * np.diff(t)))) + 0.02e-6 * np.sin(2 * np.pi * 5e3 * t)
+    pos = np.zeros((len(t), 3))
+    pos[:, 0] = x
+    synthetic = dataclasses.replace(run, t=t, position=pos)
+    jams = synthetic.jams(window=0.01)
+    assert len(jams) == 1
+    ((a, b),) = jams
+    # The slow windows are those mostly inside the stall: it is found to within a window.
+    assert abs(a - 0.1) < 0.01 and abs(b - 0.25) < 0.01
+    # Two stalls closer than a window are one jam: the intervals never overlap.
+    twice = np.where((t >= 0.1) & (t < 0.15) | (t >= 0.153) & (t < 0.2), 0.0, 1e-3)
+    pos2 = np.zeros_like(pos)
+    pos2[:, 0] = np.concatenate(([0.0], np.cumsum(twice[:-1] * np.diff(t))))
+    merged = dataclasses.replace(run, t=t, position=pos2).jams(window=0.01)
+    assert len(merged) == 1 and abs(merged[0][0] - 0.1) < 0.01 and abs(merged[0][1] - 0.2) < 0.01
+    # A steady feed has none; a part that never moves forward has no free rate and no jams.
+    steady = dataclasses.replace(run, t=t, position=np.column_stack([1e-3 * t, 0 * t, 0 * t]))
+    assert steady.jams() == []
+    assert dataclasses.replace(run, t=t, position=np.zeros_like(pos)).jams() == []
+    with pytest.raises(upm.ParameterError, match="fraction"):
+        synthetic.jams(fraction=0.0)
+    with pytest.raises(upm.ParameterError, match="longer"):
+        synthetic.jams(window=1.0)
+
+
 def test_row_impulse_splits_the_collision_log_by_row(run: mchip.MChipResult) -> None:
     per_row = run.row_impulse()
     assert per_row.shape == (8,)
@@ -145,3 +178,23 @@ def test_bad_input_names_the_parameter() -> None:
         mchip.simulate(drive=mchip.Drive(scheme="phases", phases=(0.0,)), duration=1e-3)
     with pytest.raises(upm.ParameterError, match="design must be"):
         mchip.simulate("8x5", duration=1e-3)  # type: ignore[arg-type]
+
+
+def test_the_feed_demo_writes_its_figure_and_metrics(tmp_path: Path) -> None:
+
+    pytest.importorskip("matplotlib")
+    from upm.mchip_demos import run_mchip_demo
+
+    metrics = run_mchip_demo("mchip-feed", out=tmp_path, quick=True, verbose=False)
+    folder = tmp_path / "mchip-feed"
+    assert (folder / "feed.png").stat().st_size > 10_000
+    written = json.loads((folder / "metrics.json").read_text())
+    assert written["feed_rate_mm_s"] == pytest.approx(metrics["feed_rate_mm_s"])
+    # 40 ms (200 drive cycles) of the default part: it feeds forward without a jam, hit several
+    # times a cycle but not more often than the 16 resonators under it could, most of its kinetic
+    # energy in the hop.
+    assert written["feed_rate_mm_s"] > 0.5 and written["jams_s"] == [] and written["jam_time_s"] == 0
+    assert 2 * 200 < written["collisions"] < 16 * 200
+    assert written["energy_share_vertical_hop"] > 0.5
+    with pytest.raises(upm.ParameterError, match="mchip-feed"):
+        run_mchip_demo("mchip-fed", out=tmp_path)

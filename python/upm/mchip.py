@@ -140,26 +140,39 @@ class MChipResult:
         return float(np.polyfit(self.t[keep], self.position[keep, 0], 1)[0])
 
     def jams(
-        self, window: float = 0.01, fraction: float = 0.2, skip: float = 0.01
+        self, window: float = 0.01, fraction: float = 0.25, skip: float = 0.01
     ) -> list[tuple[float, float]]:
-        """Intervals ``(start, end)`` [s] over which the part advanced less than ``fraction`` of
-        its run-average rate in every ``window`` [s] (a jam), after ``skip``."""
+        """Intervals ``(start, end)`` [s] after ``skip`` in which the part advanced, over every
+        ``window`` [s], less than ``fraction`` of its free feed rate (a jam, or a stall).
+
+        The free rate is the 80th percentile of the rates over all such windows: the part's speed
+        when it is not jammed, even if it is jammed for most of the run (the run's average would
+        then be a jam's rate itself). A part that never moved forward has no free rate and no
+        jams: check :meth:`feed_rate` first."""
+        for name, value in (("window", window), ("fraction", fraction)):
+            if not (math.isfinite(value) and value > 0):
+                raise ParameterError(f"{name} must be a positive number; got {value!r}")
+        if not (math.isfinite(skip) and skip >= 0):
+            raise ParameterError(f"skip must be >= 0 s; got {skip!r}")
         t, x = self.t, self.position[:, 0]
-        rate = max(self.feed_rate(skip), 0.0)
+        ends = np.flatnonzero(t >= t[0] + skip + window)
+        if len(ends) == 0:
+            raise ParameterError(
+                f"jams needs a run longer than skip + window = {skip + window:g} s; got {t[-1] - t[0]:g} s"
+            )
+        begins = np.searchsorted(t, t[ends] - window)
+        rates = (x[ends] - x[begins]) / (t[ends] - t[begins])
+        free = float(np.percentile(rates, 80))
+        if free <= 0:
+            return []
         out: list[tuple[float, float]] = []
-        start = None
-        for k in range(len(t)):
-            if t[k] < skip + window:
-                continue
-            j = int(np.searchsorted(t, t[k] - window))
-            slow = (x[k] - x[j]) < fraction * rate * (t[k] - t[j])
-            if slow and start is None:
-                start = float(t[j])
-            elif not slow and start is not None:
-                out.append((start, float(t[k])))
-                start = None
-        if start is not None:
-            out.append((start, float(t[-1])))
+        # The union of the slow windows (they start in time order).
+        for k in np.flatnonzero(rates < fraction * free):
+            a, b = float(t[begins[k]]), float(t[ends[k]])
+            if out and a <= out[-1][1]:
+                out[-1] = (out[-1][0], b)
+            else:
+                out.append((a, b))
         return out
 
     def collision_gaps(self) -> FloatArray:

@@ -39,6 +39,7 @@ def _impacts(r: MChipResult) -> tuple[np.ndarray, np.ndarray]:
 def _summary(r: MChipResult) -> dict[str, Any]:
     c = r.collisions
     cycle, rebound = _impacts(r)
+    jams = r.jams()
     return {
         "feed_rate_mm_s": 1e3 * r.feed_rate(),
         "collisions": len(r.collisions),
@@ -48,7 +49,8 @@ def _summary(r: MChipResult) -> dict[str, Any]:
         "rebound_angular_speed_median_rad_s": _median(c["angular_speed"][rebound]),
         "impact_impulse_x_mean_n_s": _mean(c["impulse_x"][cycle]),
         "rebound_impulse_x_mean_n_s": _mean(c["impulse_x"][rebound]),
-        "jam_time_s": float(sum(b - a for a, b in r.jams())),
+        "jams_s": jams,
+        "jam_time_s": float(sum(b - a for a, b in jams)),
         "energy_share_vertical_hop": r.hop_energy_share(),
         "row_impulse_x_n_s": r.row_impulse().tolist(),
     }
