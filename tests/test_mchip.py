@@ -74,6 +74,7 @@ def test_double_bounces_come_in_slower_and_brake(run: mchip.MChipResult) -> None
     assert c["impulse_x"][rebound].mean() < 0 < c["impulse_x"][cycle].mean()
     # The once-a-cycle impacts catch the resonator on its way up (Fig. 2.6).
     assert np.median(c["angular_speed"][cycle]) > 0
+    np.testing.assert_array_equal(run.impacts(), cycle)
 
 
 def test_hop_frequency_finds_the_bounce_under_a_drift(run: mchip.MChipResult) -> None:
@@ -142,6 +143,9 @@ def test_no_drive_no_feed() -> None:
     # It drops 2 µm onto the ridges and rocks there (a few nm, damped) for a few ms; then it rests.
     landed = np.searchsorted(still.t, 0.006)
     assert np.ptp(still.position[landed:, 0]) < 5e-9
+    # Its underside rests on the ridges' tops (5 µm above the slabs), which its weight tips down by
+    # a few tenths of a µm (the joints' springs).
+    assert 4.6e-6 < still.part_height(skip=0.006) < 5e-6
 
 
 def test_strobe_and_phase_schemes_switch_rows() -> None:

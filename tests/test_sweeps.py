@@ -80,8 +80,20 @@ def test_mchip_feed_scenario_runs_the_array_per_point() -> None:
     assert np.all((ds.rebound_share >= 0) & (ds.rebound_share <= 1)) and np.all(ds.collisions > 0)
     direct = upm.mchip.simulate(drive=upm.mchip.Drive(duty=0.5), duration=0.015, record_every=20)
     assert float(ds.feed_rate.sel(duty=0.5)) == direct.feed_rate(skip=0.3 * 0.015)
+    # Fig. 2.9's other curves: the impacts catch the ridge on its way up, within its stroke, and
+    # the part rides on the ridges (5 µm high), hopping tens of µm in its first 15 ms.
+    assert np.all((ds.impact_angle > 0) & (ds.impact_angle < 0.1)) and np.all(ds.impact_angular_speed > 0)
+    assert np.all((ds.part_height > 5e-6) & (ds.part_height < 50e-6))
+    assert float(ds.part_height.sel(duty=0.5)) == direct.part_height(skip=0.3 * 0.015)
+    # Replicas: another seed starts the part elsewhere and the run comes out otherwise; the same
+    # seed, the same run.
+    reps = upm.sweep("mchip_feed", {"seed": [0, 7, 7]}, duration=0.015, n_jobs=2, progress=False)
+    assert float(reps.feed_rate[0]) == float(ds.feed_rate.sel(duty=0.5))
+    assert float(reps.feed_rate[1]) == float(reps.feed_rate[2]) != float(reps.feed_rate[0])
     with pytest.raises(upm.ParameterError, match="ridge_distance"):
         upm.sweep("mchip_feed", {"ridge_distance": [1e-3]}, progress=False)
+    with pytest.raises(upm.ParameterError, match="seed"):
+        upm.sweep("mchip_feed", {"seed": [0.5]}, progress=False)
 
 
 # -- functions, shapes, labels -------------------------------------------------------------

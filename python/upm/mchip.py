@@ -197,6 +197,21 @@ class MChipResult:
         gaps = self.inter_arrival()
         return float(np.mean(gaps < within)) if len(gaps) else 0.0
 
+    def impacts(self) -> NDArray[np.bool_]:
+        """Which collisions are the once-a-cycle impacts: those a drive period (within 15%) after
+        the same resonator's previous one, ``(len(collisions),)`` (rebounds come within 0.05 ms,
+        thesis Fig. 2.7; a resonator's first collision is neither)."""
+        period = 1.0 / self.drive.frequency
+        impacts: NDArray[np.bool_] = np.abs(self.collision_gaps() - period) < 0.15 * period
+        return impacts
+
+    def part_height(self, skip: float = 0.01) -> float:
+        """Mean height [m] of the part's underside above the slabs' tops at rest after ``skip``
+        [s] (the thesis's PartZ less half the part's thickness, Fig. 2.9): how deep the part
+        sinks into the array."""
+        keep = self.t >= min(skip, 0.5 * self.t[-1])
+        return float(np.mean(self.position[keep, 2]) - 0.5 * self.design.part_size[2])
+
     def row_impulse(self) -> FloatArray:
         """Net x impulse [N s] each resonator row gave the part over the run, ``(rows,)``, rows
         numbered along the feed. A row that brakes the part (the blocking row of a jam, thesis

@@ -31,9 +31,7 @@ def _mean(values: np.ndarray) -> float:
 def _impacts(r: MChipResult) -> tuple[np.ndarray, np.ndarray]:
     """Masks over the collisions: the once-a-cycle impacts (a drive period, +-15%, after the same
     resonator's previous one) and the rebounds (within 0.05 ms of it)."""
-    gaps = r.collision_gaps()
-    cycle = np.abs(gaps - 1 / r.drive.frequency) < 0.15 / r.drive.frequency
-    return cycle, gaps < 0.05e-3
+    return r.impacts(), r.collision_gaps() < 0.05e-3
 
 
 def _summary(r: MChipResult) -> dict[str, Any]:
@@ -169,9 +167,8 @@ def _mass(quick: bool, out: Path) -> dict[str, Any]:
     for mass in masses:
         r = _run(replace(base, part_mass=mass * 1e-9), Drive(), 0.03 if quick else 0.3)
         rates.append(1e3 * r.feed_rate())
-        landed = r.t >= 0.01
-        heights.append(1e6 * float(np.mean(r.position[landed, 2] - 0.5 * base.part_size[2])))
-        speeds.append(_median(r.collisions["angular_speed"][_impacts(r)[0]]))
+        heights.append(1e6 * r.part_height())
+        speeds.append(_median(r.collisions["angular_speed"][r.impacts()]))
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.plot(masses, rates, "o-", color="C0")
     ax.set(xlabel="part mass [µg]", ylabel="feed rate [mm/s]")

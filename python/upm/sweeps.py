@@ -180,19 +180,33 @@ def _mchip_feed(p: dict[str, FloatArray]) -> Outputs:
     from . import mchip
 
     n = len(p["duty"])
-    out = {k: np.empty(n) for k in ("feed_rate", "rebound_share", "collisions", "hop_energy_share")}
+    names = ("feed_rate", "rebound_share", "collisions", "hop_energy_share", "impact_angle",
+             "impact_angular_speed", "part_height")  # fmt: skip
+    out = {k: np.empty(n) for k in names}
     for i in range(n):
         design = mchip.Design(
+            part_size=(1150e-6, 400e-6, float(p["thickness"][i])),
             part_mass=float(p["mass"][i]),
             ridge_distance=float(p["ridge_distance"][i]),
             ridge_height=float(p["ridge_height"][i]),
         )
-        run = mchip.simulate(design, mchip.Drive(duty=float(p["duty"][i])), duration=float(p["duration"][i]),
-                             record_every=20)  # fmt: skip
-        out["feed_rate"][i] = run.feed_rate(skip=min(0.01, 0.3 * float(p["duration"][i])))
+        drive = mchip.Drive(duty=float(p["duty"][i]), peak_angle=float(p["peak_angle"][i]))
+        # Replicas: seed 0 starts the part at the default place; any other seed moves it by up to
+        # 10 µm in x and y (the runs are chaotic: the replicas' spread is the feed rate's noise).
+        seed = int(p["seed"][i])
+        shift = np.random.default_rng(seed).uniform(-10e-6, 10e-6, 2) if seed else np.zeros(2)
+        duration = float(p["duration"][i])
+        run = mchip.simulate(design, drive, duration=duration, record_every=20,
+                             part_start=(600e-6 + shift[0], 400e-6 + shift[1]))  # fmt: skip
+        skip = min(0.01, 0.3 * duration)
+        impacts = run.collisions[run.impacts()]
+        out["feed_rate"][i] = run.feed_rate(skip=skip)
         out["rebound_share"][i] = run.rebound_share()
         out["collisions"][i] = len(run.collisions)
         out["hop_energy_share"][i] = run.hop_energy_share()
+        out["impact_angle"][i] = np.median(impacts["angle"]) if len(impacts) else np.nan
+        out["impact_angular_speed"][i] = np.median(impacts["angular_speed"]) if len(impacts) else np.nan
+        out["part_height"][i] = run.part_height(skip=skip)
     return out
 
 
@@ -287,22 +301,33 @@ SCENARIOS: dict[str, Scenario] = {
         Scenario(
             "mchip_feed",
             "The M-Chip resonator array (thesis ch. 2, upm.mchip, rapier3d): the part's feed rate "
-            "versus its mass, the ridge distance L and height H and the torque's duty cycle, with "
-            "the share of rebounds (collisions within 0.05 ms of the resonator's previous one) and "
-            "of the part's kinetic energy in the vertical hop. Each point simulates `duration` s "
-            "(about 25 s of wall time per simulated 0.1 s).",
+            "versus its mass, its thickness (a 1150 x 400 µm part; the mass is `mass` whatever the "
+            "thickness), the ridge distance L and height H, the torque's duty cycle and the "
+            "resonators' peak angle, with the share of rebounds (collisions within 0.05 ms of the "
+            "resonator's previous one) and of the part's kinetic energy in the vertical hop, and "
+            "Fig. 2.9's impact angle, impact angular speed (medians of the once-a-cycle impacts) "
+            "and the part's height (its underside above the slabs). `seed` > 0 moves the part's "
+            "start by up to 10 µm (replicas: the runs are chaotic, and the replicas' spread is the "
+            "noise of a feed rate). Each point simulates `duration` s (about 10 s of wall time per "
+            "simulated 0.1 s).",
             ranges={
                 "mass": (1e-12, 1e-3),
+                "thickness": (1e-6, 1e-3),
                 "ridge_distance": (0.0, 135e-6),
                 "ridge_height": (1e-7, 1e-4),
                 "duty": (1e-3, 1.0),
+                "peak_angle": (1e-3, 0.5),
+                "seed": (0, 2**63 - 1),
                 "duration": (1e-3, 10.0),
             },
             defaults={
                 "mass": 2330.0 * 1150e-6 * 400e-6 * 50e-6,
+                "thickness": 50e-6,
                 "ridge_distance": 130e-6,
                 "ridge_height": 5e-6,
                 "duty": 0.5,
+                "peak_angle": 0.08,
+                "seed": 0,
                 "duration": 0.05,
             },
             outputs={
@@ -310,9 +335,13 @@ SCENARIOS: dict[str, Scenario] = {
                 "rebound_share": "1",
                 "collisions": "1",
                 "hop_energy_share": "1",
+                "impact_angle": "rad",
+                "impact_angular_speed": "rad/s",
+                "part_height": "m",
             },
             run=_mchip_feed,
             chunk=1,
+            integers=("seed",),
         ),
     )
 }
