@@ -34,6 +34,11 @@ def _impacts(r: MChipResult) -> tuple[np.ndarray, np.ndarray]:
     return r.impacts(), r.collision_gaps() < 0.05e-3
 
 
+def _impact_speed(r: MChipResult) -> float:
+    """The once-a-cycle impacts' median angular speed [rad/s] (Fig. 2.9's theta-dot)."""
+    return _median(r.collisions["angular_speed"][r.impacts()])
+
+
 def _phase(r: MChipResult) -> np.ndarray:
     """Each collision's phase in its row's square wave, in [0, 1)."""
     c, drive = r.collisions, r.drive
@@ -185,7 +190,7 @@ def _mass(quick: bool, out: Path) -> dict[str, Any]:
         r = _run(replace(base, part_mass=mass * 1e-9), Drive(), 0.03 if quick else 0.3)
         rates.append(1e3 * r.feed_rate())
         heights.append(1e6 * r.part_height())
-        speeds.append(_median(r.collisions["angular_speed"][r.impacts()]))
+        speeds.append(_impact_speed(r))
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.plot(masses, rates, "o-", color="C0")
     ax.set(xlabel="part mass [µg]", ylabel="feed rate [mm/s]")
@@ -204,21 +209,43 @@ def _mass(quick: bool, out: Path) -> dict[str, Any]:
 
 
 def _shape(quick: bool, out: Path) -> dict[str, Any]:
-    ls = [70e-6, 130e-6] if quick else [20e-6, 70e-6, 135e-6]
-    hs = [5e-6] if quick else [1.25e-6, 5e-6, 20e-6]
-    grid = []
-    for h in hs:
-        row = []
-        for length in ls:
-            r = _run(
-                replace(Design(), ridge_distance=length, ridge_height=h), Drive(), 0.03 if quick else 0.1
-            )
-            row.append(1e3 * r.feed_rate())
-        grid.append(row)
-    lines = {f"H = {1e6 * h:g} µm": row for h, row in zip(hs, grid, strict=True)}
-    _sweep_plot([1e6 * v for v in ls], lines, "ridge distance L [µm]", out, "shape")
-    return {"ridge_distance_um": [1e6 * v for v in ls], "ridge_height_um": [1e6 * v for v in hs],
-            "feed_rate_mm_s": grid}  # fmt: skip
+    """Figs. 2.9(b, c): feed rate, the part's height and the impacts' angular speed against the
+    ridge distance L for the default part and for the thesis's 1.15 x 0.4 x 0.25 mm part at
+    175 µg (heavier: an interior optimum in L), and against the ridge height H for the default
+    part (0.15 s runs)."""
+    import matplotlib.pyplot as plt
+
+    heavy = replace(Design(), part_size=(1150e-6, 400e-6, 250e-6), part_mass=175e-9)
+    ls = [70e-6, 130e-6] if quick else [70e-6, 85e-6, 100e-6, 115e-6, 130e-6]
+    hs = [5e-6, 10e-6] if quick else [2.5e-6, 5e-6, 10e-6, 16e-6, 20e-6]
+    series = {
+        ("L", "default part, 54 µg"): [replace(Design(), ridge_distance=v) for v in ls],
+        ("L", "175 µg thick part"): [replace(heavy, ridge_distance=v) for v in ls],
+        ("H", "default part, 54 µg"): [replace(Design(), ridge_height=v) for v in hs],
+    }
+    m: dict[str, Any] = {"ridge_distance_um": [1e6 * v for v in ls], "ridge_height_um": [1e6 * v for v in hs]}
+    fig, ax = plt.subplots(3, 2, figsize=(10, 9), sharex="col")
+    for (axis, label), designs in series.items():
+        runs = [_run(d, Drive(), 0.03 if quick else 0.15) for d in designs]
+        curves = {
+            "feed_rate_mm_s": [1e3 * r.feed_rate() for r in runs],
+            "underside_height_um": [1e6 * r.part_height() for r in runs],
+            "impact_angular_speed_median_rad_s": [_impact_speed(r) for r in runs],
+            "double_bounce_share": [r.rebound_share() for r in runs],
+        }
+        m[f"{axis}: {label}"] = curves
+        col, x = (0, m["ridge_distance_um"]) if axis == "L" else (1, m["ridge_height_um"])
+        for i, key in enumerate(list(curves)[:3]):
+            ax[i, col].plot(x, curves[key], "o-", label=label)
+    for col, name in enumerate(["ridge distance L [µm] (H = 5 µm)", "ridge height H [µm] (L = 130 µm)"]):
+        ax[0, col].set(ylabel="feed rate [mm/s]")
+        ax[1, col].set(ylabel="part underside [µm]")
+        ax[2, col].set(ylabel="impact angular speed [rad/s]", xlabel=name)
+        ax[0, col].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out / "shape.png", dpi=110)
+    plt.close(fig)
+    return m
 
 
 def _jam(quick: bool, out: Path) -> dict[str, Any]:
