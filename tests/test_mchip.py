@@ -75,6 +75,10 @@ def test_double_bounces_come_in_slower_and_brake(run: mchip.MChipResult) -> None
     # The once-a-cycle impacts catch the resonator on its way up (Fig. 2.6).
     assert np.median(c["angular_speed"][cycle]) > 0
     np.testing.assert_array_equal(run.impacts(), cycle)
+    np.testing.assert_array_equal(run.rebounds(), rebound)
+    assert run.impact_median("angular_speed") == np.median(c["angular_speed"][cycle])
+    with pytest.raises(upm.ParameterError, match="field"):
+        run.impact_median("speed")
 
 
 def test_hop_frequency_finds_the_bounce_under_a_drift(run: mchip.MChipResult) -> None:

@@ -197,6 +197,12 @@ class MChipResult:
         gaps = self.inter_arrival()
         return float(np.mean(gaps < within)) if len(gaps) else 0.0
 
+    def rebounds(self, within: float = 0.05e-3) -> NDArray[np.bool_]:
+        """Which collisions are rebounds: those within ``within`` [s] of the same resonator's
+        previous one, ``(len(collisions),)`` (the double bounces counted by :meth:`rebound_share`)."""
+        rebounds: NDArray[np.bool_] = self.collision_gaps() < within
+        return rebounds
+
     def impacts(self) -> NDArray[np.bool_]:
         """Which collisions are the once-a-cycle impacts: those a drive period (within 15%) after
         the same resonator's previous one, ``(len(collisions),)`` (rebounds come within 0.05 ms,
@@ -204,6 +210,14 @@ class MChipResult:
         period = 1.0 / self.drive.frequency
         impacts: NDArray[np.bool_] = np.abs(self.collision_gaps() - period) < 0.15 * period
         return impacts
+
+    def impact_median(self, field: str) -> float:
+        """The median of a collision ``field`` (``"angle"``, ``"angular_speed"``, ...) over the
+        once-a-cycle impacts (Fig. 2.9's theta and theta-dot); NaN without impacts."""
+        if field not in (self.collisions.dtype.names or ()):
+            raise ParameterError(f"field must be one of {self.collisions.dtype.names}; got {field!r}")
+        values = self.collisions[field][self.impacts()]
+        return float(np.median(values)) if len(values) else float("nan")
 
     def part_height(self, skip: float = 0.01) -> float:
         """Mean height [m] of the part's underside above the slabs' tops at rest after ``skip``

@@ -15,6 +15,9 @@ import numpy as np
 from ._errors import ParameterError
 from .mchip import Design, Drive, MChipResult, conveyor_fit, simulate
 
+# The thesis's part (Fig. 2.3): 1.15 x 0.4 x 0.25 mm; the demos give it a mass of their own.
+_THESIS_PART = (1150e-6, 400e-6, 250e-6)
+
 
 def _run(design: Design, drive: Drive, duration: float, **kw: Any) -> MChipResult:
     return simulate(design, drive, duration=duration, record_every=20, **kw)
@@ -28,17 +31,6 @@ def _mean(values: np.ndarray) -> float:
     return float(np.mean(values)) if len(values) else float("nan")
 
 
-def _impacts(r: MChipResult) -> tuple[np.ndarray, np.ndarray]:
-    """Masks over the collisions: the once-a-cycle impacts (a drive period, +-15%, after the same
-    resonator's previous one) and the rebounds (within 0.05 ms of it)."""
-    return r.impacts(), r.collision_gaps() < 0.05e-3
-
-
-def _impact_speed(r: MChipResult) -> float:
-    """The once-a-cycle impacts' median angular speed [rad/s] (Fig. 2.9's theta-dot)."""
-    return _median(r.collisions["angular_speed"][r.impacts()])
-
-
 def _phase(r: MChipResult) -> np.ndarray:
     """Each collision's phase in its row's square wave, in [0, 1)."""
     c, drive = r.collisions, r.drive
@@ -48,7 +40,7 @@ def _phase(r: MChipResult) -> np.ndarray:
 
 def _summary(r: MChipResult) -> dict[str, Any]:
     c = r.collisions
-    cycle, rebound = _impacts(r)
+    cycle, rebound = r.impacts(), r.rebounds()
     jams = r.jams()
     landed = (c["time"] >= 0.02) & ~np.isnan(r.collision_gaps())  # the landing's bounces left out
     return {
@@ -57,7 +49,7 @@ def _summary(r: MChipResult) -> dict[str, Any]:
         "double_bounce_share": r.rebound_share(),
         "double_bounce_share_after_20ms": _mean(rebound[landed]),
         # Fig. 2.7: the once-a-cycle impacts against the rebounds just after them.
-        "impact_angular_speed_median_rad_s": _median(c["angular_speed"][cycle]),
+        "impact_angular_speed_median_rad_s": r.impact_median("angular_speed"),
         # Where in its row's drive cycle each impact falls (the torque is on up to `duty`).
         "impact_phase_median": _median(_phase(r)[cycle]),
         "rebound_angular_speed_median_rad_s": _median(c["angular_speed"][rebound]),
@@ -133,7 +125,7 @@ def _duty(quick: bool, out: Path) -> dict[str, Any]:
     import matplotlib.pyplot as plt
 
     stiff = replace(Design(), natural_frequency=10_000.0, quality=3.0)
-    thesis = replace(Design(), part_size=(1150e-6, 400e-6, 250e-6), part_mass=125e-9)
+    thesis = replace(Design(), part_size=_THESIS_PART, part_mass=125e-9)
     runs = {
         "duty 50%": (Design(), Drive()),
         "duty 36%": (Design(), Drive(duty=0.36)),
@@ -183,14 +175,14 @@ def _mass(quick: bool, out: Path) -> dict[str, Any]:
     default start: long enough to cross a row, where heavy parts stall."""
     import matplotlib.pyplot as plt
 
-    base = replace(Design(), part_size=(1150e-6, 400e-6, 250e-6))
+    base = replace(Design(), part_size=_THESIS_PART)
     masses = [50.0, 100.0, 200.0] if quick else [25.0, 50.0, 75.0, 100.0, 125.0, 150.0, 200.0, 250.0, 300.0]
     rates, heights, speeds = [], [], []
     for mass in masses:
         r = _run(replace(base, part_mass=mass * 1e-9), Drive(), 0.03 if quick else 0.3)
         rates.append(1e3 * r.feed_rate())
         heights.append(1e6 * r.part_height())
-        speeds.append(_impact_speed(r))
+        speeds.append(r.impact_median("angular_speed"))
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.plot(masses, rates, "o-", color="C0")
     ax.set(xlabel="part mass [µg]", ylabel="feed rate [mm/s]")
@@ -215,7 +207,7 @@ def _shape(quick: bool, out: Path) -> dict[str, Any]:
     part (0.15 s runs)."""
     import matplotlib.pyplot as plt
 
-    heavy = replace(Design(), part_size=(1150e-6, 400e-6, 250e-6), part_mass=175e-9)
+    heavy = replace(Design(), part_size=_THESIS_PART, part_mass=175e-9)
     ls = [70e-6, 130e-6] if quick else [70e-6, 85e-6, 100e-6, 115e-6, 130e-6]
     hs = [5e-6, 10e-6] if quick else [2.5e-6, 5e-6, 10e-6, 16e-6, 20e-6]
     series = {
@@ -227,11 +219,14 @@ def _shape(quick: bool, out: Path) -> dict[str, Any]:
     fig, ax = plt.subplots(3, 2, figsize=(10, 9), sharex="col")
     done: dict[Design, MChipResult] = {}  # the default design is on both the L and the H line
     for (axis, label), designs in series.items():
-        runs = [done.get(d) or done.setdefault(d, _run(d, Drive(), 0.03 if quick else 0.15)) for d in designs]
+        for d in designs:
+            if d not in done:
+                done[d] = _run(d, Drive(), 0.03 if quick else 0.15)
+        runs = [done[d] for d in designs]
         curves = {
             "feed_rate_mm_s": [1e3 * r.feed_rate() for r in runs],
             "underside_height_um": [1e6 * r.part_height() for r in runs],
-            "impact_angular_speed_median_rad_s": [_impact_speed(r) for r in runs],
+            "impact_angular_speed_median_rad_s": [r.impact_median("angular_speed") for r in runs],
             "double_bounce_share": [r.rebound_share() for r in runs],
         }
         m[f"{axis}: {label}"] = curves
@@ -257,7 +252,7 @@ def _jam(quick: bool, out: Path) -> dict[str, Any]:
     import matplotlib.pyplot as plt
 
     design = Design()
-    heavy = replace(design, part_size=(1150e-6, 400e-6, 250e-6), part_mass=300e-9)
+    heavy = replace(design, part_size=_THESIS_PART, part_mass=300e-9)
     pitch = design.slab[0] + design.gap
     ridge = 5 * pitch - design.ridge_distance - 0.5 * design.ridge_width  # row 5's ridge, rear face
     near = (ridge - 20e-6 - 0.5 * design.part_size[0], 400e-6)

@@ -199,13 +199,12 @@ def _mchip_feed(p: dict[str, FloatArray]) -> Outputs:
         run = mchip.simulate(design, drive, duration=duration, record_every=20,
                              part_start=(600e-6 + shift[0], 400e-6 + shift[1]))  # fmt: skip
         skip = min(0.01, 0.3 * duration)
-        impacts = run.collisions[run.impacts()]
         out["feed_rate"][i] = run.feed_rate(skip=skip)
         out["rebound_share"][i] = run.rebound_share()
         out["collisions"][i] = len(run.collisions)
         out["hop_energy_share"][i] = run.hop_energy_share()
-        out["impact_angle"][i] = np.median(impacts["angle"]) if len(impacts) else np.nan
-        out["impact_angular_speed"][i] = np.median(impacts["angular_speed"]) if len(impacts) else np.nan
+        out["impact_angle"][i] = run.impact_median("angle")
+        out["impact_angular_speed"][i] = run.impact_median("angular_speed")
         out["part_height"][i] = run.part_height(skip=skip)
     return out
 
