@@ -85,6 +85,15 @@ def test_mchip_feed_scenario_runs_the_array_per_point() -> None:
     assert np.all((ds.impact_angle > 0) & (ds.impact_angle < 0.1)) and np.all(ds.impact_angular_speed > 0)
     assert np.all((ds.part_height > 5e-6) & (ds.part_height < 50e-6))
     assert float(ds.part_height.sel(duty=0.5)) == direct.part_height(skip=0.3 * 0.015)
+    jammed = sum(b - a for a, b in direct.jams(skip=0.3 * 0.015)) / (direct.t[-1] - 0.3 * 0.015)
+    assert float(ds.jam_share.sel(duty=0.5)) == jammed and np.all((ds.jam_share >= 0) & (ds.jam_share <= 1))
+    # The joint's natural frequency and quality factor reach the simulation.
+    soft = upm.sweep("mchip_feed", {"natural_frequency": [1500.0], "quality": [2.0]}, duration=0.015,
+                     progress=False)  # fmt: skip
+    alone = upm.mchip.simulate(upm.mchip.Design(natural_frequency=1500.0, quality=2.0), duration=0.015,
+                               record_every=20)  # fmt: skip
+    assert float(soft.feed_rate[0, 0]) == alone.feed_rate(skip=0.3 * 0.015)
+    assert float(soft.feed_rate[0, 0]) != float(ds.feed_rate.sel(duty=0.5))
     # Replicas: another seed starts the part elsewhere and the run comes out otherwise; the same
     # seed, the same run.
     reps = upm.sweep("mchip_feed", {"seed": [0, 7, 7]}, duration=0.015, n_jobs=2, progress=False)

@@ -246,17 +246,31 @@ def _shape(quick: bool, out: Path) -> dict[str, Any]:
 
 def _jam(quick: bool, out: Path) -> dict[str, Any]:
     """The next row's ridge (2.2.1): the default part started with its front 20 µm behind row 5's
-    ridge, at the simulated 0.08 rad and the device's nominal 2°, all rows on and strobed; and the
+    ridge, at the simulated 0.08 rad and the device's nominal 2°, all rows on and strobed; the
     thesis's 1.15 x 0.4 x 0.25 mm part at 300 µg (where it feeds at the thesis's 0.8 mm/s) from
-    the default start, which stalls for a while as it crosses the ridges (0.6 s runs)."""
+    the default start, which stalls for a while as it crosses the ridges (0.6 s runs); and the
+    default part on joints resonating at 1.5 kHz, below the drive, from the default start (0.4 s
+    runs): the free ridges ride on the torque's mean, row 5 blocks the part and strobing clears
+    it."""
     import matplotlib.pyplot as plt
 
     design = Design()
     heavy = replace(design, part_size=_THESIS_PART, part_mass=300e-9)
+    soft = replace(design, natural_frequency=1500.0)
     pitch = design.slab[0] + design.gap
     ridge = 5 * pitch - design.ridge_distance - 0.5 * design.ridge_width  # row 5's ridge, rear face
     near = (ridge - 20e-6 - 0.5 * design.part_size[0], 400e-6)
     short, long = (0.03, 0.03) if quick else (0.1, 0.6)
+    # Strobed, row 5 is off 20-30 ms into every 40 ms: the quick run lasts past that.
+    soft_start, soft_duration = (near, 0.04) if quick else ((600e-6, 400e-6), 0.4)
+    m: dict[str, Any] = {"part_start_near_m": near[0], "row5_ridge_m": ridge}
+    # The free resonators' swing (no part): a joint tuned to the drive swings from about 0, one
+    # resonating below it rides on the torque's mean.
+    for label, d in (("tuned 5 kHz joint", design), ("1.5 kHz joint", soft)):
+        free = simulate(d, Drive(), duration=4e-3, record_every=1, part=False)
+        swing = free.angles[free.t > 2e-3, 0]
+        m[f"free_swing_rad, {label}"] = [float(swing.min()), float(swing.max())]
+        m[f"free_ridge_lowest_m, {label}"] = d.ridge_height + d.ridge_distance * float(swing.min())
     runs = {
         "0.08 rad, all rows": (design, Drive(), near, short),
         "0.08 rad, strobed": (design, Drive(scheme="strobe"), near, short),
@@ -264,8 +278,9 @@ def _jam(quick: bool, out: Path) -> dict[str, Any]:
         "2°, strobed": (design, Drive(peak_angle=0.035, scheme="strobe"), near, short),
         "300 µg thick part, all rows": (heavy, Drive(), (600e-6, 400e-6), long),
         "300 µg thick part, strobed": (heavy, Drive(scheme="strobe"), (600e-6, 400e-6), long),
+        "1.5 kHz joint, all rows": (soft, Drive(), soft_start, soft_duration),
+        "1.5 kHz joint, strobed": (soft, Drive(scheme="strobe"), soft_start, soft_duration),
     }
-    m: dict[str, Any] = {"part_start_near_m": near[0], "row5_ridge_m": ridge}
     fig, ax = plt.subplots(3, 1, figsize=(7, 10))
     for k, (label, (d, drive, start, duration)) in enumerate(runs.items()):
         r = _run(d, drive, duration, part_start=start)
@@ -273,6 +288,7 @@ def _jam(quick: bool, out: Path) -> dict[str, Any]:
         edges = np.minimum(np.searchsorted(r.t, np.arange(0.0, r.t[-1] + 1e-9, 0.02) - 1e-9), len(r.t) - 1)
         m[label] = _summary(r) | {
             "crossed_row5_ridge": bool(front.max() > ridge + d.ridge_width),
+            "underside_height_m": r.part_height(),
             # The feed rate over successive 20 ms windows: a stall shows as a run of low values.
             "rate_per_20ms_mm_s": (np.diff(1e3 * front[edges]) / np.diff(r.t[edges])).tolist(),
         }  # fmt: skip

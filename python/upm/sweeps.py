@@ -181,7 +181,7 @@ def _mchip_feed(p: dict[str, FloatArray]) -> Outputs:
 
     n = len(p["duty"])
     names = ("feed_rate", "rebound_share", "collisions", "hop_energy_share", "impact_angle",
-             "impact_angular_speed", "part_height")  # fmt: skip
+             "impact_angular_speed", "part_height", "jam_share")  # fmt: skip
     out = {k: np.empty(n) for k in names}
     for i in range(n):
         design = mchip.Design(
@@ -189,6 +189,8 @@ def _mchip_feed(p: dict[str, FloatArray]) -> Outputs:
             part_mass=float(p["mass"][i]),
             ridge_distance=float(p["ridge_distance"][i]),
             ridge_height=float(p["ridge_height"][i]),
+            natural_frequency=float(p["natural_frequency"][i]),
+            quality=float(p["quality"][i]),
         )
         drive = mchip.Drive(duty=float(p["duty"][i]), peak_angle=float(p["peak_angle"][i]))
         # Replicas: seed 0 starts the part at the default place; any other seed moves it by up to
@@ -206,6 +208,11 @@ def _mchip_feed(p: dict[str, FloatArray]) -> Outputs:
         out["impact_angle"][i] = run.impact_median("angle")
         out["impact_angular_speed"][i] = run.impact_median("angular_speed")
         out["part_height"][i] = run.part_height(skip=skip)
+        # The share of the run after `skip` spent jammed (10 ms windows below a quarter of the free
+        # rate); NaN if the run holds no whole window.
+        span = run.t[-1] - run.t[0] - skip
+        jams = run.jams(skip=skip) if span >= 0.01 else None
+        out["jam_share"][i] = np.nan if jams is None else sum(b - a for a, b in jams) / span
     return out
 
 
@@ -301,19 +308,24 @@ SCENARIOS: dict[str, Scenario] = {
             "mchip_feed",
             "The M-Chip resonator array (thesis ch. 2, upm.mchip, rapier3d): the part's feed rate "
             "versus its mass, its thickness (a 1150 x 400 µm part; the mass is `mass` whatever the "
-            "thickness), the ridge distance L and height H, the torque's duty cycle and the "
-            "resonators' peak angle, with the share of rebounds (collisions within 0.05 ms of the "
+            "thickness), the ridge distance L and height H, the resonators' natural frequency and "
+            "quality factor on their joints, the torque's duty cycle and the resonators' peak "
+            "angle, with the share of rebounds (collisions within 0.05 ms of the "
             "resonator's previous one) and of the part's kinetic energy in the vertical hop, and "
             "Fig. 2.9's impact angle, impact angular speed (medians of the once-a-cycle impacts) "
-            "and the part's height (its underside above the slabs). `seed` > 0 moves the part's "
-            "start by up to 10 µm (replicas: the runs are chaotic, and the replicas' spread is the "
-            "noise of a feed rate). Each point simulates `duration` s (about 10 s of wall time per "
-            "simulated 0.1 s).",
+            "and the part's height (its underside above the slabs), and the share of the time it "
+            "spent jammed (MChipResult.jams: relative to its free rate, so read it with the feed "
+            "rate; a part jammed for most of the run has no free rate to compare with). `seed` > 0 "
+            "moves the part's start by up to 10 µm (replicas: the runs are chaotic, and the "
+            "replicas' spread is the noise of a feed rate). Each point simulates `duration` s "
+            "(about 10 s of wall time per simulated 0.1 s).",
             ranges={
                 "mass": (1e-12, 1e-3),
                 "thickness": (1e-6, 1e-3),
                 "ridge_distance": (0.0, 135e-6),
                 "ridge_height": (1e-7, 1e-4),
+                "natural_frequency": (100.0, 20e3),
+                "quality": (0.05, 1e4),
                 "duty": (1e-3, 1.0),
                 "peak_angle": (1e-3, 0.5),
                 "seed": (0, 2**63 - 1),
@@ -324,6 +336,8 @@ SCENARIOS: dict[str, Scenario] = {
                 "thickness": 50e-6,
                 "ridge_distance": 130e-6,
                 "ridge_height": 5e-6,
+                "natural_frequency": 5000.0,
+                "quality": 0.8,
                 "duty": 0.5,
                 "peak_angle": 0.08,
                 "seed": 0,
@@ -337,6 +351,7 @@ SCENARIOS: dict[str, Scenario] = {
                 "impact_angle": "rad",
                 "impact_angular_speed": "rad/s",
                 "part_height": "m",
+                "jam_share": "1",
             },
             run=_mchip_feed,
             chunk=1,
