@@ -94,6 +94,9 @@ def test_mchip_feed_scenario_runs_the_array_per_point() -> None:
                                record_every=20)  # fmt: skip
     assert float(soft.feed_rate[0, 0]) == alone.feed_rate(skip=0.3 * 0.015)
     assert float(soft.feed_rate[0, 0]) != float(ds.feed_rate.sel(duty=0.5))
+    # A run too short for one 10 ms window after its first 3 ms has no jam share.
+    brief = upm.sweep("mchip_feed", {"duty": [0.5]}, duration=0.01, progress=False)
+    assert np.isnan(float(brief.jam_share[0])) and float(brief.feed_rate[0]) > 0
     # Replicas: another seed starts the part elsewhere and the run comes out otherwise; the same
     # seed, the same run.
     reps = upm.sweep("mchip_feed", {"seed": [0, 7, 7]}, duration=0.015, n_jobs=2, progress=False)

@@ -109,9 +109,16 @@ def _compare(
 
 
 def _strobe(quick: bool, out: Path) -> dict[str, Any]:
+    """Fig. 2.5: the part's advance with all rows on and strobed, on the default joints (the free
+    ridges come down to rest once a cycle: no jam) and on joints resonating at 1.5 kHz, below the
+    drive (the next row's ridges never come down: they block the part, and strobing clears it)."""
+    soft = replace(Design(), natural_frequency=1500.0)
+    strobe = Drive(scheme="strobe", tau=50, delta=4)
     runs = {
         "all rows on": (Design(), Drive()),
-        "row strobing (tau 50, delta 4)": (Design(), Drive(scheme="strobe", tau=50, delta=4)),
+        "row strobing (tau 50, delta 4)": (Design(), strobe),
+        "1.5 kHz joints, all rows on": (soft, Drive()),
+        "1.5 kHz joints, row strobing": (soft, strobe),
     }
     return _compare(runs, 0.06 if quick else 0.4, out, "strobe")[0]
 
@@ -120,8 +127,9 @@ def _duty(quick: bool, out: Path) -> dict[str, Any]:
     """Fig. 2.7: each collision's angle, angular speed and x impulse against its inter-arrival
     time, at duty 50% (a-c) and 36% (d-f): the default part; the thesis's 1.15 x 0.4 x 0.25 mm
     part at 125 µg (heavier: the impacts come earlier in the drive's on-time, and the lower duty
-    cycle removes its double bounces); and the default part on stiffer resonators (10 kHz, Q = 3),
-    whose impacts come early too."""
+    cycle removes its double bounces); the default part on stiffer resonators (10 kHz, Q = 3),
+    whose impacts come early too; and the default part on joints resonating at 1.5 kHz, over
+    0.1 s (the next row blocks it soon after)."""
     import matplotlib.pyplot as plt
 
     stiff = replace(Design(), natural_frequency=10_000.0, quality=3.0)
@@ -135,7 +143,12 @@ def _duty(quick: bool, out: Path) -> dict[str, Any]:
         "10 kHz, Q 3, duty 36%": (stiff, Drive(duty=0.36)),
     }
     m, results = _compare(runs, 0.04 if quick else 0.2, out, "duty")
-    fig, ax = plt.subplots(3, len(runs), figsize=(3.2 * len(runs), 9), sharex=True, sharey="row")
+    soft = replace(Design(), natural_frequency=1500.0)
+    soft_runs = {"1.5 kHz, duty 50%": (soft, Drive()), "1.5 kHz, duty 36%": (soft, Drive(duty=0.36))}
+    more, more_results = _compare(soft_runs, 0.04 if quick else 0.1, out, "duty_1500hz")
+    m.update(more)
+    results.update(more_results)
+    fig, ax = plt.subplots(3, len(results), figsize=(3.2 * len(results), 9), sharex=True, sharey="row")
     for j, (label, r) in enumerate(results.items()):
         c, gaps = r.collisions, 1e3 * r.collision_gaps()
         # After the landing's bounces (the thesis plots 0.05 < t < 0.2 s).
@@ -170,34 +183,53 @@ def _sweep_plot(x: list[float], ys: dict[str, list[float]], xlabel: str, out: Pa
 
 
 def _mass(quick: bool, out: Path) -> dict[str, Any]:
-    """Fig. 2.9(a): feed rate against part mass, with the part's mean height (PartZ) and the
-    impacts' median angular speed. The thesis's 1.15 x 0.4 x 0.25 mm part, 0.3 s runs from the
-    default start: long enough to cross a row, where heavy parts stall."""
+    """Fig. 2.9(a): feed rate against part mass, with the part's mean height (PartZ), the impacts'
+    median angle and angular speed. Two series: the thesis's 1.15 x 0.4 x 0.25 mm part on the
+    default joints, 0.3 s runs from the default start, long enough to cross a row, where heavy
+    parts stall; and the default 1150 x 400 x 50 µm part over the thesis's 20-110 µg on joints
+    resonating at 1.5 kHz, 0.1 s runs, which end before the next row (it blocks the part there)."""
     import matplotlib.pyplot as plt
 
-    base = replace(Design(), part_size=_THESIS_PART)
-    masses = [50.0, 100.0, 200.0] if quick else [25.0, 50.0, 75.0, 100.0, 125.0, 150.0, 200.0, 250.0, 300.0]
-    rates, heights, speeds = [], [], []
-    for mass in masses:
-        r = _run(replace(base, part_mass=mass * 1e-9), Drive(), 0.03 if quick else 0.3)
-        rates.append(1e3 * r.feed_rate())
-        heights.append(1e6 * r.part_height())
-        speeds.append(r.impact_median("angular_speed"))
-    fig, ax = plt.subplots(figsize=(6, 4))
-    ax.plot(masses, rates, "o-", color="C0")
-    ax.set(xlabel="part mass [µg]", ylabel="feed rate [mm/s]")
-    right = ax.twinx()
-    right.plot(masses, heights, "s--", color="C1", label="underside height [µm]")
-    right.plot(masses, np.array(speeds) / 100, "^:", color="C2", label="impact speed [100 rad/s]")
-    right.legend(loc="upper right", fontsize=8)
+    series = {
+        "thesis's part, 5 kHz joints": (
+            replace(Design(), part_size=_THESIS_PART),
+            [50.0, 100.0, 200.0] if quick else [25.0, 50.0, 75.0, 100.0, 125.0, 150.0, 200.0, 250.0, 300.0],
+            0.03 if quick else 0.3,
+        ),
+        "default part, 1.5 kHz joints": (
+            replace(Design(), natural_frequency=1500.0),
+            [35.0, 75.0, 110.0] if quick else [20.0, 35.0, 55.0, 75.0, 95.0, 110.0],
+            0.03 if quick else 0.1,
+        ),
+    }
+    m: dict[str, Any] = {}
+    fig, ax = plt.subplots(1, len(series), figsize=(6 * len(series), 4))
+    for k, (label, (base, masses, duration)) in enumerate(series.items()):
+        rates, heights, speeds, angles = [], [], [], []
+        for mass in masses:
+            r = _run(replace(base, part_mass=mass * 1e-9), Drive(), duration)
+            rates.append(1e3 * r.feed_rate())
+            heights.append(1e6 * r.part_height())
+            speeds.append(r.impact_median("angular_speed"))
+            angles.append(r.impact_median("angle"))
+        ax[k].plot(masses, rates, "o-", color="C0")
+        ax[k].set(xlabel="part mass [µg]", ylabel="feed rate [mm/s]", title=label)
+        right = ax[k].twinx()
+        right.plot(masses, heights, "s--", color="C1", label="underside height [µm]")
+        right.plot(masses, np.array(speeds) / 100, "^:", color="C2", label="impact speed [100 rad/s]")
+        right.plot(masses, 100 * np.array(angles), "v-.", color="C3", label="impact angle [0.01 rad]")
+        right.legend(loc="upper right", fontsize=8)
+        # The array as a spring under the part (thesis 2.3.1): its height falls linearly with the
+        # mass.
+        slope = np.polyfit(1e-9 * np.array(masses), 1e-6 * np.array(heights), 1)[0]
+        stiffness = float(-9.81 / slope) if slope < 0 else float("nan")
+        m[label] = {"part_mass_ug": masses, "feed_rate_mm_s": rates, "underside_height_um": heights,
+                    "impact_angular_speed_median_rad_s": speeds, "impact_angle_median_rad": angles,
+                    "stiffness_from_height_n_m": stiffness}  # fmt: skip
     fig.tight_layout()
     fig.savefig(out / "mass.png", dpi=110)
     plt.close(fig)
-    # The array as a spring under the part (thesis 2.3.1): its height falls linearly with the mass.
-    slope = np.polyfit(1e-9 * np.array(masses), 1e-6 * np.array(heights), 1)[0]
-    return {"part_mass_ug": masses, "feed_rate_mm_s": rates, "underside_height_um": heights,
-            "impact_angular_speed_median_rad_s": speeds,
-            "stiffness_from_height_n_m": float(-9.81 / slope) if slope < 0 else float("nan")}  # fmt: skip
+    return m
 
 
 def _shape(quick: bool, out: Path) -> dict[str, Any]:
@@ -332,7 +364,7 @@ def _force(quick: bool, out: Path) -> dict[str, Any]:
 
 DEMOS: dict[str, tuple[str, Callable[[bool, Path], dict[str, Any]]]] = {
     "mchip-feed": ("the part fed by the array; collisions and inter-arrival times (Figs. 2.5–2.7)", _feed),
-    "mchip-strobe": ("all rows on against row strobing (2.2.1, Fig. 2.4)", _strobe),
+    "mchip-strobe": ("all rows on against row strobing (2.2.1, Figs. 2.4, 2.5)", _strobe),
     "mchip-jam": ("crossing into the next row: blocking, stalls and strobing (2.2.1)", _jam),
     "mchip-duty": ("torque duty cycle 50% against 36%: double bounces (2.2.2, Fig. 2.7)", _duty),
     "mchip-mass": ("feed rate against part mass, the thesis's part size (Fig. 2.9a)", _mass),
