@@ -14,7 +14,7 @@ and its unit scaling are described in ``docs/mchip.md``; the Rust side is ``upm_
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 from . import _core
 from ._errors import ParameterError
 
-__all__ = ["Design", "Drive", "MChipResult", "conveyor_fit", "simulate"]
+__all__ = ["Design", "Drive", "MChipResult", "conveyor_fit", "free_swing", "simulate"]
 
 FloatArray = NDArray[np.float64]
 
@@ -324,6 +324,30 @@ def simulate(
     names = ("part_x", "part_y", "part_z", "part_rotation", "resonators_kinetic", "resonators_spring")
     energies = dict(zip(names, map(float, energy), strict=True))
     return MChipResult(design, drive, t, pos, vel, orientation, spin, angles, records, energies, *joint)
+
+
+def free_swing(
+    design: Design | None = None, drive: Drive | None = None, *, dt: float = 1e-6
+) -> tuple[float, float]:
+    """The lowest and highest angle [rad] of a free resonator's steady swing with all rows on
+    (the array without the part; read over the second half of a run of at least 20 drive periods
+    and 20 decay times ``Q / (pi f0)``).
+
+    A joint tuned to the drive swings from about 0; one resonating below it rides on the torque's
+    mean, and its free ridges never come down to rest. A part riding lower than their lowest top,
+    about ``ridge_height + ridge_distance * low`` above the slabs (compare
+    :meth:`MChipResult.part_height`), cannot pass over the next row: it jams there (thesis 2.2.1,
+    ``docs/mchip.md``)."""
+    design = design or Design()
+    drive = replace(drive or Drive(), scheme="all")
+    if not isinstance(design, Design):
+        raise ParameterError("design must be a upm.mchip.Design")
+    decay = design.quality / (math.pi * design.natural_frequency) if design.natural_frequency > 0 else 0.0
+    duration = max(20.0 / drive.frequency, 20.0 * decay) if drive.frequency > 0 else 0.0
+    # simulate() checks the design, the drive and the step (and a duration of 0 from bad input).
+    run = simulate(design, drive, duration=duration, dt=dt, record_every=1, part=False)
+    swing = run.angles[run.t >= 0.5 * run.t[-1], 0]
+    return float(swing.min()), float(swing.max())
 
 
 def conveyor_fit(forces: ArrayLike, feed_rates: ArrayLike) -> tuple[float, float]:

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from ._errors import ParameterError
-from .mchip import Design, Drive, MChipResult, conveyor_fit, simulate
+from .mchip import Design, Drive, MChipResult, conveyor_fit, free_swing, simulate
 
 # The thesis's part (Fig. 2.3): 1.15 x 0.4 x 0.25 mm; the demos give it a mass of their own.
 _THESIS_PART = (1150e-6, 400e-6, 250e-6)
@@ -299,10 +299,9 @@ def _jam(quick: bool, out: Path) -> dict[str, Any]:
     # The free resonators' swing (no part): a joint tuned to the drive swings from about 0, one
     # resonating below it rides on the torque's mean.
     for label, d in (("tuned 5 kHz joint", design), ("1.5 kHz joint", soft)):
-        free = simulate(d, Drive(), duration=4e-3, record_every=1, part=False)
-        swing = free.angles[free.t > 2e-3, 0]
-        m[f"free_swing_rad, {label}"] = [float(swing.min()), float(swing.max())]
-        m[f"free_ridge_lowest_m, {label}"] = d.ridge_height + d.ridge_distance * float(swing.min())
+        low, high = free_swing(d)
+        m[f"free_swing_rad, {label}"] = [low, high]
+        m[f"free_ridge_lowest_m, {label}"] = d.ridge_height + d.ridge_distance * low
     runs = {
         "0.08 rad, all rows": (design, Drive(), near, short),
         "0.08 rad, strobed": (design, Drive(scheme="strobe"), near, short),
