@@ -119,6 +119,13 @@ def test_jams_finds_stalls_against_the_free_rate(run: mchip.MChipResult) -> None
     pos2[:, 0] = np.concatenate(([0.0], np.cumsum(twice[:-1] * np.diff(t))))
     merged = dataclasses.replace(run, t=t, position=pos2).jams(window=0.01)
     assert len(merged) == 1 and abs(merged[0][0] - 0.1) < 0.01 and abs(merged[0][1] - 0.2) < 0.01
+    # A part blocked after 30 ms of a 0.3 s run (jammed for nine tenths of it: the 80th percentile
+    # of the windowed rates is a jammed window's) is still found jammed, from the block on.
+    blocked = np.where(t < 0.03, 1e-3, 0.0)
+    pos3 = np.zeros_like(pos)
+    pos3[:, 0] = np.concatenate(([0.0], np.cumsum(blocked[:-1] * np.diff(t))))
+    stuck = dataclasses.replace(run, t=t, position=pos3).jams(window=0.01)
+    assert len(stuck) == 1 and abs(stuck[0][0] - 0.03) < 0.01 and stuck[0][1] == pytest.approx(t[-1])
     # A steady feed has none; a part that never moves forward has no free rate and no jams.
     steady = dataclasses.replace(run, t=t, position=np.column_stack([1e-3 * t, 0 * t, 0 * t]))
     assert steady.jams() == []

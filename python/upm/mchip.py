@@ -146,9 +146,12 @@ class MChipResult:
         ``window`` [s], less than ``fraction`` of its free feed rate (a jam, or a stall).
 
         The free rate is the 80th percentile of the rates over all such windows: the part's speed
-        when it is not jammed, even if it is jammed for most of the run (the run's average would
-        then be a jam's rate itself). A part that never moved forward has no free rate and no
-        jams: check :meth:`feed_rate` first."""
+        when it is not jammed, even if it is jammed for much of the run (the run's average would
+        then be a jam's rate itself). If that percentile is itself under half the 95th (the part
+        was jammed for more than four fifths of the run), the free rate is the median of the
+        windows at least that fast, so a part blocked early is still found jammed as long as it
+        moved freely for one window in twenty. A part that never moved forward has no free rate
+        and no jams: check :meth:`feed_rate` first."""
         for name, value in (("window", window), ("fraction", fraction)):
             if not (math.isfinite(value) and value > 0):
                 raise ParameterError(f"{name} must be a positive number; got {value!r}")
@@ -162,9 +165,11 @@ class MChipResult:
             )
         begins = np.searchsorted(t, t[ends] - window)
         rates = (x[ends] - x[begins]) / (t[ends] - t[begins])
-        free = float(np.percentile(rates, 80))
-        if free <= 0:
+        free, fast = (float(v) for v in np.percentile(rates, [80, 95]))
+        if fast <= 0:
             return []
+        if free < 0.5 * fast:
+            free = float(np.median(rates[rates >= 0.5 * fast]))
         out: list[tuple[float, float]] = []
         # The union of the slow windows (they start in time order).
         for k in np.flatnonzero(rates < fraction * free):

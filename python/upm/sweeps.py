@@ -315,7 +315,8 @@ SCENARIOS: dict[str, Scenario] = {
             "Fig. 2.9's impact angle, impact angular speed (medians of the once-a-cycle impacts) "
             "and the part's height (its underside above the slabs), and the share of the time it "
             "spent jammed (MChipResult.jams: relative to its free rate, so read it with the feed "
-            "rate; a part jammed for most of the run has no free rate to compare with). `seed` > 0 "
+            "rate; a part that moved freely for less than a twentieth of the run has no free rate "
+            "to compare with). `seed` > 0 "
             "moves the part's start by up to 10 µm (replicas: the runs are chaotic, and the "
             "replicas' spread is the noise of a feed rate). Each point simulates `duration` s "
             "(about 10 s of wall time per simulated 0.1 s).",
