@@ -262,6 +262,8 @@ def test_a_joint_resonating_below_the_drive_lets_the_next_row_block_the_part() -
     assert swings[1500.0][0] > 0.7 * swings[1500.0][1] and swings[5000.0][0] < 0.01
     with pytest.raises(upm.ParameterError, match="design must be"):
         mchip.free_swing("8x5")  # type: ignore[arg-type]
+    with pytest.raises(upm.ParameterError, match="and drive a"):
+        mchip.free_swing(drive="strobe")  # type: ignore[arg-type]
     # The default part started with its front 30 µm behind row 5's ridge rides below the free
     # ridges' lowest height: it runs into the ridge's rear face and stays there, and row 5 pushes
     # it back on balance. Strobed, row 5 is switched off 20 ms in, its ridges drop, and the part

@@ -344,9 +344,10 @@ def free_swing(
     :meth:`MChipResult.part_height`), cannot pass over the next row: it jams there (thesis 2.2.1,
     ``docs/mchip.md``)."""
     design = design or Design()
-    drive = replace(drive or Drive(), scheme="all")
-    if not isinstance(design, Design):
-        raise ParameterError("design must be a upm.mchip.Design")
+    drive = drive or Drive()
+    if not isinstance(design, Design) or not isinstance(drive, Drive):
+        raise ParameterError("design must be a upm.mchip.Design and drive a upm.mchip.Drive")
+    drive = replace(drive, scheme="all")
     decay = design.quality / (math.pi * design.natural_frequency) if design.natural_frequency > 0 else 0.0
     duration = max(20.0 / drive.frequency, 20.0 * decay) if drive.frequency > 0 else 0.0
     # simulate() checks the design, the drive and the step (and a duration of 0 from bad input).
