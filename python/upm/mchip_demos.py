@@ -17,6 +17,9 @@ from .mchip import Design, Drive, MChipResult, conveyor_fit, free_swing, simulat
 
 # The thesis's part (Fig. 2.3): 1.15 x 0.4 x 0.25 mm; the demos give it a mass of their own.
 _THESIS_PART = (1150e-6, 400e-6, 250e-6)
+# Joints resonating at 1.5 kHz, below the 5 kHz drive: the free ridges never come down to rest,
+# and the next row blocks the default part (docs/mchip.md, Jamming).
+_BELOW_DRIVE = replace(Design(), natural_frequency=1500.0)
 
 
 def _run(design: Design, drive: Drive, duration: float, **kw: Any) -> MChipResult:
@@ -112,13 +115,12 @@ def _strobe(quick: bool, out: Path) -> dict[str, Any]:
     """Fig. 2.5: the part's advance with all rows on and strobed, on the default joints (the free
     ridges come down to rest once a cycle: no jam) and on joints resonating at 1.5 kHz, below the
     drive (the next row's ridges never come down: they block the part, and strobing clears it)."""
-    soft = replace(Design(), natural_frequency=1500.0)
     strobe = Drive(scheme="strobe", tau=50, delta=4)
     runs = {
         "all rows on": (Design(), Drive()),
         "row strobing (tau 50, delta 4)": (Design(), strobe),
-        "1.5 kHz joints, all rows on": (soft, Drive()),
-        "1.5 kHz joints, row strobing": (soft, strobe),
+        "1.5 kHz joints, all rows on": (_BELOW_DRIVE, Drive()),
+        "1.5 kHz joints, row strobing": (_BELOW_DRIVE, strobe),
     }
     return _compare(runs, 0.06 if quick else 0.4, out, "strobe")[0]
 
@@ -143,8 +145,10 @@ def _duty(quick: bool, out: Path) -> dict[str, Any]:
         "10 kHz, Q 3, duty 36%": (stiff, Drive(duty=0.36)),
     }
     m, results = _compare(runs, 0.04 if quick else 0.2, out, "duty")
-    soft = replace(Design(), natural_frequency=1500.0)
-    soft_runs = {"1.5 kHz, duty 50%": (soft, Drive()), "1.5 kHz, duty 36%": (soft, Drive(duty=0.36))}
+    soft_runs = {
+        "1.5 kHz, duty 50%": (_BELOW_DRIVE, Drive()),
+        "1.5 kHz, duty 36%": (_BELOW_DRIVE, Drive(duty=0.36)),
+    }
     more, more_results = _compare(soft_runs, 0.04 if quick else 0.1, out, "duty_1500hz")
     m.update(more)
     results.update(more_results)
@@ -197,7 +201,7 @@ def _mass(quick: bool, out: Path) -> dict[str, Any]:
             0.03 if quick else 0.3,
         ),
         "default part, 1.5 kHz joints": (
-            replace(Design(), natural_frequency=1500.0),
+            _BELOW_DRIVE,
             [35.0, 75.0, 110.0] if quick else [20.0, 35.0, 55.0, 75.0, 95.0, 110.0],
             0.03 if quick else 0.1,
         ),
@@ -288,7 +292,6 @@ def _jam(quick: bool, out: Path) -> dict[str, Any]:
 
     design = Design()
     heavy = replace(design, part_size=_THESIS_PART, part_mass=300e-9)
-    soft = replace(design, natural_frequency=1500.0)
     pitch = design.slab[0] + design.gap
     ridge = 5 * pitch - design.ridge_distance - 0.5 * design.ridge_width  # row 5's ridge, rear face
     near = (ridge - 20e-6 - 0.5 * design.part_size[0], 400e-6)
@@ -298,7 +301,7 @@ def _jam(quick: bool, out: Path) -> dict[str, Any]:
     m: dict[str, Any] = {"part_start_near_m": near[0], "row5_ridge_m": ridge}
     # The free resonators' swing (no part): a joint tuned to the drive swings from about 0, one
     # resonating below it rides on the torque's mean.
-    for label, d in (("tuned 5 kHz joint", design), ("1.5 kHz joint", soft)):
+    for label, d in (("tuned 5 kHz joint", design), ("1.5 kHz joint", _BELOW_DRIVE)):
         low, high = free_swing(d)
         m[f"free_swing_rad, {label}"] = [low, high]
         m[f"free_ridge_lowest_m, {label}"] = d.ridge_height + d.ridge_distance * low
@@ -309,8 +312,8 @@ def _jam(quick: bool, out: Path) -> dict[str, Any]:
         "2°, strobed": (design, Drive(peak_angle=0.035, scheme="strobe"), near, short),
         "300 µg thick part, all rows": (heavy, Drive(), (600e-6, 400e-6), long),
         "300 µg thick part, strobed": (heavy, Drive(scheme="strobe"), (600e-6, 400e-6), long),
-        "1.5 kHz joint, all rows": (soft, Drive(), soft_start, soft_duration),
-        "1.5 kHz joint, strobed": (soft, Drive(scheme="strobe"), soft_start, soft_duration),
+        "1.5 kHz joint, all rows": (_BELOW_DRIVE, Drive(), soft_start, soft_duration),
+        "1.5 kHz joint, strobed": (_BELOW_DRIVE, Drive(scheme="strobe"), soft_start, soft_duration),
     }
     fig, ax = plt.subplots(3, 1, figsize=(7, 10))
     for k, (label, (d, drive, start, duration)) in enumerate(runs.items()):

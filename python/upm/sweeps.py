@@ -209,10 +209,12 @@ def _mchip_feed(p: dict[str, FloatArray]) -> Outputs:
         out["impact_angular_speed"][i] = run.impact_median("angular_speed")
         out["part_height"][i] = run.part_height(skip=skip)
         # The share of the run after `skip` spent jammed (10 ms windows below a quarter of the free
-        # rate); NaN if the run holds no whole window.
-        span = run.t[-1] - run.t[0] - skip
-        jams = run.jams(skip=skip) if span >= 0.01 else None
-        out["jam_share"][i] = np.nan if jams is None else sum(b - a for a, b in jams) / span
+        # rate); NaN if the run holds no whole window (jams() says so).
+        try:
+            jammed = sum(b - a for a, b in run.jams(skip=skip))
+            out["jam_share"][i] = jammed / (run.t[-1] - run.t[0] - skip)
+        except ParameterError:
+            out["jam_share"][i] = np.nan
     return out
 
 
