@@ -18,7 +18,8 @@ import numpy as np
 import upm
 from upm import control
 from upm.demos import _MOTORS, CHIP, PLATE, _scatter
-from upm.plant import SimulatedUPM, _suspension
+from upm.drive import flexures
+from upm.plant import SimulatedUPM
 
 
 def planners() -> dict[str, object]:
@@ -36,7 +37,7 @@ def run(name: str, planner: object, seed: int) -> dict[str, float]:
     rng = np.random.default_rng(seed)
     parts = _scatter(rng, 4, 0.07, 0.055)
     labels = ["red", "red", "blue", "blue"]
-    plant = SimulatedUPM(plate=PLATE, axes=_suspension(PLATE.mass, PLATE.inertia), parts=parts, seed=seed)
+    plant = SimulatedUPM(plate=PLATE, axes=flexures(PLATE.mass, PLATE.inertia), parts=parts, seed=seed)
     task = control.SortTask({"red": -1, "blue": 1}, line=0.09, margin=0.08, spacing=0.046, max_step=0.02)
     loop = control.Loop(plant, plant.camera(labels, seed=seed), planner, task, part_radius=CHIP)
     start = time.perf_counter()

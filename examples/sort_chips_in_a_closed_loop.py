@@ -10,12 +10,13 @@ import numpy as np
 
 from upm import control
 from upm.actuation import Plate
-from upm.plant import SimulatedUPM, _suspension
+from upm.drive import flexures
+from upm.plant import SimulatedUPM
 
 plate = Plate(1.0, 0.0275, 0.2)  # 1 kg, 16 in plate; motors 20 cm from its centre
 plant = SimulatedUPM(
     plate=plate,
-    axes=_suspension(1.0, 0.0275),
+    axes=flexures(1.0, 0.0275),
     parts=[[0.04, 0.05], [0.03, -0.06], [-0.03, 0.0], [-0.05, -0.08]],
 )
 loop = control.Loop(

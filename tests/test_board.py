@@ -18,7 +18,7 @@ from upm.plant import SimulatedUPM
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="pseudo-terminals")
 
-PLATE = act.Plate(3.0, 0.04, 0.2)
+PLATE = SimulatedUPM().plate  # the plant's own plate, so motors sized for it move it as asked
 SENSOR = (-0.18, -0.18)
 F = 35.0
 
@@ -32,9 +32,15 @@ def start_emulator(*args):
     return proc, where
 
 
+# These tests exercise the protocol with abrupt 20 ms envelopes, whose velocity drift swings the
+# plate's corners up to about 15 mm on its flexures: they run on a long-stroke plate (200 mm). The
+# 10 mm default and its refusals are tested in tests/test_predictive.py.
+LONG = 0.2
+
+
 @pytest.fixture
 def emulator():
-    proc, path = start_emulator()
+    proc, path = start_emulator("--stroke", str(LONG))
     yield path
     proc.kill()
     proc.wait()
@@ -95,7 +101,7 @@ HOST = textwrap.dedent(
     from upm.board import Board
     from upm import actuation as act
     board = Board(sys.argv[1])
-    motors = act.Plate(3.0, 0.04, 0.2).motors_for_rotation((0.0, 0.0), omega=2.0 * 2 * np.pi * 35)
+    motors = act.Plate(1.0, 0.0275, 0.2).motors_for_rotation((0.0, 0.0), omega=2.0 * 2 * np.pi * 35)
     board.set_motors(motors, 35.0)
     board.set_envelope(0.02, 10.0, 0.02)
     board.pulse(3, wait=False)
@@ -119,7 +125,7 @@ def test_watchdog_stops_the_motors_when_the_host_dies(emulator):
 
 def test_watchdog_timing_in_the_board_logic():
     # The board's logic without I/O: a pulse starts at t = 0 and the host falls silent.
-    board = BoardEmulator(SimulatedUPM(snr_db=None), watchdog_ms=250)
+    board = BoardEmulator(SimulatedUPM(snr_db=None, stroke=LONG), watchdog_ms=250)
     decoder = protocol.Decoder()
     motors = PLATE.motors_for_rotation((0.0, 0.0), omega=2.0 * 2 * np.pi * F)
     frames = [protocol.Hello(1), protocol.SetEnvelope(0.0, 10.0, 0.0), protocol.Pulse(7)]
@@ -139,7 +145,7 @@ def test_watchdog_timing_in_the_board_logic():
 
 
 def test_the_link_survives_injected_faults():
-    proc, path = start_emulator("--drop", "0.1", "--corrupt", "0.05", "--duplicate", "0.05", "--seed", "3")
+    proc, path = start_emulator("--drop", "0.1", "--corrupt", "0.05", "--duplicate", "0.05", "--seed", "3", "--stroke", str(LONG))
     try:
         with Board(path, timeout=0.1, retries=8) as board:
             for k in range(4):
@@ -159,7 +165,7 @@ def test_the_link_survives_injected_faults():
 
 
 def test_tcp_and_sustained_throughput():
-    proc, url = start_emulator("--tcp", "0")
+    proc, url = start_emulator("--tcp", "0", "--stroke", str(LONG))
     try:
         assert url.startswith("socket://")
         with Board(url) as board:
@@ -184,7 +190,7 @@ def test_parts_on_the_emulated_plate_follow_the_pulse():
     # Parts on the plant move when a pulse ends: tangentially about the commanded centre, in the
     # direction of the time-asymmetric drive's force, as upm.simulate has them.
     parts = np.array([[0.1, 0.0], [0.0, 0.12]])
-    plant = SimulatedUPM(snr_db=None, parts=parts.copy(), mu=0.3)
+    plant = SimulatedUPM(snr_db=None, parts=parts.copy(), mu=0.3, stroke=LONG)
     board = BoardEmulator(plant)
     motors = PLATE.motors_for_rotation((0.0, 0.0), omega=2.0 * 2 * np.pi * F)
     frames = [protocol.Hello(1), protocol.SetEnvelope(0.02, 0.2, 0.02)]
@@ -223,7 +229,7 @@ def test_upm_emulate_command():
 def test_plant_run_records_the_pulse_and_moves_the_parts():
     from upm.plant import Channel, Envelope
 
-    plant = SimulatedUPM(snr_db=None, parts=[[0.1, 0.0]])
+    plant = SimulatedUPM(snr_db=None, parts=[[0.1, 0.0]], stroke=LONG)
     motors = PLATE.motors_for_rotation((0.0, 0.0), omega=2.0 * 2 * np.pi * F)
     counts = plant.run([Channel(float(m), F) for m in motors], Envelope(0.02, 0.1, 0.02), rest=0.3)
     assert counts.shape == (round(0.44 * 5000), 4) and counts.dtype == np.int16
@@ -236,7 +242,7 @@ def test_plant_run_records_the_pulse_and_moves_the_parts():
 
 
 def test_a_stalled_board_shows_as_a_gap_and_the_link_recovers():
-    proc, path = start_emulator("--stall-after", "0.3", "--stall-for", "0.3")
+    proc, path = start_emulator("--stall-after", "0.3", "--stall-for", "0.3", "--stroke", str(LONG))
     try:
         with Board(path, timeout=0.1, retries=8) as board:
             time.sleep(0.9)

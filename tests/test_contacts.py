@@ -74,7 +74,8 @@ def test_ten_chips_in_a_sorting_run_never_overlap_beyond_tolerance() -> None:
     # loop (virtual camera, tracker, JetPlanner, the motor-driven plate): chips bump on the way.
     from upm import control
     from upm.actuation import Plate
-    from upm.plant import SimulatedUPM, _suspension
+    from upm.drive import flexures
+    from upm.plant import SimulatedUPM
 
     chip = 0.0195
     rng = np.random.default_rng(5)
@@ -85,7 +86,7 @@ def test_ten_chips_in_a_sorting_run_never_overlap_beyond_tolerance() -> None:
             pts.append(p)
     start = np.array(pts)
     plate = Plate(1.0, 0.0275, 0.2)
-    axes = _suspension(plate.mass, plate.inertia)
+    axes = flexures(plate.mass, plate.inertia)
     plant = SimulatedUPM(plate=plate, axes=axes, parts=start, snr_db=None, part_radius=chip)
     labels = ["red", "blue"] * 5
     task = control.SortTask({"red": -1, "blue": 1}, margin=0.08, spacing=0.046, max_step=0.025)

@@ -14,11 +14,12 @@ import pytest
 import upm
 from upm import control
 from upm.actuation import Plate
-from upm.plant import Channel, Envelope, SimulatedUPM, _suspension
+from upm.drive import flexures
+from upm.plant import Channel, Envelope, SimulatedUPM
 from upm.pulses import Pulse, program
 
 PLATE = Plate(1.0, 0.0275, 0.2)
-AXES = _suspension(PLATE.mass, PLATE.inertia)
+AXES = flexures(PLATE.mass, PLATE.inertia)
 W = upm.Harmonics([1.0, -0.5], [0.0, 0.0], 35.0)
 PENNY = 0.009525
 CHIP = 0.0195
@@ -214,7 +215,7 @@ def test_rotations_follow_a_segment():
     path = np.array([[-0.05, 0.0], [0.03, 0.0]])
     plant = plant_with([[-0.05, 0.0]])
     task = control.TrajectoryTask([path], speed=0.008, max_step=0.012, tolerance=0.004)
-    planner = control.RotationsPlanner(upm.ring_centers(5, 0.17), cycle=0.6)
+    planner = control.RotationsPlanner(upm.ring_centers(5, 0.17), cycle=0.6, limits=plant.limits)
     log = control.Loop(plant, plant.camera("penny"), planner, task, part_radius=PENNY).run(60)
     assert log.done
     assert np.nanmax(log.errors) < 0.02  # never more than 2 cm off the moving reference

@@ -23,9 +23,11 @@ from ._errors import (
     UpmError,
     VisionError,
 )
+from .drive import DriveLimits, StrokeError
 from .feeding import feed_rate, force_table, mean_force, theorem1_force
 from .fields import average_field, jet_field, rotation_curl, rotation_field
 from .motion import PlateMotion
+from .plan import PredictivePlanner
 from .planning import jet_plan, jet_pulses, plan_pulses, plan_to_motion, sustain_for_displacement, trim_rests
 from .pulses import Pulse
 from .sim import Disk, Point, SimResult, simulate, simulate_batch
@@ -50,18 +52,21 @@ __all__ = [
     "ConvergenceError",
     "Disk",
     "DisplacementPlan",
+    "DriveLimits",
     "Harmonics",
     "InternalError",
     "ParameterError",
     "PlanWarning",
     "PlateMotion",
     "Point",
+    "PredictivePlanner",
     "Pulse",
     "RankWarning",
     "ResonanceWarning",
     "RotationPlan",
     "ShapeError",
     "SimResult",
+    "StrokeError",
     "TwoHarmonic",
     "UpmError",
     "VisionError",

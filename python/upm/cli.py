@@ -225,6 +225,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     d.add_argument("--mp4", action="store_true", help="also write animation.mp4 (needs imageio-ffmpeg)")
     d.add_argument("--seed", type=int, default=1)
+    d.add_argument(
+        "--planner",
+        choices=("predictive", "jets", "rotations", "displacement"),
+        default=None,
+        help="the planner (default: the thesis's planner of the demo)",
+    )
     fg = commands.add_parser("figures", help="the thesis's analytic figures (3.5, 3.6, 4.7, 6.2, 6.9)")
     fg.add_argument("--out", type=Path, default=Path("out/figures"))
     s = commands.add_parser(
@@ -262,11 +268,17 @@ def main(argv: list[str] | None = None) -> int:
         from .demos import run_demo
 
         try:
-            run_demo(args.name, args.out, board=args.board, quick=args.quick, seed=args.seed, mp4=args.mp4,
-                     contacts=not args.points)  # fmt: skip
+            metrics = run_demo(args.name, args.out, board=args.board, quick=args.quick, seed=args.seed,
+                               mp4=args.mp4, contacts=not args.points, planner=args.planner)  # fmt: skip
         except UpmError as error:
             print(f"upm demo: {error}", file=sys.stderr)
             return 2
+        if not metrics["done"] or metrics["fallen"]:
+            print(
+                f"upm demo {args.name}: the task was not done ({metrics['fallen']} parts lost)",
+                file=sys.stderr,
+            )
+            return 1
         return 0
     if args.command == "figures":
         for path in figures(args.out):

@@ -40,7 +40,9 @@ from .control import (
     TrajectoryTask,
     WatchTask,
 )
-from .plant import SimulatedUPM, _suspension
+from .drive import DriveLimits
+from .plan import PredictivePlanner
+from .plant import SimulatedUPM
 from .pulses import Pulse
 from .solvers import corner_centers, ring_centers
 from .waveforms import Harmonics
@@ -52,8 +54,12 @@ FloatArray = NDArray[np.float64]
 PENNY = 0.009525
 CHIP = 0.0195
 #: The demos' plate: a 16 in honeycomb plate of 1 kg on flexures (3 Hz, damping ratio 0.2).
-PLATE = Plate(1.0, 0.0275, 0.2)
-_MOTORS: dict[str, Any] = {"plate": PLATE, "axes": _suspension(PLATE.mass, PLATE.inertia), "limit": 200.0}
+PLATE: Plate = DriveLimits().plate
+#: Its drive limits: four 200 N motors, 10 mm stroke.
+LIMITS = DriveLimits.of(PLATE)
+#: The planners ``--planner`` chooses from.
+PLANNERS = ("predictive", "jets", "rotations", "displacement")
+_MOTORS: dict[str, Any] = {"limits": LIMITS}
 
 
 @dataclass
@@ -325,10 +331,28 @@ DEMOS: dict[str, Demo] = {
 # -- running ----------------------------------------------------------------------------------------
 
 
+def _planner(kind: str, setup: Setup, contacts: bool) -> Any:
+    """The demo's planner replaced by one of :data:`PLANNERS`, all on :data:`LIMITS`."""
+    if kind == "predictive":
+        return PredictivePlanner(LIMITS, mu=0.3, part_radius=setup.radius if contacts else None)
+    if kind == "jets":
+        return JetPlanner(mu=0.3, amplitude=0.1, rho=0.03, limits=LIMITS)
+    if kind == "rotations":
+        centers = np.vstack([ring_centers(8, 0.07), ring_centers(16, 0.18, phase=0.2)])
+        setup.centers = centers
+        return RotationsPlanner(centers, cycle=4.0, amplitude=1.0, limits=LIMITS)
+    if kind == "displacement":
+        centers = corner_centers((-0.15, -0.15, 0.15, 0.15))
+        setup.centers = centers
+        return DisplacementPlanner(centers, mu=0.3, max_arc=0.03, refine=1, limits=LIMITS)
+    raise ParameterError(f"planner must be one of {PLANNERS}; got {kind!r}")
+
+
 def _plant(setup: Setup, seed: int, contacts: bool = False) -> SimulatedUPM:
     return SimulatedUPM(
         plate=PLATE,
-        axes=_suspension(PLATE.mass, PLATE.inertia),
+        axes=LIMITS.axes,
+        stroke=LIMITS.stroke,
         parts=setup.parts,
         seed=seed,
         part_radius=setup.radius if contacts else None,
@@ -337,6 +361,17 @@ def _plant(setup: Setup, seed: int, contacts: bool = False) -> SimulatedUPM:
 
 def _finite(statistic: Callable[..., Any], values: FloatArray, *args: Any) -> float:
     return float(statistic(values, *args)) if np.any(np.isfinite(values)) else float("nan")
+
+
+def _undone(errors: FloatArray) -> float:
+    """Share of the progress (decrease of the parts' errors from cycle to cycle) that later
+    cycles undid (increases), over the whole run."""
+    if len(errors) < 2:
+        return float("nan")
+    de = np.diff(errors, axis=0)
+    de = de[np.isfinite(de)]
+    gained = float(np.sum(np.maximum(-de, 0.0)))
+    return float(np.sum(np.maximum(de, 0.0))) / gained if gained > 0 else float("nan")
 
 
 def _metrics(name: str, log: Log, setup: Setup, fallen: int, wall: float, board: bool) -> dict[str, Any]:
@@ -361,6 +396,8 @@ def _metrics(name: str, log: Log, setup: Setup, fallen: int, wall: float, board:
         "vision_ms": 1000 * float(np.mean(log.vision)) if log.vision else 0.0,
         "planning_ms": 1000 * float(np.mean(log.planning)) if log.planning else 0.0,
         "pulses": int(np.sum(log.pulses)),
+        "planning_ms_median": 1000 * float(np.median(log.planning)) if log.planning else 0.0,
+        "undone_share": _undone(errors),
         "errors_by_cycle": [[float(v) for v in row] for row in np.nan_to_num(errors, nan=-1.0)],
     }
     if name == "racetrack" and len(pos):
@@ -473,6 +510,7 @@ def _emulated(
         "labels": setup.labels,
         "mu": 0.3,
         "plate": [PLATE.mass, PLATE.inertia, PLATE.lever],
+        "stroke": LIMITS.stroke,
     }
     path = scene_dir / "scene.json"
     path.write_text(json.dumps(scene))
@@ -511,16 +549,22 @@ def run_demo(
     verbose: bool = True,
     cycles: int | None = None,
     contacts: bool = True,
+    planner: str | None = None,
 ) -> dict[str, Any]:
     """Run demo ``name`` (see :data:`DEMOS`), write its outputs to ``out/name/``, print the report
     and return the metrics. ``board``: the plate runs in a board emulator process reached over the
     protocol; ``quick``: a short version; ``cycles``: at most this many cycles; ``contacts``: the
     parts are disks of the demo's part radius that collide (rapier2d); ``False``: points that pass
-    through each other."""
+    through each other; ``planner``: one of :data:`PLANNERS` instead of the demo's thesis planner
+    (``predictive`` plays one pulse a cycle, so it gets four times the cycles)."""
     if name not in DEMOS:
         raise ParameterError(f"demo must be one of {sorted(DEMOS)}; got {name!r}")
     demo = DEMOS[name]
     setup = demo.build(quick, seed)
+    if planner is not None:
+        setup.planner = _planner(planner, setup, contacts)
+        if planner == "predictive":
+            setup.cycles *= 4
     if cycles is not None:
         setup.cycles = int(cycles)
     say = print if verbose else (lambda *a, **k: None)
@@ -535,7 +579,7 @@ def run_demo(
             proc, tty, address = _emulated(setup, seed, Path(tmp), contacts)
             try:
                 with Board(tty) as link, RemoteCamera(address) as camera:
-                    device = BoardDevice(link, PLATE, wait_rest=False)
+                    device = BoardDevice(link, LIMITS, wait_rest=True)
                     loop = Loop(device, camera, setup.planner, setup.task, part_radius=setup.radius)
                     log = loop.run(setup.cycles)
                     truth = camera.truth()
@@ -556,6 +600,11 @@ def run_demo(
         fallen = plant.fallen
     metrics = _metrics(name, log, setup, fallen, time.perf_counter() - started, board)
     metrics["contacts"] = contacts
+    metrics["seed"] = seed
+    metrics["planner"] = type(setup.planner).__name__
+    metrics["max_stroke"] = float("nan") if board else float(plant.max_excursion)
+    errs = getattr(setup.planner, "step_errors", None)
+    metrics["prediction_error_median"] = float(np.median(errs)) if errs else float("nan")
     written = _write_outputs(name, Path(out) / name, log, loop, setup, metrics, mp4)
     for line in demo.report(log, setup, metrics):
         say("  " + line)

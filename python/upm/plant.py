@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from ._arrays import as_float
 from ._errors import ParameterError, ShapeError
 from .actuation import Axis, Plate
+from .drive import DEFAULT_PLATE, PLATE_SIZE, DriveLimits, StrokeError, flexures, wrench_matrix
 from .motion import PlateMotion
 from .sim import Disk, simulate
 
@@ -81,13 +82,6 @@ class Envelope:
         return e
 
 
-def _suspension(mass: float, inertia: float, hz: float = 3.0, zeta: float = 0.2) -> tuple[Axis, Axis, Axis]:
-    """Flexure rods: every axis resonates at ``hz`` with damping ratio ``zeta`` (well below the
-    drive, so 5.10 holds to a few per cent, and the plate comes home after each pulse)."""
-    w0 = 2 * math.pi * hz
-    return tuple(Axis(m, 2 * zeta * m * w0, m * w0 * w0) for m in (mass, mass, inertia))  # type: ignore[return-value]
-
-
 def _min_gap(positions: FloatArray, gone: NDArray[np.bool_], radius: float) -> float:
     """Smallest distance between the rims of two disks still on the plate over recorded rows."""
     p = positions[:, ~gone]
@@ -104,12 +98,18 @@ class SimulatedUPM:
     Parameters
     ----------
     plate : Plate
-        Mass [kg], inertia [kg m^2] and motor lever arm [m] (default: a 16" honeycomb plate,
-        3 kg, 0.04 kg m^2, 0.2 m).
+        Mass [kg], inertia [kg m^2] and motor lever arm [m] (default
+        :data:`upm.drive.DEFAULT_PLATE`: the 16" honeycomb plate, 1 kg, 0.0275 kg m^2, 0.2 m).
     axes : (Axis, Axis, Axis) or None
         Suspension of x, y and rotation (5.26); default flexures resonating at 3 Hz with damping
-        ratio 0.2 (the plate returns home after a pulse); ``None``: a free plate (the pure
-        inertial regime of 5.10, in which a pulse's net impulse leaves the plate drifting).
+        ratio 0.2 (:func:`upm.drive.flexures`; the plate returns home after a pulse); ``None``: a
+        free plate (the pure inertial regime of 5.10, in which a pulse's net impulse leaves the
+        plate drifting).
+    stroke, motor_force : float
+        The largest excursion of any plate corner from home [m] and of one motor's force [N]:
+        :attr:`limits`. A pulse that would swing a corner beyond the stroke is refused
+        (:class:`upm.drive.StrokeError`) before anything moves; the plate's pose is recorded
+        (:attr:`pose`, :attr:`max_excursion`).
     sensor : (2,) array_like
         Position of the first accelerometer [m]; the second is at ``-sensor``.
     full_scale : float
@@ -126,8 +126,10 @@ class SimulatedUPM:
         seen so far (sampled every ``gap_every`` steps; negative: they overlapped).
     """
 
-    plate: Plate = field(default_factory=lambda: Plate(3.0, 0.04, 0.2))
-    axes: tuple[Axis, Axis, Axis] | None = field(default_factory=lambda: _suspension(3.0, 0.04))
+    plate: Plate = DEFAULT_PLATE
+    axes: tuple[Axis, Axis, Axis] | None = field(
+        default_factory=lambda: flexures(DEFAULT_PLATE.mass, DEFAULT_PLATE.inertia)
+    )
     sensor: tuple[float, float] = (-0.18, -0.18)
     full_scale: float = 200.0
     snr_db: float | None = 60.0
@@ -136,7 +138,9 @@ class SimulatedUPM:
     mu: float = 0.3
     mu_s: float | None = None
     seed: int = 0
-    plate_size: float = 0.4064
+    plate_size: float = PLATE_SIZE
+    stroke: float = 0.010
+    motor_force: float = 200.0
     part_radius: float | None = None
     restitution: float = 0.5
     part_friction: float = 0.3
@@ -150,7 +154,22 @@ class SimulatedUPM:
         if not (self.full_scale > 0 and self.sample_rate > 0):
             raise ParameterError("full_scale and sample_rate must be > 0")
         self._rng = np.random.default_rng(self.seed)
-        self._state = np.zeros((3, 2))  # per axis (position, velocity) of the suspension model
+        self._state = np.zeros((3, 2))  # per axis (position, velocity) of the plate
+        _ = self.limits  # validates stroke, motor_force and plate_size
+        self._poses: list[FloatArray] = []
+        self.max_excursion = 0.0
+        """Largest corner excursion from home seen so far [m]."""
+
+    @property
+    def limits(self) -> DriveLimits:
+        """The plate's :class:`~upm.drive.DriveLimits` (what planners must respect)."""
+        return DriveLimits(self.plate, self.axes, self.motor_force, self.stroke, self.plate_size)
+
+    @property
+    def pose(self) -> FloatArray:
+        """The plate's recorded pose ``(T, 3)`` = ``(x [m], y [m], theta [rad])``, every 10th
+        sample of every pulse played (and the last of each)."""
+        return np.concatenate(self._poses) if self._poses else np.zeros((0, 3))
 
     def forces(self, channels: list[Channel], t: FloatArray, envelope: FloatArray) -> FloatArray:
         """Motor forces ``(T, 4)`` at times ``t`` under envelope values ``envelope``."""
@@ -158,36 +177,47 @@ class SimulatedUPM:
             raise ShapeError(f"channels must hold 4 motors (X1, X2, Y1, Y2); got {len(channels)}")
         return np.stack([c.force(t) for c in channels], axis=1) * envelope[:, None]
 
+    def _respond(
+        self, forces: FloatArray, state: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """Acceleration, velocity and pose ``(T, 3)`` for motor forces ``(T, 4)`` from ``state``
+        (per axis position, velocity), and the state after (:meth:`DriveLimits.respond`)."""
+        wrench = forces @ wrench_matrix(self.plate.lever).T
+        return self.limits.respond(wrench, 1.0 / self.sample_rate, state)
+
     def plate_state(self, forces: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Plate acceleration and velocity ``(T, 3)`` (``d/dt`` and ``(u1, u2, u3)``) for motor
-        forces sampled at ``sample_rate``, continuing from the previous call."""
-        m = forces
-        lever = self.plate.lever
-        wrench = np.stack(
-            [m[:, 0] - m[:, 1], m[:, 2] - m[:, 3], lever * ((m[:, 2] + m[:, 3]) - (m[:, 0] + m[:, 1]))],
-            axis=1,
-        )
-        inertia = np.array([self.plate.mass, self.plate.mass, self.plate.inertia])
-        dt = 1.0 / self.sample_rate
-        if self.axes is None:  # the inertial regime (5.10): velocity is the integral of force / mass
-            acc = wrench / inertia
-            vel = self._state[:, 1] + np.cumsum(acc, axis=0) * dt
-            self._state[:, 1] = vel[-1] if len(vel) else self._state[:, 1]
-            return acc, vel
-        acc = np.empty_like(wrench)
-        vel = np.empty_like(wrench)
-        for k in range(3):
-            q, v = self._state[k]
-            axis = None if self.axes is None else self.axes[k]
-            b = 0.0 if axis is None else axis.damping
-            s = 0.0 if axis is None else axis.stiffness
-            for n in range(len(wrench)):
-                a = (wrench[n, k] - b * v - s * q) / inertia[k]
-                v += a * dt  # semi-implicit Euler, at the sample rate
-                q += v * dt
-                acc[n, k], vel[n, k] = a, v
-            self._state[k] = (q, v)
+        forces sampled at ``sample_rate``, continuing from the previous call; the pose is recorded
+        (:attr:`pose`, :attr:`max_excursion`)."""
+        acc, vel, pos, self._state = self._respond(forces, self._state)
+        if len(pos):
+            self._poses.append(np.vstack([pos[::10], pos[-1:]]))
+            self.max_excursion = max(self.max_excursion, self.limits.excursion(pos))
         return acc, vel
+
+    def excursion(self, channels: list[Channel], envelope: Envelope) -> float:
+        """Largest corner excursion [m] the pulse would cause from the plate's present state,
+        computed without moving anything (the board's check before a PULSE)."""
+        n = round(envelope.duration * self.sample_rate)
+        t = np.arange(n) / self.sample_rate
+        _, _, pos, _ = self._respond(self.forces(channels, t, envelope(t)), self._state)
+        return self.limits.excursion(pos) if len(pos) else 0.0
+
+    def ride_out(self, seconds: float) -> None:
+        """Let the plate move freely on its suspension for ``seconds`` (no motor force): it comes
+        home. The parts do not move (the plate's free motion is far too gentle to slide them)."""
+        n = round(seconds * self.sample_rate)
+        if n > 0:
+            self.plate_state(np.zeros((n, 4)))
+
+    def check_stroke(self, channels: list[Channel], envelope: Envelope) -> None:
+        """:class:`~upm.drive.StrokeError` when the pulse would exceed the stroke."""
+        reach = self.excursion(channels, envelope)
+        if reach > self.stroke:
+            raise StrokeError(
+                f"the pulse would swing a plate corner {1000 * reach:.2f} mm from home, beyond the stroke "
+                f"of {1000 * self.stroke:.2f} mm"
+            )
 
     def sensor_counts(self, acc: FloatArray, vel: FloatArray) -> NDArray[np.int16]:
         """Both accelerometers' readings ``(T, 4)`` = ``(a1x, a1y, a2x, a2y)`` in 11-bit counts."""
@@ -204,7 +234,9 @@ class SimulatedUPM:
 
     def run(self, channels: list[Channel], envelope: Envelope, rest: float = 0.0) -> NDArray[np.int16]:
         """Play one pulse (then ``rest`` [s] of stillness); the parts move through the exact
-        integrator; returns the accelerometer record ``(T, 4)`` in counts."""
+        integrator; returns the accelerometer record ``(T, 4)`` in counts.
+        :class:`~upm.drive.StrokeError` (nothing played) when it would exceed the stroke."""
+        self.check_stroke(channels, envelope)
         n = round((envelope.duration + rest) * self.sample_rate)
         t = np.arange(n) / self.sample_rate
         acc, vel = self.plate_state(self.forces(channels, t, envelope(t)))

@@ -1,6 +1,6 @@
 """Pulses: the unit of work a plate executes (SPEC §5, §6, §7; thesis 5.2.3, 5.2.5, 6.1).
 
-A :class:`Pulse` is one shaped burst of plate vibration, a rotation about a centre or a jet,
+A :class:`Pulse` is one shaped burst of plate vibration, a rotation about a centre, a translation or a jet,
 under a raised-cosine envelope (attack, sustain, decay) and followed by rest while the parts slide
 to a stop. The same pulse can be
 
@@ -17,6 +17,7 @@ Planners (:mod:`upm.planning`, :mod:`upm.control`) return lists of pulses; devic
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -28,6 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from ._arrays import vector
 from ._errors import ParameterError
 from .actuation import Axis, Plate
+from .drive import wrench_matrix
 from .motion import PlateMotion
 from .waveforms import Harmonics
 
@@ -56,7 +58,7 @@ class Pulse:
     are in seconds; ``frequency`` [Hz] is the base frequency of the drive.
     """
 
-    kind: Literal["rotation", "jet", "rest"]
+    kind: Literal["rotation", "translation", "jet", "rest"]
     center: tuple[float, float]
     frequency: float
     attack: float
@@ -64,9 +66,9 @@ class Pulse:
     decay: float
     rest: float = 0.0
     waveform: Harmonics | None = field(default=None, compare=False)
-    """Angular velocity [rad/s] of a rotation."""
+    """Angular velocity [rad/s] of a rotation, or speed [m/s] of a translation."""
     direction: tuple[float, float] = (0.0, 0.0)
-    """Unit feeding direction of a jet."""
+    """Unit feeding direction of a jet or a translation."""
     rho: float = 0.0
     amplitude: float = 0.0
 
@@ -94,6 +96,35 @@ class Pulse:
             float(waveform.frequency),
             *cls._times(attack, sustain, decay, rest),
             waveform=waveform,
+        )
+
+    @classmethod
+    def translation(
+        cls,
+        direction: ArrayLike,
+        waveform: Harmonics,
+        attack: float,
+        sustain: float,
+        decay: float,
+        rest: float = 0.0,
+    ) -> Pulse:
+        """A translation along ``direction`` at speed ``waveform`` [m/s] (its first two harmonics):
+        the Coulomb pump of chapter 3, the same force on every part on the plate."""
+        if not isinstance(waveform, Harmonics) or waveform.shape != ():
+            raise ParameterError(f"waveform must be a single upm.Harmonics; got {waveform!r}")
+        if waveform.cos.shape[-1] > 2 and np.any(waveform.cos[2:] != 0) | np.any(waveform.sin[2:] != 0):
+            raise ParameterError("waveform must have harmonics 1 and 2 only (what a board channel plays)")
+        d = vector("direction", direction, 2)
+        n = float(np.hypot(*d))
+        if not n > 0:
+            raise ParameterError("direction must be non-zero")
+        return cls(
+            "translation",
+            (0.0, 0.0),
+            float(waveform.frequency),
+            *cls._times(attack, sustain, decay, rest),
+            waveform=waveform,
+            direction=(float(d[0] / n), float(d[1] / n)),
         )
 
     @classmethod
@@ -161,6 +192,9 @@ class Pulse:
         if self.kind == "rotation":
             assert self.waveform is not None
             base = PlateMotion.rotation(self.center, self.waveform)
+        elif self.kind == "translation":
+            assert self.waveform is not None
+            base = PlateMotion.translation(self.direction, self.waveform)
         else:
             base = PlateMotion.jet(self.center, self.direction, self.rho, self.amplitude, self.frequency)
         m = base.with_envelope(self.attack, self.sustain, self.decay)
@@ -179,12 +213,14 @@ class Pulse:
 
         if self.kind == "rest":
             return out
-        if self.kind == "rotation":
+        if self.kind in ("rotation", "translation"):
             assert self.waveform is not None
             c, s = self.waveform.cos, self.waveform.sin
+            dx, dy = self.direction
             for k, h in enumerate((1.0, 2.0)):
                 if k < c.shape[-1]:
-                    out[h] = spin(complex(c[k], -s[k]))
+                    rate = complex(c[k], -s[k])
+                    out[h] = spin(rate) if self.kind == "rotation" else np.array([rate * dx, rate * dy, 0.0])
         else:
             a, (dx, dy) = self.amplitude, self.direction
             out[1.0] = np.array([a * dx, a * dy, 0.0], complex)
@@ -206,9 +242,7 @@ class Pulse:
         """
         w = 2 * math.pi * self.frequency
         inertia = (plate.mass, plate.mass, plate.inertia)
-        r = plate.lever
-        wrench_of_motors = np.array([[1.0, -1.0, 0.0, 0.0], [0.0, 0.0, 1.0, -1.0], [-r, -r, r, r]])
-        share = np.linalg.pinv(wrench_of_motors)
+        share = motor_sharing(plate.lever)
         motors: dict[float, ComplexArray] = {}
         for h, v in self.phasors().items():
             if axes is None:
@@ -247,6 +281,13 @@ class Pulse:
     def peak_force(self, plate: Plate, axes: Sequence[Axis] | None = None) -> float:
         """The largest peak force [N] any motor needs to play this pulse (see :meth:`channels`)."""
         return _peak(self.channels(plate, axes))
+
+
+@functools.lru_cache(maxsize=16)
+def motor_sharing(lever: float) -> FloatArray:
+    """Minimum-norm motor forces per wrench: the pseudo-inverse of (5.8)."""
+    out: FloatArray = np.asarray(np.linalg.pinv(wrench_matrix(lever)), dtype=np.float64)
+    return out
 
 
 def _peak(channels: list[dict[str, float]]) -> float:

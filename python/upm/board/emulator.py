@@ -34,7 +34,8 @@ from typing import Any
 import numpy as np
 
 from ..actuation import Plate
-from ..plant import Channel, Envelope, SimulatedUPM, _suspension
+from ..drive import flexures
+from ..plant import Channel, Envelope, SimulatedUPM
 from . import protocol as p
 
 __all__ = ["BoardEmulator", "CameraServer", "Faults", "Limits", "main", "serve"]
@@ -91,6 +92,8 @@ class BoardEmulator:
         self.last_rx: float | None = None
         self.pulse: tuple[int, int, int] | None = None  # (id, first sample, last sample)
         self.pulse_velocity: list[np.ndarray] = []
+        self.idle_from = 0  # sample at which the plate was last left to move freely
+        self.plant.excursion(self.channels, self.envelope)  # loads the plate model before any command
         # Colliding disks (part_radius set) settle in a thread after a pulse, as they can take
         # seconds to simulate, while the board keeps answering; PULSE_DONE goes out when they have.
         self.settling: tuple[threading.Thread, int] | None = None
@@ -141,9 +144,21 @@ class BoardEmulator:
             return p.NackCode.OUT_OF_LIMITS
         if isinstance(message, p.Pulse) and self.state == p.State.PULSING:
             return p.NackCode.BAD_STATE
+        if isinstance(message, p.Pulse):
+            self._ride_out()
+            if self.plant.excursion(self.channels, self.envelope) > self.plant.stroke:
+                return p.NackCode.STROKE
         if isinstance(message, (p.Ack, p.Nack, p.Samples, p.Status, p.PulseDone)):
             return p.NackCode.UNKNOWN_TYPE
         return None
+
+    def _ride_out(self) -> None:
+        """The plate's free motion on its flexures since the last pulse ended (at most 5 s of it):
+        between pulses the plate keeps moving and comes home."""
+        idle = min(self.produced - self.idle_from, int(5 * self.plant.sample_rate))
+        if idle > 0:
+            self.plant.plate_state(np.zeros((idle, 4)))
+        self.idle_from = self.produced
 
     def _act(self, message: p.Message) -> list[p.Message]:
         if isinstance(message, p.Hello):
@@ -213,6 +228,7 @@ class BoardEmulator:
                 self.plant.settle_parts(velocity)
         self.pulse = None
         self.pulse_velocity = []
+        self.idle_from = self.produced
 
     def tick(self, now: float) -> bytes:
         """Produce the samples due by ``now``, PULSE_DONE, and the watchdog."""
@@ -390,6 +406,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--snr-db", type=float, default=60.0)
     parser.add_argument(
+        "--stroke", type=float, default=None, help="largest plate-corner excursion [m] (default 0.01)"
+    )
+    parser.add_argument(
         "--camera-port",
         type=int,
         default=None,
@@ -413,7 +432,11 @@ def main(argv: list[str] | None = None) -> int:
     options: dict[str, Any] = {}
     if "plate" in scene:  # [mass, inertia, lever], on the default flexures
         plate = Plate(*(float(v) for v in scene["plate"]))
-        options = {"plate": plate, "axes": _suspension(plate.mass, plate.inertia)}
+        options = {"plate": plate, "axes": flexures(plate.mass, plate.inertia)}
+    if "stroke" in scene:  # [m]
+        options["stroke"] = float(scene["stroke"])
+    if args.stroke is not None:
+        options["stroke"] = float(args.stroke)
     plant = SimulatedUPM(snr_db=args.snr_db, seed=args.seed, parts=scene.get("parts", np.zeros((0, 2))),
                          mu=float(scene.get("mu", 0.3)), part_radius=scene.get("part_radius"),
                          **options)  # fmt: skip

@@ -60,6 +60,8 @@ class NackCode(IntEnum):
     BAD_STATE = 4
     VERSION = 5
     BAD_CHANNEL = 6
+    STROKE = 7
+    """The pulse would swing a plate corner beyond the board's stroke."""
 
 
 class State(IntEnum):

@@ -10,6 +10,7 @@ Needs OpenCV and SciPy (``pip install 'upm[control]'``).
 
 from __future__ import annotations
 
+from ..plan import PredictivePlanner
 from .devices import BoardDevice, Device, SimulatedDevice, as_device
 from .loop import LoadedLog, Log, Loop, load_log
 from .planners import DisplacementPlanner, FixedPlanner, JetPlanner, Planner, RotationsPlanner
@@ -26,6 +27,7 @@ __all__ = [
     "Log",
     "Loop",
     "Planner",
+    "PredictivePlanner",
     "RotationsPlanner",
     "SimulatedDevice",
     "SortTask",

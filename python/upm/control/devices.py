@@ -11,12 +11,14 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Protocol, runtime_checkable
 
 from .._errors import ParameterError
-from ..actuation import Axis, Plate
-from ..board.client import Board
-from ..plant import Channel, Envelope, SimulatedUPM, _suspension
+from ..board.client import Board, CommandRefused
+from ..board.protocol import NackCode
+from ..drive import DriveLimits, StrokeError
+from ..plant import Channel, Envelope, SimulatedUPM
 from ..pulses import Pulse, program
 
 __all__ = ["BoardDevice", "Device", "SimulatedDevice", "as_device"]
@@ -43,7 +45,14 @@ class SimulatedDevice:
         Divide each harmonic by the plant's suspension response (its ``axes``) rather than by the
         inertial response alone.
     limit : float or None
-        Largest motor force [N]; ``ParameterError`` beyond it.
+        Largest motor force [N]; ``ParameterError`` beyond it (default the plant's
+        ``motor_force``).
+
+    The device's :attr:`limits` are the plant's (:attr:`upm.plant.SimulatedUPM.limits`); the
+    plant refuses a pulse beyond its stroke (:class:`upm.drive.StrokeError`). When the plate's
+    leftover motion from earlier pulses is what takes a pulse beyond the stroke, the device waits
+    for the plate to come home (0.25 s at a time, up to 2 s, counted in :attr:`waited`) as a
+    board's controller would; a pulse beyond the stroke from home raises.
     """
 
     def __init__(
@@ -52,11 +61,21 @@ class SimulatedDevice:
         *,
         ideal: bool = False,
         precompensate: bool = True,
-        limit: float | None = 200.0,
+        limit: float | None = None,
     ) -> None:
         if not isinstance(plant, SimulatedUPM):
             raise ParameterError(f"plant must be a upm.plant.SimulatedUPM; got {type(plant).__name__}")
-        self.plant, self.ideal, self.precompensate, self.limit = plant, ideal, precompensate, limit
+        self.plant, self.ideal, self.precompensate = plant, ideal, precompensate
+        self.limit = plant.motor_force if limit is None else limit
+        self.settle, self.retries = 0.25, 8
+        self.waited = 0.0
+        """Plate time [s] spent waiting for the plate to come home before a pulse that would
+        otherwise have exceeded the stroke (the plate's leftover motion from earlier pulses)."""
+
+    @property
+    def limits(self) -> DriveLimits:
+        """The plant's drive limits."""
+        return self.plant.limits
 
     def execute(self, pulses: Sequence[Pulse]) -> None:
         plant = self.plant
@@ -67,10 +86,22 @@ class SimulatedDevice:
             return
         for pulse in pulses:
             if pulse.kind == "rest":
+                if plant.axes is not None:
+                    plant.ride_out(pulse.rest)
                 continue  # the parts have already slid to rest after the previous pulse
             axes = plant.axes if self.precompensate else None
             channels = [Channel(**c) for c in pulse.channels(plant.plate, axes, self.limit)]
-            plant.run(channels, Envelope(pulse.attack, pulse.sustain, pulse.decay), rest=pulse.rest)
+            envelope = Envelope(pulse.attack, pulse.sustain, pulse.decay)
+            for _ in range(self.retries):
+                try:
+                    plant.check_stroke(channels, envelope)
+                    break
+                except StrokeError:
+                    if plant.axes is None:
+                        raise  # a free plate never comes home by itself
+                    plant.ride_out(self.settle)
+                    self.waited += self.settle
+            plant.run(channels, envelope, rest=pulse.rest)
 
 
 class BoardDevice:
@@ -81,11 +112,12 @@ class BoardDevice:
     ----------
     board : Board
         An open connection (handshake done).
-    plate : Plate
-        The plate's mass, inertia and lever arm (calibrated; default the simulated plant's).
-    axes : (Axis, Axis, Axis) or None
-        Suspension model for precompensation (default the simulated plant's flexures); ``None``:
-        the inertial model (5.10).
+    limits : DriveLimits, optional
+        The plate (mass, inertia, lever arm; calibrated), its suspension for precompensation
+        (``axes=None``: the inertial model, 5.10) and its stroke; the motor force is the board's
+        advertised ``max_amplitude`` unless these say less. Default :class:`~upm.drive.DriveLimits`
+        (the simulated plant's plate and flexures, 10 mm). Every pulse is checked against them
+        before it is sent (:meth:`upm.drive.DriveLimits.check`).
     wait_rest : bool
         Sleep for each pulse's rest (a real plate's parts need it; the emulator settles them at
         the end of the pulse).
@@ -94,25 +126,30 @@ class BoardDevice:
     def __init__(
         self,
         board: Board,
-        plate: Plate | None = None,
-        axes: tuple[Axis, Axis, Axis] | str | None = "default",
+        limits: DriveLimits | None = None,
         *,
         wait_rest: bool = True,
     ) -> None:
         if not isinstance(board, Board):
             raise ParameterError(f"board must be a upm.board.Board; got {type(board).__name__}")
+        if limits is not None and not isinstance(limits, DriveLimits):
+            raise ParameterError(f"limits must be a upm.DriveLimits; got {type(limits).__name__}")
         self.board = board
-        self.plate = plate if plate is not None else Plate(3.0, 0.04, 0.2)
-        self.axes = _suspension(self.plate.mass, self.plate.inertia) if axes == "default" else axes
-        self.wait_rest = wait_rest
         self.info = board.info if board.info is not None else board.hello()
+        given = limits if limits is not None else DriveLimits()
+        self.limits = replace(given, force=min(given.force, float(self.info.max_amplitude)))
+        self.plate, self.axes = self.limits.plate, self.limits.axes
+        self.wait_rest = wait_rest
         self._id = 0
+        self.waited = 0.0
+        """Seconds spent waiting for the plate to come home after a STROKE refusal."""
 
     def execute(self, pulses: Sequence[Pulse]) -> None:
         board = self.board
         for pulse in pulses:
             if pulse.kind != "rest":
-                channels = pulse.channels(self.plate, self.axes, self.info.max_amplitude)  # type: ignore[arg-type]
+                self.limits.check(pulse)
+                channels = pulse.channels(self.plate, self.axes, self.limits.force)
                 for k, c in enumerate(channels):
                     board.set_channel(
                         k,
@@ -124,7 +161,15 @@ class BoardDevice:
                     )
                 board.set_envelope(pulse.attack, pulse.sustain, pulse.decay)
                 self._id = (self._id + 1) & 0xFFFF
-                board.pulse(self._id, wait=True, timeout=pulse.on_time + 5.0)
+                for attempt in range(8):
+                    try:
+                        board.pulse(self._id, wait=True, timeout=pulse.on_time + 5.0)
+                        break
+                    except CommandRefused as refused:  # the plate still moving from the last pulse
+                        if refused.code != NackCode.STROKE or attempt == 7:
+                            raise
+                        time.sleep(0.25)
+                        self.waited += 0.25
                 board.samples()  # the accelerometer record is not needed here: drop it
             if self.wait_rest and pulse.rest > 0:
                 time.sleep(pulse.rest)

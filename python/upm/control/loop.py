@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._errors import ParameterError, VisionError
+from ..drive import PLATE_SIZE
 from ..pulses import Pulse
 from .devices import Device, as_device, pulse_time
 from .planners import Planner
@@ -201,6 +202,9 @@ class Loop:
         An OpenCV ``VideoCapture``, a :class:`~upm.vision.synthetic.VirtualCamera`, a
         :class:`~upm.vision.RemoteCamera`.
     planner : Planner
+        Its ``plan(positions, steps)``; or, when it has ``plan_task(state, task)`` (a
+        :class:`~upm.plan.PredictivePlanner`) and the task a ``cost``, that. A planner with
+        ``limits`` must have the device's (``ParameterError`` otherwise).
     task : Task
     part_radius : float
         Part radius [m] (for vision).
@@ -230,7 +234,7 @@ class Loop:
         *,
         part_radius: float,
         table: Any = None,
-        plate_size: float = 0.4064,
+        plate_size: float = PLATE_SIZE,
         palette: Any = None,
         search: float | None = None,
         keep_frames: int = 1,
@@ -247,6 +251,12 @@ class Loop:
             raise ParameterError(f"task must have steps, done and errors; got {type(task).__name__}")
         if not (math.isfinite(part_radius) and part_radius > 0):
             raise ParameterError(f"part_radius must be finite and > 0 [m]; got {part_radius!r}")
+        mine, theirs = getattr(planner, "limits", None), getattr(self.device, "limits", None)
+        if mine is not None and theirs is not None and mine != theirs:
+            raise ParameterError(
+                f"the planner's drive limits differ from the device's: planner {mine!r}, device {theirs!r}; "
+                "build the planner with limits=device.limits"
+            )
         self.camera, self.planner, self.task = camera, planner, task
         self.part_radius, self.plate_size = float(part_radius), float(plate_size)
         self.keep_frames = int(keep_frames)
@@ -333,16 +343,22 @@ class Loop:
             steps = np.asarray(self.task.steps(state), dtype=np.float64)
             seen = np.all(np.isfinite(pos), axis=1)
             steps[~seen] = 0.0
-            pulses = list(self.planner.plan(pos[seen], steps[seen]))
+            if hasattr(self.planner, "plan_task") and hasattr(self.task, "cost"):
+                labels = tuple(lab for lab, s in zip(tracks.labels, seen, strict=True) if s)
+                view = State(cycle, self.plate_time, tracks.ids[seen], pos[seen], labels, last_cycle)
+                pulses = list(self.planner.plan_task(view, self.task))
+            else:
+                pulses = list(self.planner.plan(pos[seen], steps[seen]))
             short = self.min_cycle - pulse_time(pulses)
             if short > 1e-9:
                 pulses.append(Pulse.pause(short))
             t2 = time.perf_counter()
             if callback is not None:
                 callback(state, pulses)
+            waited = float(getattr(self.device, "waited", 0.0))
             self.device.execute(pulses)
             t3 = time.perf_counter()
-            last_cycle = pulse_time(pulses)
+            last_cycle = pulse_time(pulses) + float(getattr(self.device, "waited", 0.0)) - waited
             self.plate_time += last_cycle
             prev = {int(i): pos[k] for k, i in enumerate(tracks.ids) if seen[k]}
             desired = np.where(seen[:, None], steps, np.nan)

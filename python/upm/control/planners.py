@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._arrays import as_float
 from .._errors import ParameterError, PlanWarning, RankWarning
 from ..actuation import Axis, Plate
+from ..drive import DriveLimits
 from ..feeding import mean_force
 from ..fields import rotation_field
 from ..motion import PlateMotion
@@ -51,6 +52,20 @@ class Planner(Protocol):
     free: the task does not care where the part goes along it."""
 
     def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]: ...
+
+
+def _limits(
+    limits: DriveLimits | None, plate: Plate | None, axes: Sequence[Axis] | None, limit: float
+) -> DriveLimits | None:
+    """The drive limits a planner sizes its pulses within: ``limits``, or the older ``plate``,
+    ``axes`` and motor ``limit`` with the default stroke."""
+    if limits is not None:
+        if not isinstance(limits, DriveLimits):
+            raise ParameterError(f"limits must be a upm.DriveLimits; got {type(limits).__name__}")
+        return limits
+    if plate is None:
+        return None
+    return DriveLimits(plate, None if axes is None else tuple(axes), _positive("limit", limit))  # type: ignore[arg-type]
 
 
 def _centers(centers: ArrayLike) -> FloatArray:
@@ -106,6 +121,10 @@ class RotationsPlanner:
         Singular values below ``rcond * s_max`` dropped; Tikhonov ``damping`` (as in
         :func:`upm.solve_rotations`).
 
+    limits : DriveLimits, optional
+        The device's limits: the waveform's amplitude is lowered to what the drive plays about
+        every centre within its motor force and stroke.
+
     Free step components (NaN) are left out of the linear system (4.10): a sort that only needs
     parts to move along x constrains M rows, not 2M, and the redundant centres go much further.
     """
@@ -123,8 +142,10 @@ class RotationsPlanner:
         attack: float | None = None,
         rcond: float | None = 1e-3,
         damping: float | None = None,
+        limits: DriveLimits | None = None,
     ) -> None:
         self.centers = _centers(centers)
+        self.limits = _limits(limits, None, None, 200.0)
         self.cycle = _positive("cycle", cycle)
         self.h = _harmonics(waveform, amplitude, frequency)
         period = 1.0 / float(self.h.frequency)
@@ -138,6 +159,10 @@ class RotationsPlanner:
         self.rcond, self.damping = rcond, damping
         self.mu = _positive("mu", mu)
         self.rest = 0.0
+        if self.limits is not None:  # the largest rotation the drive plays about every centre
+            room = min(self.limits.headroom(self._pulse(c, 1.0)) for c in self.centers)
+            if room < 1:
+                self.h = Harmonics(self.h.cos * 0.95 * room, self.h.sin * 0.95 * room, float(self.h.frequency))
         self.step, self.rest = self._calibrate()
         # metres per (mu m g) of average force per cycle: a cycle full of pulses about one centre
         self.gain = self.step * self.cycle / (self.short + self.rest) / self.f0
@@ -269,10 +294,11 @@ class DisplacementPlanner:
         while the envelope stays long enough for motors to play it cleanly.
     refine : int
         Refinement iterations of the whole program (0: size each pulse alone).
-    plate, axes, limit :
-        The device's plate, suspension and motor force limit [N]: when given, the pulses' largest
-        amplitude (20 times the base, the top of the sizing table) is what the motors can play
-        about the most demanding centre, and the base amplitude is set from it.
+    limits : DriveLimits, optional
+        The device's limits (or the older ``plate``, ``axes`` and motor force ``limit`` [N], with
+        the default stroke): the pulses' largest amplitude (20 times the base, the top of the
+        sizing table) is what the drive can play about the most demanding centre, within force and
+        stroke, and the base amplitude is set from it.
     """
 
     def __init__(
@@ -293,20 +319,22 @@ class DisplacementPlanner:
         refine: int = 2,
         rcond: float | None = 1e-3,
         damping: float | None = None,
+        limits: DriveLimits | None = None,
     ) -> None:
         self.centers = _centers(centers)
+        self.limits = _limits(limits, plate, axes, limit)
         self.mu = _positive("mu", mu)
         self.mu_s = mu_s
         self.h = _harmonics(waveform, amplitude, frequency)
         self.attack = 3.0 / float(self.h.frequency) if attack is None else float(attack)
         self.max_arc, self.refine, self.rcond, self.damping = max_arc, refine, rcond, damping
         self.sustain = _positive("sustain", sustain)
-        if plate is not None:
-            peak = max(
-                Pulse.rotation(c, self.h, self.attack, self.sustain, self.attack).peak_force(plate, axes)
+        if self.limits is not None:
+            room = min(
+                self.limits.headroom(Pulse.rotation(c, self.h, self.attack, self.sustain, self.attack))
                 for c in self.centers
             )
-            top = 0.98 * _positive("limit", limit) / peak  # the largest playable multiple of h
+            top = 0.98 * room  # the largest playable multiple of h
             self.h = Harmonics(
                 self.h.cos * top / AMPLITUDE_TOP, self.h.sin * top / AMPLITUDE_TOP, float(self.h.frequency)
             )
@@ -370,10 +398,11 @@ class JetPlanner:
         Rise and fall of each jet [s] (default 3 jet periods, so motors play it cleanly).
     min_step : float
         Steps shorter than this [m] are skipped.
-    plate, axes, limit :
-        The device's plate (:class:`upm.actuation.Plate`), suspension and motor force limit [N]:
-        when given, a jet whose motors would exceed ``limit`` gets a proportionally lower amplitude
-        (jets far from the plate's centre need large motor forces for their rotation term).
+    limits : DriveLimits, optional
+        The device's limits (or the older ``plate``, ``axes`` and motor force ``limit`` [N], with
+        the default stroke): a jet that would exceed the motor force or the stroke gets a
+        proportionally lower amplitude (jets far from the plate's centre need large motor forces
+        and swing the plate's corners far for their rotation term).
     """
 
     def __init__(
@@ -390,7 +419,9 @@ class JetPlanner:
         max_rho: float = 0.05,
         attack: float | None = None,
         min_step: float = 5e-4,
+        limits: DriveLimits | None = None,
     ) -> None:
+        self.limits = _limits(limits, plate, axes, limit)
         self.mu = _positive("mu", mu)
         self.mu_s = mu_s
         self.amplitude = _positive("amplitude", amplitude)
@@ -398,14 +429,19 @@ class JetPlanner:
         self.rho, self.max_rho = rho, _positive("max_rho", max_rho)
         self.attack = 9.0 / self.frequency if attack is None else float(attack)
         self.min_step = float(min_step)
-        self.plate, self.axes, self.limit = plate, axes, _positive("limit", limit)
 
     def _amplitude(self, center: FloatArray, direction: FloatArray, rho: float) -> float:
-        if self.plate is None:
+        if self.limits is None:
             return self.amplitude
-        probe = Pulse.jet(center, direction, rho, self.amplitude, self.frequency, 1.0, 0.0, 1.0)
-        peak = probe.peak_force(self.plate, self.axes)
-        return self.amplitude * min(1.0, 0.98 * self.limit / peak)
+        # the stroke depends on the envelope (its drift rings the suspension): the least headroom
+        # over the sustains a jet may get, and the shorter ramps of jets too small for a full one
+        a = self.attack
+        shapes = [(a, s) for s in (0.0, 0.15, 0.3, 0.5, 0.8, 1.2)] + [(a / 2, 0.0), (a / 4, 0.0)]
+        room = min(
+            self.limits.headroom(Pulse.jet(center, direction, rho, self.amplitude, self.frequency, r, s, r))
+            for r, s in shapes
+        )
+        return self.amplitude * min(1.0, 0.95 * room)
 
     def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]:
         pos, st = np.asarray(positions, float), np.nan_to_num(np.asarray(steps, float))  # free: stay

@@ -42,11 +42,38 @@ class State:
 
 @runtime_checkable
 class Task(Protocol):
+    """What the loop asks of a task. ``cost(state, positions, elapsed)`` is the task's own
+    measure of what is left to do [m] for the parts of ``state`` at ``positions (..., M, 2)``
+    (default: where they are) after ``elapsed`` [s] of plate time (scalar or the batch's shape):
+    zero when done, growing with distance; predictive planners minimise it."""
+
     def steps(self, state: State) -> FloatArray: ...
 
     def done(self, state: State) -> bool: ...
 
     def errors(self, state: State) -> FloatArray: ...
+
+    def cost(
+        self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0
+    ) -> FloatArray: ...
+
+
+def _at(state: State, positions: FloatArray | None) -> FloatArray:
+    q = state.positions if positions is None else np.asarray(positions, dtype=np.float64)
+    if q.shape[-2:] != state.positions.shape:
+        raise ShapeError(f"positions must have shape (..., {len(state.positions)}, 2); got {q.shape}")
+    return q
+
+
+def _distance_sum(q: FloatArray, targets: FloatArray) -> FloatArray:
+    """Sum over parts of ``|q - target|``, parts without a target (NaN) left out; lost parts
+    (NaN in ``q``) count as far as the plate is wide (they are not done)."""
+    d = q - targets
+    r = np.hypot(d[..., 0], d[..., 1])
+    has = np.all(np.isfinite(targets), axis=-1)
+    r = np.where(has, np.where(np.isfinite(r), r, 1.0), 0.0)
+    out: FloatArray = np.sum(r, axis=-1)
+    return out
 
 
 def _points(name: str, value: ArrayLike) -> FloatArray:
@@ -138,6 +165,17 @@ class GotoTask:
     def errors(self, state: State) -> FloatArray:
         d = self._targets(state) - state.positions
         out: FloatArray = np.hypot(d[:, 0], d[:, 1])
+        return out
+
+    def cost(self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0) -> FloatArray:
+        """Sum of the parts' distances to their goals [m], each less the tolerance (0 within it)."""
+        q = _at(state, positions)
+        targets = self._targets(state)
+        d = q - targets
+        r = np.hypot(d[..., 0], d[..., 1])
+        has = np.all(np.isfinite(targets), axis=-1)
+        r = np.where(has, np.where(np.isfinite(r), np.maximum(r - 0.5 * self.tolerance, 0.0), 1.0), 0.0)
+        out: FloatArray = np.sum(r, axis=-1)
         return out
 
     def steps(self, state: State) -> FloatArray:
@@ -262,6 +300,26 @@ class TrajectoryTask:
         out: FloatArray = np.hypot(d[:, 0], d[:, 1])
         return out
 
+    def cost(self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0) -> FloatArray:
+        """Sum of the parts' distances [m] to where their references will be after ``elapsed``
+        more seconds (the references wait while a part lags more than ``hold``)."""
+        q = _at(state, positions)
+        el = np.asarray(elapsed, dtype=np.float64)
+        lag = self.errors(state)
+        wait = bool(np.nanmax(lag, initial=0.0) > self.hold)
+        ahead = np.minimum(self.progress + (0.0 if wait else self.speed) * el, self.end)
+        slot = self.slots.bind(state)
+        flat = ahead.reshape(-1)
+        refs = np.full((len(flat), len(slot), 2), np.nan)
+        for k, j in enumerate(slot):
+            if j >= 0:
+                p, s_ = self.paths[int(j)]
+                at = flat + self.offsets[int(j)]
+                at = at % s_[-1] if self.closed else np.clip(at, 0.0, s_[-1])
+                refs[:, k] = _along(p, s_, at)
+        refs = refs.reshape(*ahead.shape, len(slot), 2) if ahead.ndim else refs[0]
+        return _distance_sum(q, refs)
+
     def steps(self, state: State) -> FloatArray:
         dt = state.time - self._time
         self._time = state.time
@@ -317,6 +375,8 @@ class SortTask:
         Parts closer than this [m] are spread apart.
     max_step : float
         Step asked for per cycle [m].
+    past : float
+        A sorted part is pushed no further than ``line + past`` [m].
     free_y : bool
         Leave y free (NaN) for parts that are not being spread apart and are more than
         ``margin`` from the top and bottom edges (beyond it they are brought back): planners that
@@ -333,12 +393,19 @@ class SortTask:
         margin: float = 0.04,
         spacing: float = 0.045,
         max_step: float = 0.02,
+        past: float = 0.01,
         free_y: bool = False,
     ) -> None:
         self.free_y = bool(free_y)
+        if not (math.isfinite(past) and past >= 0):
+            raise ParameterError(f"past must be finite and >= 0 [m]; got {past!r}")
+        self.past = float(past)
+        self.expected = 0  # the most labelled parts seen at once: fewer now means some are lost
         if not sides or any(v not in (-1, 1) for v in sides.values()):
             raise ParameterError(f"sides must map labels to -1 (left) or +1 (right); got {dict(sides)}")
         self.sides = dict(sides)
+        if not (math.isfinite(plate_size) and plate_size > 0):
+            raise ParameterError(f"plate_size must be finite and > 0 [m]; got {plate_size!r}")
         self.half = plate_size / 2
         self.line = plate_size / 4 if line is None else float(line)
         self.margin, self.spacing, self.max_step = float(margin), float(spacing), float(max_step)
@@ -361,6 +428,7 @@ class SortTask:
         side = self._side(state)
         seen = np.all(np.isfinite(pos), axis=1)
         goal = self.half - self.margin
+        goal = min(goal, self.line + self.past)
         out = np.zeros_like(pos)
         go = seen & (side != 0)
         out[go, 0] = side[go] * np.clip(goal - side[go] * pos[go, 0], 0.0, self.max_step)
@@ -391,10 +459,25 @@ class SortTask:
             out[seen & ~spread & (over <= 0), 1] = np.nan
         return out
 
+    def cost(self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0) -> FloatArray:
+        """Sum over labelled parts of the distance [m] still to go along x to ``line`` plus a
+        quarter of ``past`` (a little beyond the line, so vision noise does not unsort a part);
+        a lost part (NaN) counts as the plate's width."""
+        q = _at(state, positions)
+        side = self._side(state)
+        target = self.line + 0.25 * self.past
+        left = np.maximum(target - side * q[..., 0], 0.0)
+        left = np.where(np.isfinite(left), left, 2 * self.half)
+        out: FloatArray = np.sum(np.where(side != 0, left, 0.0), axis=-1)
+        return out
+
     def done(self, state: State) -> bool:
+        """Every labelled part beyond its line, and none lost: as many labelled parts seen now as
+        the most seen at once before."""
         e = self.errors(state)
         sorted_ = e[np.isfinite(e)]
-        return bool(len(sorted_) and np.all(sorted_ <= 0.0))
+        self.expected = max(self.expected, len(sorted_))
+        return bool(len(sorted_) and len(sorted_) >= self.expected and np.all(sorted_ <= 0.0))
 
 
 class WatchTask:
@@ -414,3 +497,8 @@ class WatchTask:
 
     def errors(self, state: State) -> FloatArray:
         return np.zeros(len(state.positions))
+
+    def cost(self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0) -> FloatArray:
+        """Nothing to do: zero."""
+        q = _at(state, positions)
+        return np.zeros(q.shape[:-2])

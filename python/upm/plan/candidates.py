@@ -1,0 +1,184 @@
+"""Candidate pulses for the predictive planner, each at the largest amplitude the drive allows.
+
+Families (all enveloped, 3 drive periods of attack and decay; jets 6, for their 2/3 harmonic):
+
+* **translations** along ``directions`` evenly spread directions: the Coulomb pump (chapter 3),
+  ``v (cos wt - cos(2wt)/2)``, the same force on every part;
+* **rotations** about a grid of centres and about each part, both senses: the time-asymmetric
+  rotation of 5.1.2 (every resting part the same tangential force);
+* **jets** (6.4) focused on each part, in several directions and radii.
+
+Every family is built for each drive frequency and on-time. A pulse's motor forces and its
+plate excursion are linear in its amplitude, so each candidate is sized once at unit amplitude by
+:meth:`upm.drive.DriveLimits.reach` (one vectorised call) and scaled to ``use`` times the smaller of
+the force and the stroke headroom. Higher frequencies need less stroke for the same plate velocity
+and more motor force; the limits decide which wins for each shape.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..drive import DriveLimits
+from ..pulses import Pulse
+from ..waveforms import Harmonics
+
+__all__ = ["Candidates", "generate"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Candidates:
+    """``K`` pulses and what the planner needs of them."""
+
+    pulses: list[Pulse]
+    family: NDArray[np.str_]
+    """``"translation"``, ``"rotation"``, ``"part-rotation"`` or ``"jet"`` per pulse."""
+    force: FloatArray
+    """Peak motor force of each pulse as sized [N]."""
+    excursion: FloatArray
+    """Largest plate-corner excursion of each pulse as sized, played from home [m]."""
+
+    def __len__(self) -> int:
+        return len(self.pulses)
+
+
+def _unit_phasors(kind: str, center: FloatArray, direction: FloatArray, rho: float) -> NDArray[np.complex128]:
+    """Velocity phasors (harmonics 1, 2, 2/3; axes u1, u2, u3) at unit amplitude, as
+    :meth:`upm.Pulse.phasors` gives them: rotations and translations ``cos wt - cos(2wt)/2``."""
+    out = np.zeros((3, 3), complex)
+    if kind == "jet":
+        out[0, :2] = direction
+        out[1, :2] = -direction
+        rate = -2j / rho
+        out[2] = [rate * center[1], -rate * center[0], rate]
+        return out
+    for j, c in enumerate((1.0, -0.5)):
+        if kind == "translation":
+            out[j, :2] = c * direction
+        else:
+            out[j] = [c * center[1], -c * center[0], c]
+    return out
+
+
+def generate(
+    limits: DriveLimits,
+    positions: FloatArray,
+    *,
+    frequencies: tuple[float, ...] = (25.0, 35.0, 50.0),
+    on_times: tuple[float, ...] = (0.3, 0.55, 0.9),
+    directions: int = 8,
+    grid: int = 5,
+    jet_radii: tuple[float, ...] = (0.03, 0.06),
+    jet_directions: int = 8,
+    use: float = 0.9,
+    cache: dict[tuple[object, ...], tuple[float, float]] | None = None,
+    carried: float = 0.0,
+) -> Candidates:
+    """Candidate pulses for parts at ``positions (M, 2)`` [m], sized within ``limits``.
+
+    ``grid``: rotation centres on a ``grid x grid`` lattice over the middle half of the plate;
+    ``use``: the fraction of the force and stroke headroom a pulse may use (the rest is margin for
+    what the plate carries over from the pulse before). ``cache`` keeps the unit-amplitude reach
+    of shapes that do not depend on the parts (translations, grid rotations) across calls.
+    ``carried`` [m]: the largest corner excursion the plate's motion left from earlier pulses
+    may still add; the stroke left for the candidate is ``stroke - carried``. Each shape is
+    played at the one of ``frequencies`` that gives it the largest amplitude within the limits
+    (rotations and jets: stroke-bound at low frequencies, force-bound at high ones).
+    """
+    pos = np.asarray(positions, dtype=np.float64).reshape(-1, 2)
+    specs: list[tuple[str, str, FloatArray, FloatArray, float, float, float]] = []
+    angles = 2 * np.pi * np.arange(directions) / directions
+    half = limits.size / 4
+    lattice = np.linspace(-half, half, grid) if grid > 1 else np.zeros(1)
+    centres = np.array([(x, y) for x in lattice for y in lattice])
+    # and on the plate's two middle lines, out past its edges: a rotation about (0, c) pushes the
+    # parts above c one way along x and the parts below it the other (and likewise along y)
+    line = np.linspace(-0.75 * limits.size, 0.75 * limits.size, 13)
+    line = line[np.abs(line) > half + 1e-9]
+    centres = np.vstack(
+        [centres, np.stack([np.zeros_like(line), line], 1), np.stack([line, np.zeros_like(line)], 1)]
+    )
+    zero = np.zeros(2)
+    shape: list[int] = []  # which shape each spec plays (one frequency of it is kept)
+    n_shapes = 0
+
+    def add(
+        kind: str, family: str, c: FloatArray, d: FloatArray, rho: float, on: float, freqs: tuple[float, ...]
+    ) -> None:
+        nonlocal n_shapes
+        for f in freqs:
+            specs.append((kind, family, c, d, rho, f, on))
+            shape.append(n_shapes)
+        n_shapes += 1
+
+    for on in on_times:
+        for a in angles:
+            add("translation", "translation", zero, np.array([np.cos(a), np.sin(a)]), 0.0, on, frequencies)
+        for c in centres:
+            for sign in (1.0, -1.0):
+                add("rotation", "rotation", c, np.array([sign, 0.0]), 0.0, on, frequencies)
+    on_part = on_times[len(on_times) // 2]
+    jet_angles = 2 * np.pi * np.arange(jet_directions) / jet_directions
+    for p in pos:
+        for sign in (1.0, -1.0):
+            add("rotation", "part-rotation", p, np.array([sign, 0.0]), 0.0, on_part, frequencies)
+        for rho in jet_radii:
+            for a in jet_angles:
+                add("jet", "jet", p, np.array([np.cos(a), np.sin(a)]), rho, on_part, frequencies[:2])
+    k = len(specs)
+    attack = np.array([(6.0 if s[0] == "jet" else 3.0) / s[5] for s in specs])
+    freq = np.array([s[5] for s in specs])
+    on_arr = np.array([s[6] for s in specs])
+    attack = np.minimum(attack, on_arr / 2)
+    sustain = on_arr - 2 * attack
+    force = np.full(k, np.nan)
+    reach = np.full(k, np.nan)
+    keys: list[tuple[object, ...] | None] = []
+    for i, (kind, family, c, d, rho, f, t) in enumerate(specs):
+        fixed = family in ("translation", "rotation")
+        key = (kind, *np.round(c, 9), *np.round(d, 9), rho, f, t) if fixed else None
+        keys.append(key)
+        if cache is not None and key is not None and key in cache:
+            force[i], reach[i] = cache[key]
+    todo = np.nonzero(np.isnan(force))[0]
+    if len(todo):
+        ph = np.stack([_unit_phasors(specs[i][0], specs[i][2], specs[i][3], specs[i][4]) for i in todo])
+        fo, ex = limits.reach(ph, freq[todo], attack[todo], sustain[todo], attack[todo], samples=1536)
+        force[todo], reach[todo] = fo, ex
+        if cache is not None:
+            for j in todo:
+                key = keys[int(j)]
+                if key is not None:
+                    cache[key] = (float(force[j]), float(reach[j]))
+    room = max(limits.stroke - carried, 0.0)
+    scale = use * np.minimum(limits.force / np.maximum(force, 1e-300), room / np.maximum(reach, 1e-300))
+    # per shape, the frequency with the largest amplitude (ties: the higher frequency)
+    shape_a = np.array(shape)
+    keep = np.zeros(len(specs), dtype=bool)
+    for shape_j in range(n_shapes):
+        idx = np.nonzero(shape_a == shape_j)[0]
+        keep[idx[np.argmax(scale[idx] * (1 + 1e-9 * freq[idx]))]] = True
+    pulses: list[Pulse] = []
+    for i, (kind, _family, c, d, rho, f, _t) in enumerate(specs):
+        if not keep[i]:
+            continue
+        a, s = float(attack[i]), float(sustain[i])
+        amp = float(scale[i])
+        if kind == "translation":
+            pulses.append(Pulse.translation(d, Harmonics([amp, -amp / 2], [0.0, 0.0], f), a, s, a))
+        elif kind == "rotation":
+            w = amp * float(d[0])  # d[0] carries the sense of rotation
+            pulses.append(Pulse.rotation(c, Harmonics([w, -w / 2], [0.0, 0.0], f), a, s, a))
+        else:
+            pulses.append(Pulse.jet(c, d, rho, amp, f, a, s, a))
+    return Candidates(
+        pulses,
+        np.array([s[1] for s, k in zip(specs, keep, strict=True) if k]),
+        (force * scale)[keep],
+        (reach * scale)[keep],
+    )

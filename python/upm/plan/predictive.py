@@ -1,0 +1,425 @@
+"""Receding-horizon planning on the batched simulator: every cycle, one pulse, the best predicted.
+
+Each cycle :class:`PredictivePlanner`
+
+1. builds a few hundred candidate pulses at the drive's force and stroke limits
+   (:func:`upm.plan.candidates.generate`: translations, rotations about a grid and about each
+   part, jets at each part; several frequencies and on-times);
+2. predicts them all from the tracked positions in one :func:`upm.simulate_batch` call (point
+   parts, a coarse step, the parts followed until they stop), each part's predicted step scaled by
+   its learnt gain;
+3. scores each by the task's own cost (``task.cost(state, positions, elapsed)``) against resting
+   for as long, plus penalties for parts leaving the plate's usable area and for overlapping
+   parts, per second of plate time (the pulse and the rest while the parts stop);
+4. re-ranks the best few with disks that collide (rapier2d) at a finer step, and plays the best,
+   one pulse; none when the best predicted gain is below ``min_gain``.
+
+On the next cycle it compares the predicted and achieved steps (:attr:`step_errors`), fits the
+friction coefficient that best explains the last pulse (one batched call over candidate values,
+damped update), and a per-part gain on the predicted step. So a plate whose friction differs
+from the planner's by tens of per cent still works.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import replace
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .._errors import ParameterError
+from ..drive import DriveLimits
+from ..motion import PlateMotion
+from ..pulses import Pulse
+from ..sim import Disk, simulate_batch
+from .candidates import Candidates, generate
+
+__all__ = ["PredictivePlanner"]
+
+FloatArray = NDArray[np.float64]
+
+
+class _CostTask(Protocol):
+    def cost(self, state: Any, positions: FloatArray | None = None, elapsed: Any = 0.0) -> Any: ...
+
+
+def _positive(name: str, value: float) -> float:
+    if not (isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(value) and value > 0):
+        raise ParameterError(f"{name} must be finite and > 0; got {value!r}")
+    return float(value)
+
+
+class _Steps:
+    """The cost of plain steps (``plan(positions, steps)`` without a task): distance to
+    ``positions + steps`` over the constrained components."""
+
+    def __init__(self, goal: FloatArray) -> None:
+        self.goal = goal
+
+    def cost(self, state: Any, positions: FloatArray | None = None, elapsed: Any = 0.0) -> Any:
+        q = state.positions if positions is None else positions
+        d = np.where(np.isfinite(self.goal), q - self.goal, 0.0)
+        return np.sum(np.hypot(d[..., 0], d[..., 1]), axis=-1)
+
+
+class _View:
+    """A minimal state: positions only."""
+
+    def __init__(self, positions: FloatArray) -> None:
+        self.positions = positions
+        self.ids = np.arange(len(positions))
+
+
+def _separate(positions: FloatArray, radius: float, gap: float = 1e-4) -> FloatArray:
+    """Tracked disks moved apart just enough not to overlap (vision puts touching disks a
+    millimetre or two into each other), each pair pushed symmetrically along its line."""
+    q = np.array(positions, dtype=float)
+    for _ in range(50):
+        d = q[:, None] - q[None]
+        r = np.hypot(d[..., 0], d[..., 1])
+        np.fill_diagonal(r, np.inf)
+        need = 2 * radius + gap - r
+        if not np.any(need > 0):
+            break
+        i, j = np.nonzero(np.triu(need > 0, 1))
+        for a, b in zip(i, j, strict=True):
+            u = d[a, b] / r[a, b] if r[a, b] > 0 else np.array([1.0, 0.0])
+            q[a] += 0.5 * (need[a, b] + gap) * u
+            q[b] -= 0.5 * (need[a, b] + gap) * u
+    return q
+
+
+class PredictivePlanner:
+    """Sampling receding-horizon planner on the batched simulator (see the module docstring).
+
+    Parameters
+    ----------
+    limits : DriveLimits
+        The device's plate, motors and stroke (``device.limits``); every candidate is sized
+        within them.
+    mu, mu_s : float
+        The planner's friction estimate (adapted online when ``adapt``).
+    part_radius : float or None
+        Parts are disks of this radius [m]: overlaps are penalised, and the best ``rerank``
+        candidates are predicted again with contacts (rapier2d).
+    frequencies, on_times : tuple of float
+        Drive frequencies [Hz] and on-times [s] of the candidates.
+    use : float
+        Fraction of the force and stroke headroom a candidate may use.
+    edge : float
+        Parts predicted closer than this to a plate edge [m] are penalised; beyond the edge, a
+        part counts as lost (``lost_cost`` [m of task cost]).
+    min_gain : float
+        No pulse when the best predicted cost decrease is below this [m].
+    adapt : bool
+        Fit friction and per-part gains online from predicted against achieved steps.
+    dt_factor : int
+        Integrator steps per period of the highest harmonic when ranking (re-ranking uses twice).
+    """
+
+    def __init__(
+        self,
+        limits: DriveLimits,
+        *,
+        mu: float = 0.3,
+        mu_s: float | None = None,
+        part_radius: float | None = None,
+        frequencies: Sequence[float] = (25.0, 35.0, 50.0, 70.0),
+        on_times: Sequence[float] = (0.3, 0.6, 1.2),
+        use: float = 0.9,
+        edge: float = 0.035,
+        lost_cost: float = 1.0,
+        min_gain: float = 5e-4,
+        rerank: int = 4,
+        adapt: bool = True,
+        dt_factor: int = 40,
+        grid: int = 5,
+        jet_radii: Sequence[float] = (0.03, 0.06),
+    ) -> None:
+        if not isinstance(limits, DriveLimits):
+            raise ParameterError(f"limits must be a upm.DriveLimits; got {type(limits).__name__}")
+        self.limits = limits
+        self.mu = _positive("mu", mu)
+        self.mu_s = None if mu_s is None else _positive("mu_s", mu_s)
+        self.part_radius = None if part_radius is None else _positive("part_radius", part_radius)
+        self.frequencies = tuple(_positive("frequencies", f) for f in frequencies)
+        self.on_times = tuple(_positive("on_times", t) for t in on_times)
+        if not self.frequencies or not self.on_times:
+            raise ParameterError("frequencies and on_times must each hold at least one value")
+        if not 0 < use <= 1:
+            raise ParameterError(f"use must be in (0, 1]; got {use!r}")
+        self.use = float(use)
+        self.edge = float(edge)
+        self.lost_cost = float(lost_cost)
+        self.min_gain = float(min_gain)
+        self.rerank = int(rerank)
+        self.adapt = bool(adapt)
+        if dt_factor < 20:
+            raise ParameterError(f"dt_factor must be >= 20 (the integrator's bound); got {dt_factor}")
+        self.dt_factor = int(dt_factor)
+        self.grid = int(grid)
+        self.jet_radii = tuple(_positive("jet_radii", r) for r in jet_radii)
+        self.mu_estimate = self.mu
+        self.gains: dict[int, float] = {}
+        self.step_errors: list[float] = []
+        """|predicted - achieved| step of every part after every pulse [m]."""
+        self.candidate_counts: list[int] = []
+        self._cache: dict[tuple[object, ...], tuple[float, float]] = {}
+        self._plate = np.zeros((3, 2))  # the plate's state expected after the last pulse and its rest
+        self._last: tuple[Pulse, NDArray[np.int64], FloatArray, FloatArray] | None = None
+
+    # -- prediction ---------------------------------------------------------------------------
+    def _mu_s(self, mu: float) -> float:
+        return mu if self.mu_s is None else self.mu_s * mu / self.mu
+
+    def _coast(self, pulses: Sequence[Pulse], mu: float) -> float:
+        """Longest time parts need to stop after a pulse: a part gains at most ``mu_s g`` while
+        the pulse lasts and loses ``mu g`` after."""
+        on = max(p.on_time for p in pulses)
+        return 1.05 * on * self._mu_s(mu) / mu + 0.02
+
+    def predict(
+        self,
+        pulses: Sequence[Pulse],
+        positions: FloatArray,
+        *,
+        mu: float | FloatArray | None = None,
+        disks: bool = False,
+        fine: bool = False,
+    ) -> tuple[FloatArray, FloatArray]:
+        """Positions ``(K, M, 2)`` after each pulse once the parts have stopped, and the plate time
+        ``(K,)`` [s] each takes (the pulse and the rest until the last part stops, to 10 ms)."""
+        mu_v = self.mu_estimate if mu is None else mu
+        mu0 = float(np.min(mu_v))
+        coast = self._coast(pulses, mu0)
+        horizon = max(p.on_time for p in pulses) + coast
+        motions = [PlateMotion.sequence([p.motion(rest=False), PlateMotion.rest(horizon - p.on_time + 1e-3)])
+                   for p in pulses]  # fmt: skip
+        top = max(m.max_frequency for m in motions)
+        dt = 1.0 / ((2 if fine else 1) * self.dt_factor * top)
+        every = max(1, round(0.01 / dt))
+        mu_s = np.asarray(mu_v, dtype=float) * (self._mu_s(1.0) if self.mu_s is not None else 1.0)
+        opts: dict[str, Any] = {
+            "duration": horizon,
+            "dt": dt,
+            "mu": mu_v,
+            "mu_s": mu_s,
+            "record_every": every,
+        }
+        if disks and self.part_radius is not None:
+            apart = _separate(positions, self.part_radius)
+            parts: Any = [Disk((float(x), float(y)), self.part_radius) for x, y in apart]
+            opts.update(contacts=True, plate_size=self.limits.size)
+        else:
+            parts = positions
+        run = simulate_batch(motions, parts, **opts)
+        final = run.positions[:, -1]
+        # stopped: every part stuck from then on, after the pulse's end
+        moving: NDArray[np.bool_] = np.asarray(~np.all(run.stuck, axis=2))  # (K, T)
+        t = run.t
+        durations = np.empty(len(pulses))
+        for k, p in enumerate(pulses):
+            late = np.nonzero(moving[k] & (t >= p.on_time - 1e-9))[0]
+            stop = t[late[-1]] + t[1] - t[0] if len(late) else p.on_time
+            durations[k] = max(stop, p.on_time)
+        gone = np.asarray(run.left_plate) if disks and self.part_radius is not None else None
+        if gone is not None and gone.any():
+            final = final.copy()
+            final[gone] = np.nan
+        return final, durations
+
+    # -- scoring --------------------------------------------------------------------------------
+    def _penalty(self, q: FloatArray) -> FloatArray:
+        """Edge and overlap penalties ``(K,)`` [m of cost] for predicted positions ``(K, M, 2)``."""
+        half = self.limits.size / 2
+        lost = ~np.all(np.isfinite(q), axis=-1) | np.any(np.abs(np.nan_to_num(q)) > half, axis=-1)
+        over = np.clip(np.abs(np.nan_to_num(q)) - (half - self.edge), 0.0, None).sum(axis=-1)
+        out: FloatArray = self.lost_cost * lost.sum(axis=-1) + 3.0 * np.where(lost, 0.0, over).sum(axis=-1)
+        if self.part_radius is not None and q.shape[1] > 1:
+            i, j = np.triu_indices(q.shape[1], 1)
+            gap = np.linalg.norm(np.nan_to_num(q[:, i] - q[:, j], nan=1.0), axis=-1)
+            out = out + 0.5 * np.clip(2.05 * self.part_radius - gap, 0.0, None).sum(axis=-1)
+        return out
+
+    def _score(
+        self, task: _CostTask, state: Any, pos: FloatArray, final: FloatArray, durations: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """Cost decrease against resting for as long, and that per second."""
+        still = np.broadcast_to(pos, final.shape)
+        rest_cost = np.asarray(task.cost(state, still, durations), dtype=float) + self._penalty(still)
+        safe = np.where(np.isfinite(final), final, still)
+        after = np.asarray(task.cost(state, safe, durations), dtype=float) + self._penalty(final)
+        gain = rest_cost - after
+        return gain, gain / durations
+
+    # -- online correction ----------------------------------------------------------------------
+    def _correct(self, ids: NDArray[np.int64], pos: FloatArray) -> None:
+        if self._last is None:
+            return
+        pulse, last_ids, start, predicted = self._last
+        self._last = None
+        index = {int(i): k for k, i in enumerate(ids)}
+        rows = [(k, index[int(i)]) for k, i in enumerate(last_ids) if int(i) in index]
+        if not rows:
+            return
+        a, b = np.array(rows).T
+        achieved = pos[b] - start[a]
+        guessed = predicted[a] - start[a]
+        ok = np.all(np.isfinite(achieved), axis=1) & np.all(np.isfinite(guessed), axis=1)
+        if not ok.any():
+            return
+        self.step_errors += [float(e) for e in np.hypot(*(achieved[ok] - guessed[ok]).T)]
+        if not self.adapt:
+            return
+        moved = ok & (np.hypot(*achieved.T) > 2e-3)
+        if moved.sum() >= 1:
+            # friction: the value among a few that best explains this pulse (parts replicated, one
+            # friction each: point parts do not interact), moved half way in log
+            factors = np.array([0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4])
+            m = int(moved.sum())
+            starts = np.tile(start[a][moved], (len(factors), 1))
+            mus = np.repeat(self.mu_estimate * factors, m)
+            final, _ = self.predict([pulse], starts, mu=mus)
+            miss = np.hypot(
+                *(final[0].reshape(len(factors), m, 2) - (start[a][moved] + achieved[moved])[None]).transpose(
+                    2, 0, 1
+                )
+            )
+            err = np.nansum(miss**2, axis=1)
+            best = int(np.argmin(err))
+            # a parabola through the best and its neighbours for a value between the factors
+            f = factors[best]
+            if 0 < best < len(factors) - 1:
+                y0, y1, y2 = err[best - 1], err[best], err[best + 1]
+                x0, x1, x2 = np.log(factors[best - 1 : best + 2])
+                den = (x0 - x1) * (x0 - x2) * (x1 - x2)
+                if den != 0:
+                    aa = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / den
+                    bb = (x2**2 * (y0 - y1) + x1**2 * (y2 - y0) + x0**2 * (y1 - y2)) / den
+                    if aa > 0:
+                        f = float(np.exp(np.clip(-bb / (2 * aa), x0, x2)))
+            # damped, and trusted only where the pulse moved the parts well clear of noise
+            weight = 0.5 if float(np.median(np.hypot(*achieved[moved].T))) > 8e-3 else 0.2
+            self.mu_estimate = float(np.clip(self.mu_estimate * f**weight, 0.05, 1.5))
+        for k, r in zip(np.nonzero(ok)[0], a[ok], strict=True):
+            g2 = float(guessed[k] @ guessed[k])
+            if g2 < (3e-3) ** 2:
+                continue
+            ratio = float(np.clip(achieved[k] @ guessed[k] / g2, 0.5, 1.5))
+            pid = int(last_ids[r])
+            old = self.gains.get(pid, 1.0)
+            self.gains[pid] = float(np.clip(0.7 * old + 0.3 * ratio * old, 0.6, 1.6))
+
+    # -- planning ----------------------------------------------------------------------------------
+    def _carried(self) -> float:
+        """Largest corner excursion the plate's leftover motion may still make (its free
+        response from the expected state over the longest candidate and 0.3 s more)."""
+        if not np.any(self._plate):
+            return 0.0
+        dt = 1e-3
+        n = int((max(self.on_times) + 0.3) / dt)
+        _, _, pose, _ = self.limits.respond(np.zeros((n, 3)), dt, self._plate)
+        return self.limits.excursion(pose)
+
+    def _advance_plate(self, pulse: Pulse) -> None:
+        """The plate's state after ``pulse`` and its rest, by the limits' plate model."""
+        from ..pulses import HARMONICS
+
+        fs = 5000.0
+        t = np.arange(round(pulse.duration * fs)) / fs
+        motion = pulse.motion(rest=False)
+        env_t = np.clip(t, 0.0, pulse.on_time)
+        ph = pulse.phasors()
+        w = 2 * np.pi * pulse.frequency
+        plate, axes = self.limits.plate, self.limits.axes
+        inertia = np.array([plate.mass, plate.mass, plate.inertia])
+        wrench = np.zeros((len(t), 3))
+        env = np.zeros(len(t))
+        a, s_, d = pulse.attack, pulse.sustain, pulse.decay
+        env[(t >= a) & (t <= a + s_)] = 1.0
+        if a > 0:
+            env[t < a] = 0.5 - 0.5 * np.cos(np.pi * t[t < a] / a)
+        fall = (t > a + s_) & (t <= pulse.on_time)
+        if d > 0:
+            env[fall] = 0.5 - 0.5 * np.cos(np.pi * (pulse.on_time - t[fall]) / d)
+        del motion, env_t
+        for h in HARMONICS:
+            wh = h * w
+            if axes is None:
+                response = 1.0 / (1j * wh * inertia)
+            else:
+                response = np.array([complex(x.velocity_response(h * pulse.frequency)) for x in axes])
+            wrench += np.real(np.exp(1j * wh * t)[:, None] * (ph[h] / response)[None])
+        wrench *= env[:, None]
+        _, _, _, self._plate = self.limits.respond(wrench, 1.0 / fs, self._plate)
+
+    def candidates(self, positions: FloatArray) -> Candidates:
+        """This cycle's candidates for parts at ``positions`` (see :mod:`upm.plan.candidates`),
+        within the stroke the plate's leftover motion leaves."""
+        return generate(self.limits, positions, frequencies=self.frequencies, on_times=self.on_times,
+                        grid=self.grid, jet_radii=self.jet_radii, use=self.use, cache=self._cache,
+                        carried=self._carried())  # fmt: skip
+
+    def choose(
+        self, task: _CostTask, state: Any, pulses: Sequence[Pulse], ids: NDArray[np.int64] | None = None
+    ) -> tuple[int | None, FloatArray, FloatArray]:
+        """Index of the best of ``pulses`` for ``task`` (``None``: none gains ``min_gain``), with
+        every pulse's predicted gain [m] and gain per second."""
+        pos = np.asarray(state.positions, dtype=float)
+        ids = np.arange(len(pos)) if ids is None else ids
+        final, durations = self.predict(pulses, pos)
+        gain_of = np.array([self.gains.get(int(i), 1.0) for i in ids])
+        final = pos + gain_of[None, :, None] * (final - pos)
+        gain, rate = self._score(task, state, pos, final, durations)
+        order = np.argsort(-np.where(np.isfinite(rate), rate, -np.inf))
+        best: int | None = int(order[0]) if len(order) else None
+        if self.part_radius is not None and self.rerank > 0 and len(order):
+            top = [int(k) for k in order[: self.rerank]]
+            f2, d2 = self.predict([pulses[k] for k in top], pos, disks=True, fine=True)
+            f2 = np.where(np.isfinite(f2), pos + gain_of[None, :, None] * (f2 - pos), np.nan)
+            g2, r2 = self._score(task, state, pos, f2, d2)
+            gain[top], rate[top] = g2, r2
+            best = top[int(np.argmax(r2))]
+            self._durations = dict(zip(top, d2, strict=True))
+            self._finals = dict(zip(top, f2, strict=True))
+        else:
+            self._durations = {k: durations[k] for k in range(len(pulses))}
+            self._finals = {k: final[k] for k in range(len(pulses))}
+        if best is None or not gain[best] >= self.min_gain:
+            return None, gain, rate
+        return best, gain, rate
+
+    def plan_task(self, state: Any, task: _CostTask) -> list[Pulse]:
+        """One pulse for ``task`` from the tracked ``state`` (its parts all seen), or none."""
+        pos = np.asarray(state.positions, dtype=float)
+        ids = np.asarray(getattr(state, "ids", np.arange(len(pos))), dtype=np.int64)
+        self._correct(ids, pos)
+        if not len(pos):
+            return []
+        cands = self.candidates(pos)
+        self.candidate_counts.append(len(cands))
+        best, _, _ = self.choose(task, state, cands.pulses, ids)
+        if best is None:
+            return []
+        pulse = cands.pulses[best]
+        rest = float(self._durations[best]) - pulse.on_time + 0.01
+        played = replace(pulse, rest=max(rest, 0.0))
+        self._advance_plate(played)
+        self._last = (played, ids.copy(), pos.copy(), np.asarray(self._finals[best], dtype=float))
+        return [played]
+
+    def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]:
+        """Without a task: the pulse that best brings each part to ``positions + steps`` (NaN
+        components free)."""
+        pos = np.asarray(positions, dtype=float)
+        goal = pos + np.asarray(steps, dtype=float)
+        return self.plan_task(_View(pos), _Steps(goal))
+
+    def __repr__(self) -> str:
+        return (
+            f"PredictivePlanner(mu={self.mu:g}, mu_estimate={self.mu_estimate:.3g}, "
+            f"stroke={1000 * self.limits.stroke:g} mm, frequencies={self.frequencies})"
+        )
