@@ -1,87 +1,175 @@
-"""The three planners on the same task, through the same loop: 4 chips (2 red, 2 blue) sorted to
-opposite sides of the simulated plate (motors, flexures, virtual camera, vision).
+"""Every planner on the closed-loop tasks, through the full loop: motors on flexures (10 mm stroke,
+200 N motors), colliding disks (rapier2d), the virtual camera and vision.
 
-Reports, per planner: whether the sort finished, plate time to sort, cycles, the step tracking
-error (|achieved - desired| per part and cycle, median and 90th percentile) and the cross-talk
-(median sideways motion: the part of each achieved step across the step asked for). Seeds are fixed; the
-table in README.md comes from this script. Run: ``python bench/control.py [--seeds N]``.
+Tasks (each over ``--seeds`` seeds; medians and maxima):
+
+* ``sort8``: 8 chips sorted by colour (thesis Fig. 6.6: about 30 s on the hardware);
+* ``sort10``: 10 chips (Fig. 4.9);
+* ``goto6``: 6 pennies to random goals, all within 3 mm;
+* ``bowtie``: 3 pennies equidistant around the figure-eight (Figs. 6.4-6.5: about a minute a loop);
+* ``mu0.21``, ``mu0.39``: sort8 on plates whose friction is 0.21 and 0.39, the planner told 0.3.
+
+Columns: done (of the seeds), plate time to finish [s], parts lost, largest plate-corner excursion
+[mm], median predicted-vs-achieved step error [mm] (predictive planner), median planning time per
+cycle [ms], and the share of progress later undone. Also ``--scaling``: sort time and parts lost
+against the number of chips (4, 8, 16, 32), written to ``docs/img/scaling.png``.
+
+Run: ``python bench/control.py [--tasks sort8,goto6] [--planners predictive,jets] [--seeds 5]``.
 """
 
 from __future__ import annotations
 
 import argparse
+import platform
 import time
 import warnings
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 import upm
 from upm import control
-from upm.demos import _MOTORS, CHIP, PLATE, _scatter
-from upm.drive import flexures
+from upm.demos import CHIP, LIMITS, PENNY, _figure_eight, _scatter
+from upm.plan import PredictivePlanner
 from upm.plant import SimulatedUPM
 
 
-def planners() -> dict[str, object]:
-    centers = upm.ring_centers(12, 0.25)
-    return {
-        "RotationsPlanner (ch. 4, 12 centres, SVD, damped)": control.RotationsPlanner(
-            centers, cycle=2.0, damping=1.0
-        ),
-        "DisplacementPlanner (ch. 5, same centres)": control.DisplacementPlanner(centers, mu=0.3, **_MOTORS),
-        "JetPlanner (ch. 6)": control.JetPlanner(mu=0.3, amplitude=0.1, rho=0.03, **_MOTORS),
-    }
+def cpu() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
 
 
-def run(name: str, planner: object, seed: int) -> dict[str, float]:
+def planner(name: str, radius: float) -> Any:
+    if name == "predictive":
+        return PredictivePlanner(LIMITS, mu=0.3, part_radius=radius)
+    if name == "jets":
+        return control.JetPlanner(mu=0.3, amplitude=0.1, rho=0.03, limits=LIMITS)
+    if name == "rotations":
+        centers = np.vstack([upm.ring_centers(8, 0.07), upm.ring_centers(16, 0.18, phase=0.2)])
+        return control.RotationsPlanner(centers, cycle=4.0, limits=LIMITS)
+    raise SystemExit(f"unknown planner {name!r}")
+
+
+def setup(task: str, seed: int) -> tuple[np.ndarray, list[str], float, Any, int, float]:
+    """Parts, labels, radius, task, cycles for the thesis planners, and the plant's friction."""
     rng = np.random.default_rng(seed)
-    parts = _scatter(rng, 4, 0.07, 0.055)
-    labels = ["red", "red", "blue", "blue"]
-    plant = SimulatedUPM(plate=PLATE, axes=flexures(PLATE.mass, PLATE.inertia), parts=parts, seed=seed)
-    task = control.SortTask({"red": -1, "blue": 1}, line=0.09, margin=0.08, spacing=0.046, max_step=0.02)
-    loop = control.Loop(plant, plant.camera(labels, seed=seed), planner, task, part_radius=CHIP)
-    start = time.perf_counter()
+    mu = 0.3
+    if task.startswith("mu"):
+        mu, task = float(task[2:]), "sort8"
+    if task.startswith("sort"):
+        n = int(task[4:])
+        parts = _scatter(rng, n, 0.12 if n <= 8 else 0.13 if n <= 10 else 0.16, 0.052 if n <= 16 else 0.042)
+        labels = ["red"] * (n // 2) + ["blue"] * (n - n // 2)
+        job = control.SortTask({"red": -1, "blue": 1}, margin=0.08, spacing=0.046, max_step=0.025)
+        return parts, labels, CHIP, job, 60, mu
+    if task == "goto6":
+        parts = _scatter(rng, 6, 0.12, 0.04)
+        goals = _scatter(rng, 6, 0.12, 0.04)
+        return parts, ["penny"] * 6, PENNY, control.GotoTask(goals, tolerance=0.003), 60, mu
+    if task == "bowtie":
+        path = _figure_eight()
+        job = control.TrajectoryTask([path], speed=0.012, closed=True, equidistant=True, count=3,
+                                     kp=0.8, kd=0.1, max_step=0.015, hold=0.012, tolerance=0.006)  # fmt: skip
+        parts = np.array([job._reference(k, 0.0) for k in range(3)]) + 0.003
+        return parts, ["penny"] * 3, PENNY, job, 400, mu
+    raise SystemExit(f"unknown task {task!r}")
+
+
+def run(task: str, name: str, seed: int) -> dict[str, float]:
+    parts, labels, radius, job, cycles, mu = setup(task, seed)
+    plant = SimulatedUPM(plate=LIMITS.plate, axes=LIMITS.axes, parts=parts, seed=seed, part_radius=radius, mu=mu)
+    plan = planner(name, radius)
+    if name == "predictive":
+        cycles *= 4  # one pulse a cycle
+    loop = control.Loop(plant, plant.camera(labels, seed=seed), plan, job, part_radius=radius)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        log = loop.run(60)
-    wall = time.perf_counter() - start
-    d, a = log.desired, log.achieved
-    asked = np.hypot(d[..., 0], d[..., 1])
-    across = np.abs(a[..., 0] * d[..., 1] - a[..., 1] * d[..., 0]) / np.where(asked > 1e-3, asked, np.nan)
-    track = log.tracking_error()
+        start = time.perf_counter()
+        log = loop.run(cycles)
+        wall = time.perf_counter() - start
+    errs = getattr(plan, "step_errors", [])
+    e = log.errors
+    de = np.diff(e, axis=0)
+    de = de[np.isfinite(de)]
+    gained = float(np.sum(np.maximum(-de, 0)))
     return {
-        "done": float(log.done),
-        "plate_time": float(log.meta["plate_time"]),
-        "cycles": float(len(log.rows) - 1),
-        "track_median": float(np.nanmedian(track)),
-        "track_p90": float(np.nanpercentile(track, 90)),
-        "crosstalk": float(np.nanmedian(across)),
-        "fallen": float(plant.fallen),
+        "done": float(log.done and plant.fallen == 0),
+        "time": float(log.meta["plate_time"]),
+        "lost": float(plant.fallen),
+        "stroke": 1000 * plant.max_excursion,
+        "step_error": 1000 * float(np.median(errs)) if errs else float("nan"),
+        "planning": 1000 * float(np.median(log.planning)),
+        "undone": float(np.sum(np.maximum(de, 0))) / gained if gained else float("nan"),
+        "path_error": 1000 * float(np.nanmedian(e)),
         "wall": wall,
-        "planning_ms": 1000 * float(np.mean(log.planning)),
     }
+
+
+def table(tasks: list[str], planners: list[str], seeds: int) -> None:
+    print(f"upm {upm.__version__} on {cpu()}, {seeds} seeds each: median (max)\n")
+    print("| task | planner | done | plate time [s] | lost | stroke [mm] | step error [mm] | planning [ms] "
+          "| undone | path error [mm] |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for task in tasks:
+        for name in planners:
+            rows = [run(task, name, seed) for seed in range(1, seeds + 1)]
+
+            def cell(key: str, digits: int = 1) -> str:
+                v = np.array([r[key] for r in rows])
+                if not np.any(np.isfinite(v)):
+                    return "–"
+                return f"{np.nanmedian(v):.{digits}f} ({np.nanmax(v):.{digits}f})"
+
+            done = int(sum(r["done"] for r in rows))
+            print(f"| {task} | {name} | {done}/{seeds} | {cell('time')} | {cell('lost', 0)} | {cell('stroke')} | "
+                  f"{cell('step_error')} | {cell('planning', 0)} | {cell('undone', 2)} | {cell('path_error')} |",
+                  flush=True)  # fmt: skip
+
+
+def scaling(planners: list[str], seeds: int, out: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    counts = [4, 8, 16, 32]
+    fig, (a, b) = plt.subplots(1, 2, figsize=(9, 3.5))
+    for name in planners:
+        med, lost = [], []
+        for n in counts:
+            rows = [run(f"sort{n}", name, seed) for seed in range(1, seeds + 1)]
+            med.append(np.median([r["time"] for r in rows]))
+            lost.append(np.median([r["lost"] for r in rows]))
+            print(f"sort{n} {name}: {med[-1]:.1f} s, {lost[-1]:.0f} lost", flush=True)
+        a.plot(counts, med, "o-", label=name)
+        b.plot(counts, lost, "o-", label=name)
+    a.set(xlabel="chips", ylabel="plate time to sort [s] (median)", xscale="log", yscale="log")
+    b.set(xlabel="chips", ylabel="chips lost (median)", xscale="log")
+    a.legend()
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+    print(f"wrote {out}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=3)
+    parser.add_argument("--tasks", default="sort8,sort10,goto6,bowtie,mu0.21,mu0.39")
+    parser.add_argument("--planners", default="predictive,jets")
+    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--scaling", action="store_true", help="sort time against the number of chips")
     args = parser.parse_args()
-    print(f"upm {upm.__version__}: 4 chips sorted, {args.seeds} seeds each (medians over seeds)\n")
-    print(
-        "| planner | sorted | plate time to sort [s] | cycles | step error median / p90 [mm] "
-        "| cross-talk [mm] | planning [ms/cycle] |"
-    )
-    print("|---|---|---|---|---|---|---|")
-    for name, planner in planners().items():
-        rows = [run(name, planner, seed) for seed in range(args.seeds)]
-        med = {k: float(np.median([r[k] for r in rows])) for k in rows[0]}
-        done = sum(int(r["done"]) for r in rows)
-        track = f"{1000 * med['track_median']:.1f} / {1000 * med['track_p90']:.1f}"
-        print(
-            f"| {name} | {done}/{len(rows)} | {med['plate_time']:.0f} | {med['cycles']:.0f} | {track} | "
-            f"{1000 * med['crosstalk']:.1f} | {med['planning_ms']:.0f} |",
-            flush=True,
-        )
+    planners = args.planners.split(",")
+    if args.scaling:
+        scaling(planners, args.seeds, Path("docs/img/scaling.png"))
+    else:
+        table(args.tasks.split(","), planners, args.seeds)
 
 
 if __name__ == "__main__":

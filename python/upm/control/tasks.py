@@ -400,7 +400,7 @@ class SortTask:
         if not (math.isfinite(past) and past >= 0):
             raise ParameterError(f"past must be finite and >= 0 [m]; got {past!r}")
         self.past = float(past)
-        self.expected = 0  # the most labelled parts seen at once: fewer now means some are lost
+        self.expected: int | None = None  # labelled parts seen on the first cycle
         if not sides or any(v not in (-1, 1) for v in sides.values()):
             raise ParameterError(f"sides must map labels to -1 (left) or +1 (right); got {dict(sides)}")
         self.sides = dict(sides)
@@ -472,11 +472,13 @@ class SortTask:
         return out
 
     def done(self, state: State) -> bool:
-        """Every labelled part beyond its line, and none lost: as many labelled parts seen now as
-        the most seen at once before."""
+        """Every labelled part beyond its line, and none lost: at least as many labelled parts
+        seen now as on the first cycle (a part that fell off the plate is missing for good; the
+        tracker may give a part a new id, so ids are not counted)."""
         e = self.errors(state)
         sorted_ = e[np.isfinite(e)]
-        self.expected = max(self.expected, len(sorted_))
+        if self.expected is None:
+            self.expected = len(sorted_)
         return bool(len(sorted_) and len(sorted_) >= self.expected and np.all(sorted_ <= 0.0))
 
 

@@ -78,6 +78,9 @@ def generate(
     use: float = 0.9,
     cache: dict[tuple[object, ...], tuple[float, float]] | None = None,
     carried: float = 0.0,
+    jet_toward: FloatArray | None = None,
+    jet_on_times: tuple[float, ...] | None = None,
+    rotation_on_times: tuple[float, ...] | None = None,
 ) -> Candidates:
     """Candidate pulses for parts at ``positions (M, 2)`` [m], sized within ``limits``.
 
@@ -85,6 +88,10 @@ def generate(
     ``use``: the fraction of the force and stroke headroom a pulse may use (the rest is margin for
     what the plate carries over from the pulse before). ``cache`` keeps the unit-amplitude reach
     of shapes that do not depend on the parts (translations, grid rotations) across calls.
+    ``jet_toward (M, 2)``: where each part should go (a direction; zero: no jet at that part);
+    jets then feed along it and 35 degrees to either side instead of ``jet_directions`` evenly
+    spread directions. ``jet_on_times``, ``rotation_on_times``: on-times of the jets and of the
+    rotations about the grid (default the middle of ``on_times``, and ``on_times``).
     ``carried`` [m]: the largest corner excursion the plate's motion left from earlier pulses
     may still add; the stroke left for the candidate is ``stroke - carried``. Each shape is
     played at the one of ``frequencies`` that gives it the largest amplitude within the limits
@@ -119,17 +126,30 @@ def generate(
     for on in on_times:
         for a in angles:
             add("translation", "translation", zero, np.array([np.cos(a), np.sin(a)]), 0.0, on, frequencies)
+    for on in on_times if rotation_on_times is None else rotation_on_times:
         for c in centres:
             for sign in (1.0, -1.0):
                 add("rotation", "rotation", c, np.array([sign, 0.0]), 0.0, on, frequencies)
     on_part = on_times[len(on_times) // 2]
     jet_angles = 2 * np.pi * np.arange(jet_directions) / jet_directions
-    for p in pos:
+    for i, p in enumerate(pos):
         for sign in (1.0, -1.0):
             add("rotation", "part-rotation", p, np.array([sign, 0.0]), 0.0, on_part, frequencies)
-        for rho in jet_radii:
-            for a in jet_angles:
-                add("jet", "jet", p, np.array([np.cos(a), np.sin(a)]), rho, on_part, frequencies[:2])
+        if jet_toward is None:
+            ways = [np.array([np.cos(a), np.sin(a)]) for a in jet_angles]
+        else:
+            g = np.asarray(jet_toward[i], dtype=float)
+            n = float(np.hypot(*g))
+            base = np.arctan2(g[1], g[0])
+            ways = (
+                []
+                if not n > 0
+                else [np.array([np.cos(base + b), np.sin(base + b)]) for b in (0.0, -0.61, 0.61)]
+            )
+        for on in (on_part,) if jet_on_times is None else jet_on_times:
+            for rho in jet_radii:
+                for d in ways:
+                    add("jet", "jet", p, d, rho, on, frequencies)
     k = len(specs)
     attack = np.array([(6.0 if s[0] == "jet" else 3.0) / s[5] for s in specs])
     freq = np.array([s[5] for s in specs])
@@ -138,23 +158,35 @@ def generate(
     sustain = on_arr - 2 * attack
     force = np.full(k, np.nan)
     reach = np.full(k, np.nan)
-    keys: list[tuple[object, ...] | None] = []
+    keys: list[tuple[object, ...]] = []
     for i, (kind, family, c, d, rho, f, t) in enumerate(specs):
-        fixed = family in ("translation", "rotation")
-        key = (kind, *np.round(c, 9), *np.round(d, 9), rho, f, t) if fixed else None
+        # shapes at a part are sized at its position rounded to 5 mm (their reach changes by well
+        # under 2 % over that), so they too are mostly found in the cache from cycle to cycle
+        at = np.round(c, 9) if family in ("translation", "rotation") else np.round(c / 0.005) * 0.005
+        key = (kind, *at, *np.round(d, 9), rho, f, t)
         keys.append(key)
-        if cache is not None and key is not None and key in cache:
+        if cache is not None and key in cache:
             force[i], reach[i] = cache[key]
     todo = np.nonzero(np.isnan(force))[0]
     if len(todo):
-        ph = np.stack([_unit_phasors(specs[i][0], specs[i][2], specs[i][3], specs[i][4]) for i in todo])
+        ph = np.stack(
+            [
+                _unit_phasors(
+                    specs[i][0],
+                    np.array(keys[i][1:3], dtype=float)
+                    if specs[i][1] in ("jet", "part-rotation")
+                    else specs[i][2],
+                    specs[i][3],
+                    specs[i][4],
+                )
+                for i in todo
+            ]
+        )
         fo, ex = limits.reach(ph, freq[todo], attack[todo], sustain[todo], attack[todo], samples=1536)
         force[todo], reach[todo] = fo, ex
         if cache is not None:
             for j in todo:
-                key = keys[int(j)]
-                if key is not None:
-                    cache[key] = (float(force[j]), float(reach[j]))
+                cache[keys[int(j)]] = (float(force[j]), float(reach[j]))
     room = max(limits.stroke - carried, 0.0)
     scale = use * np.minimum(limits.force / np.maximum(force, 1e-300), room / np.maximum(reach, 1e-300))
     # per shape, the frequency with the largest amplitude (ties: the higher frequency)

@@ -61,8 +61,10 @@ class MacroTable:
     ) -> None:
         self.limits, self.mu, self.mu_s, self.on_time = limits, float(mu), mu_s, float(on_time)
         if centres is None:
-            line = np.linspace(-0.75 * limits.size, 0.75 * limits.size, 19)
-            c = np.vstack([np.stack([np.zeros_like(line), line], 1), np.stack([line, np.zeros_like(line)], 1)])
+            line = np.linspace(-0.75 * limits.size, 0.75 * limits.size, 13)
+            c = np.vstack(
+                [np.stack([np.zeros_like(line), line], 1), np.stack([line, np.zeros_like(line)], 1)]
+            )
             centres = np.unique(np.round(c, 9), axis=0)
         cands = generate(limits, np.zeros((0, 2)), frequencies=frequencies, on_times=(self.on_time,),
                          directions=directions, grid=1, jet_radii=(), jet_directions=0)  # fmt: skip
@@ -117,8 +119,12 @@ class MacroTable:
         r = np.hypot(rel[..., 0], rel[..., 1])
         cos = np.where(r > 0, rel[..., 0] / np.where(r > 0, r, 1.0), 1.0)
         sin = np.where(r > 0, rel[..., 1] / np.where(r > 0, r, 1.0), 0.0)
-        dx = np.stack([np.interp(r[..., k, :], self.radii, self.turn[k, :, 0]) for k in range(len(self.centres))], -2)
-        dy = np.stack([np.interp(r[..., k, :], self.radii, self.turn[k, :, 1]) for k in range(len(self.centres))], -2)
+        dx = np.stack(
+            [np.interp(r[..., k, :], self.radii, self.turn[k, :, 0]) for k in range(len(self.centres))], -2
+        )
+        dy = np.stack(
+            [np.interp(r[..., k, :], self.radii, self.turn[k, :, 1]) for k in range(len(self.centres))], -2
+        )
         turned = np.stack([cos * dx - sin * dy, sin * dx + cos * dy], axis=-1)
         rotated = q[..., None, :, :] + turned
         shifted = q[..., None, :, :] + self.shift[:, None, :]

@@ -36,6 +36,7 @@ from ..motion import PlateMotion
 from ..pulses import Pulse
 from ..sim import Disk, simulate_batch
 from .candidates import Candidates, generate
+from .macros import MacroTable
 
 __all__ = ["PredictivePlanner"]
 
@@ -118,6 +119,9 @@ class PredictivePlanner:
         Fit friction and per-part gains online from predicted against achieved steps.
     dt_factor : int
         Integrator steps per period of the highest harmonic when ranking (re-ranking uses twice).
+    lookahead : float or None
+        On-time [s] of the long pulses (:class:`~upm.plan.macros.MacroTable`) each candidate is
+        also scored with as a second step; ``None``: one step only.
     """
 
     def __init__(
@@ -128,16 +132,17 @@ class PredictivePlanner:
         mu_s: float | None = None,
         part_radius: float | None = None,
         frequencies: Sequence[float] = (25.0, 35.0, 50.0, 70.0),
-        on_times: Sequence[float] = (0.3, 0.6, 1.2),
+        on_times: Sequence[float] = (0.2, 0.4, 0.8),
         use: float = 0.9,
         edge: float = 0.035,
         lost_cost: float = 1.0,
         min_gain: float = 5e-4,
         rerank: int = 4,
         adapt: bool = True,
-        dt_factor: int = 40,
+        dt_factor: int = 24,
         grid: int = 5,
-        jet_radii: Sequence[float] = (0.03, 0.06),
+        jet_radii: Sequence[float] = (0.04, 0.08, 0.12),
+        lookahead: float | None = 1.0,
     ) -> None:
         if not isinstance(limits, DriveLimits):
             raise ParameterError(f"limits must be a upm.DriveLimits; got {type(limits).__name__}")
@@ -163,6 +168,9 @@ class PredictivePlanner:
         self.grid = int(grid)
         self.jet_radii = tuple(_positive("jet_radii", r) for r in jet_radii)
         self.mu_estimate = self.mu
+        self.macros = (
+            None if lookahead is None else MacroTable(limits, mu=self.mu, mu_s=mu_s, on_time=lookahead)
+        )
         self.gains: dict[int, float] = {}
         self.step_errors: list[float] = []
         """|predicted - achieved| step of every part after every pulse [m]."""
@@ -194,51 +202,52 @@ class PredictivePlanner:
         ``(K,)`` [s] each takes (the pulse and the rest until the last part stops, to 10 ms)."""
         mu_v = self.mu_estimate if mu is None else mu
         mu0 = float(np.min(mu_v))
-        coast = self._coast(pulses, mu0)
-        horizon = max(p.on_time for p in pulses) + coast
-        motions = [PlateMotion.sequence([p.motion(rest=False), PlateMotion.rest(horizon - p.on_time + 1e-3)])
-                   for p in pulses]  # fmt: skip
-        top = max(m.max_frequency for m in motions)
-        dt = 1.0 / ((2 if fine else 1) * self.dt_factor * top)
-        every = max(1, round(0.01 / dt))
         mu_s = np.asarray(mu_v, dtype=float) * (self._mu_s(1.0) if self.mu_s is not None else 1.0)
-        opts: dict[str, Any] = {
-            "duration": horizon,
-            "dt": dt,
-            "mu": mu_v,
-            "mu_s": mu_s,
-            "record_every": every,
-        }
         if disks and self.part_radius is not None:
             apart = _separate(positions, self.part_radius)
             parts: Any = [Disk((float(x), float(y)), self.part_radius) for x, y in apart]
-            opts.update(contacts=True, plate_size=self.limits.size)
+            extra: dict[str, Any] = {"contacts": True, "plate_size": self.limits.size}
         else:
-            parts = positions
-        run = simulate_batch(motions, parts, **opts)
-        final = run.positions[:, -1]
-        # stopped: every part stuck from then on, after the pulse's end
-        moving: NDArray[np.bool_] = np.asarray(~np.all(run.stuck, axis=2))  # (K, T)
-        t = run.t
+            parts, extra = positions, {}
+        final = np.empty((len(pulses), len(positions), 2))
         durations = np.empty(len(pulses))
-        for k, p in enumerate(pulses):
-            late = np.nonzero(moving[k] & (t >= p.on_time - 1e-9))[0]
-            stop = t[late[-1]] + t[1] - t[0] if len(late) else p.on_time
-            durations[k] = max(stop, p.on_time)
-        gone = np.asarray(run.left_plate) if disks and self.part_radius is not None else None
-        if gone is not None and gone.any():
-            final = final.copy()
-            final[gone] = np.nan
+        # one batched call per on-time and highest frequency: each simulated for its own horizon
+        groups: dict[tuple[float, float], list[int]] = {}
+        motions = [p.motion(rest=False) for p in pulses]
+        for k, (p, m) in enumerate(zip(pulses, motions, strict=True)):
+            groups.setdefault((round(p.on_time, 6), m.max_frequency), []).append(k)
+        for (on, top), members in groups.items():
+            horizon = on + self._coast([pulses[k] for k in members], mu0)
+            seq = [
+                PlateMotion.sequence([motions[k], PlateMotion.rest(horizon - pulses[k].on_time + 1e-3)])
+                for k in members
+            ]
+            dt = 1.0 / ((2 if fine else 1) * self.dt_factor * top)
+            every = max(1, round(0.01 / dt))
+            run = simulate_batch(
+                seq, parts, duration=horizon, dt=dt, mu=mu_v, mu_s=mu_s, record_every=every, **extra
+            )
+            out = run.positions[:, -1].copy()
+            if extra:
+                out[np.asarray(run.left_plate)] = np.nan
+            final[members] = out
+            # stopped: every part stuck from then on, after the pulse's end
+            moving: NDArray[np.bool_] = np.asarray(~np.all(run.stuck, axis=2))  # (K, T)
+            t = run.t
+            for row, k in enumerate(members):
+                late = np.nonzero(moving[row] & (t >= on - 1e-9))[0]
+                stop = t[late[-1]] + t[1] - t[0] if len(late) else on
+                durations[k] = max(stop, on)
         return final, durations
 
     # -- scoring --------------------------------------------------------------------------------
-    def _penalty(self, q: FloatArray) -> FloatArray:
+    def _penalty(self, q: FloatArray, overlaps: bool = True) -> FloatArray:
         """Edge and overlap penalties ``(K,)`` [m of cost] for predicted positions ``(K, M, 2)``."""
         half = self.limits.size / 2
         lost = ~np.all(np.isfinite(q), axis=-1) | np.any(np.abs(np.nan_to_num(q)) > half, axis=-1)
         over = np.clip(np.abs(np.nan_to_num(q)) - (half - self.edge), 0.0, None).sum(axis=-1)
         out: FloatArray = self.lost_cost * lost.sum(axis=-1) + 3.0 * np.where(lost, 0.0, over).sum(axis=-1)
-        if self.part_radius is not None and q.shape[1] > 1:
+        if overlaps and self.part_radius is not None and q.shape[1] > 1:
             i, j = np.triu_indices(q.shape[1], 1)
             gap = np.linalg.norm(np.nan_to_num(q[:, i] - q[:, j], nan=1.0), axis=-1)
             out = out + 0.5 * np.clip(2.05 * self.part_radius - gap, 0.0, None).sum(axis=-1)
@@ -356,12 +365,36 @@ class PredictivePlanner:
         wrench *= env[:, None]
         _, _, _, self._plate = self.limits.respond(wrench, 1.0 / fs, self._plate)
 
-    def candidates(self, positions: FloatArray) -> Candidates:
+    @staticmethod
+    def _descent(task: _CostTask, state: Any, pos: FloatArray, h: float = 1e-3) -> FloatArray:
+        """Each part's direction of steepest cost descent ``(M, 2)`` (central differences)."""
+        m = len(pos)
+        probe = np.repeat(pos[None], 4 * m, axis=0)
+        for i in range(m):
+            for j in range(2):
+                probe[4 * i + 2 * j, i, j] += h
+                probe[4 * i + 2 * j + 1, i, j] -= h
+        c = np.asarray(task.cost(state, probe, 0.0), dtype=float).reshape(m, 2, 2)
+        out: FloatArray = -(c[:, :, 0] - c[:, :, 1]) / (2 * h)
+        return out
+
+    def candidates(self, positions: FloatArray, toward: FloatArray | None = None) -> Candidates:
         """This cycle's candidates for parts at ``positions`` (see :mod:`upm.plan.candidates`),
-        within the stroke the plate's leftover motion leaves."""
-        return generate(self.limits, positions, frequencies=self.frequencies, on_times=self.on_times,
-                        grid=self.grid, jet_radii=self.jet_radii, use=self.use, cache=self._cache,
-                        carried=self._carried())  # fmt: skip
+        within the stroke the plate's leftover motion leaves; jets along ``toward (M, 2)``."""
+        return generate(
+            self.limits,
+            positions,
+            frequencies=self.frequencies,
+            on_times=self.on_times,
+            grid=self.grid,
+            jet_radii=self.jet_radii,
+            use=self.use,
+            cache=self._cache,
+            carried=self._carried(),
+            jet_toward=toward,
+            jet_on_times=(0.35, 0.6),
+            rotation_on_times=self.on_times[:2],
+        )
 
     def choose(
         self, task: _CostTask, state: Any, pulses: Sequence[Pulse], ids: NDArray[np.int64] | None = None
@@ -374,6 +407,7 @@ class PredictivePlanner:
         gain_of = np.array([self.gains.get(int(i), 1.0) for i in ids])
         final = pos + gain_of[None, :, None] * (final - pos)
         gain, rate = self._score(task, state, pos, final, durations)
+        rate = np.maximum(rate, self._two_step(task, state, pos, final, durations))
         order = np.argsort(-np.where(np.isfinite(rate), rate, -np.inf))
         best: int | None = int(order[0]) if len(order) else None
         if self.part_radius is not None and self.rerank > 0 and len(order):
@@ -388,9 +422,33 @@ class PredictivePlanner:
         else:
             self._durations = {k: durations[k] for k in range(len(pulses))}
             self._finals = {k: final[k] for k in range(len(pulses))}
-        if best is None or not gain[best] >= self.min_gain:
+        if best is None or not (
+            gain[best] >= self.min_gain or rate[best] * self._durations.get(best, 1.0) >= self.min_gain
+        ):
             return None, gain, rate
         return best, gain, rate
+
+    def _two_step(
+        self, task: _CostTask, state: Any, pos: FloatArray, final: FloatArray, durations: FloatArray
+    ) -> FloatArray:
+        """Gain per second of each candidate followed by the best long pulse (its table)."""
+        if self.macros is None:
+            return np.full(len(final), -np.inf)
+        self.macros.refresh(self.mu_estimate)
+        safe = np.where(np.isfinite(final), final, pos)
+        after = self.macros.apply(safe)  # (K, R, M, 2)
+        total = durations[:, None] + self.macros.durations[None, :]
+        still = np.broadcast_to(pos, after.shape)
+        flat = (-1, *pos.shape)
+        rest = np.asarray(task.cost(state, still, total), dtype=float)
+        rest = rest + self._penalty(still.reshape(flat), overlaps=False).reshape(total.shape)
+        cost = np.asarray(task.cost(state, after, total), dtype=float)
+        cost = cost + self._penalty(after.reshape(flat), overlaps=False).reshape(total.shape)
+        # the first step's own losses (a part pushed off) count in full
+        lost = ~np.all(np.isfinite(final), axis=(1, 2))
+        out: FloatArray = np.max((rest - cost) / total, axis=1)
+        out[lost] = -np.inf
+        return out
 
     def plan_task(self, state: Any, task: _CostTask) -> list[Pulse]:
         """One pulse for ``task`` from the tracked ``state`` (its parts all seen), or none."""
@@ -399,7 +457,7 @@ class PredictivePlanner:
         self._correct(ids, pos)
         if not len(pos):
             return []
-        cands = self.candidates(pos)
+        cands = self.candidates(pos, self._descent(task, state, pos))
         self.candidate_counts.append(len(cands))
         best, _, _ = self.choose(task, state, cands.pulses, ids)
         if best is None:
