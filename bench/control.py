@@ -83,7 +83,9 @@ def setup(task: str, seed: int) -> tuple[np.ndarray, list[str], float, Any, int,
 
 def run(task: str, name: str, seed: int) -> dict[str, float]:
     parts, labels, radius, job, cycles, mu = setup(task, seed)
-    plant = SimulatedUPM(plate=LIMITS.plate, axes=LIMITS.axes, parts=parts, seed=seed, part_radius=radius, mu=mu)
+    plant = SimulatedUPM(
+        plate=LIMITS.plate, axes=LIMITS.axes, parts=parts, seed=seed, part_radius=radius, mu=mu
+    )
     plan = planner(name, radius)
     if name == "predictive":
         cycles *= 4  # one pulse a cycle
@@ -111,6 +113,14 @@ def run(task: str, name: str, seed: int) -> dict[str, float]:
     }
 
 
+def cell(rows: list[dict[str, float]], key: str, digits: int) -> str:
+    """Median (max) over the seeds."""
+    v = np.array([r[key] for r in rows])
+    if not np.any(np.isfinite(v)):
+        return "–"
+    return f"{np.nanmedian(v):.{digits}f} ({np.nanmax(v):.{digits}f})"
+
+
 def table(tasks: list[str], planners: list[str], seeds: int) -> None:
     print(f"upm {upm.__version__} on {cpu()}, {seeds} seeds each: median (max)\n")
     print("| task | planner | done | plate time [s] | lost | stroke [mm] | step error [mm] | planning [ms] "
@@ -120,16 +130,11 @@ def table(tasks: list[str], planners: list[str], seeds: int) -> None:
         for name in planners:
             rows = [run(task, name, seed) for seed in range(1, seeds + 1)]
 
-            def cell(key: str, digits: int = 1) -> str:
-                v = np.array([r[key] for r in rows])
-                if not np.any(np.isfinite(v)):
-                    return "–"
-                return f"{np.nanmedian(v):.{digits}f} ({np.nanmax(v):.{digits}f})"
-
             done = int(sum(r["done"] for r in rows))
-            print(f"| {task} | {name} | {done}/{seeds} | {cell('time')} | {cell('lost', 0)} | {cell('stroke')} | "
-                  f"{cell('step_error')} | {cell('planning', 0)} | {cell('undone', 2)} | {cell('path_error')} |",
-                  flush=True)  # fmt: skip
+            keys = (("time", 1), ("lost", 0), ("stroke", 1), ("step_error", 1), ("planning", 0),
+                    ("undone", 2), ("path_error", 1))  # fmt: skip
+            cells = " | ".join(cell(rows, k, d) for k, d in keys)
+            print(f"| {task} | {name} | {done}/{seeds} | {cells} |", flush=True)
 
 
 def scaling(planners: list[str], seeds: int, out: Path) -> None:

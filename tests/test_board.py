@@ -145,7 +145,9 @@ def test_watchdog_timing_in_the_board_logic():
 
 
 def test_the_link_survives_injected_faults():
-    proc, path = start_emulator("--drop", "0.1", "--corrupt", "0.05", "--duplicate", "0.05", "--seed", "3", "--stroke", str(LONG))
+    proc, path = start_emulator(
+        "--drop", "0.1", "--corrupt", "0.05", "--duplicate", "0.05", "--seed", "3", "--stroke", str(LONG)
+    )
     try:
         with Board(path, timeout=0.1, retries=8) as board:
             for k in range(4):

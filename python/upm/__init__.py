@@ -27,8 +27,15 @@ from .drive import DriveLimits, StrokeError
 from .feeding import feed_rate, force_table, mean_force, theorem1_force
 from .fields import average_field, jet_field, rotation_curl, rotation_field
 from .motion import PlateMotion
-from .plan import PredictivePlanner
-from .planning import jet_plan, jet_pulses, plan_pulses, plan_to_motion, sustain_for_displacement, trim_rests
+from .plan import (
+    PredictivePlanner,
+    jet_plan,
+    jet_pulses,
+    plan_pulses,
+    plan_to_motion,
+    sustain_for_displacement,
+    trim_rests,
+)
 from .pulses import Pulse
 from .sim import Disk, Point, SimResult, simulate, simulate_batch
 from .solvers import (

@@ -12,7 +12,7 @@ to a stop. The same pulse can be
   velocity response (inertial, 5.10, or the suspension of 5.26: precompensation) and shared
   among the motors with minimum norm (5.8).
 
-Planners (:mod:`upm.planning`, :mod:`upm.control`) return lists of pulses; devices play them.
+Planners (:mod:`upm.plan`) return lists of pulses; devices (:mod:`upm.control`) play them.
 """
 
 from __future__ import annotations

@@ -1,5 +1,7 @@
 """The closed loop and its tasks (thesis 4.3, 5.2.5, 6.3): camera → vision → task → planner → device.
 
+The planners live in :mod:`upm.plan` and are re-exported here.
+
 >>> from upm import control  # doctest: +SKIP
 >>> loop = control.Loop(plant, plant.camera("penny"), control.JetPlanner(mu=0.3),
 ...                     control.GotoTask([(0.05, 0.0)]), part_radius=0.0095)  # doctest: +SKIP
@@ -10,10 +12,9 @@ Needs OpenCV and SciPy (``pip install 'upm[control]'``).
 
 from __future__ import annotations
 
-from ..plan import PredictivePlanner
+from ..plan import DisplacementPlanner, FixedPlanner, JetPlanner, Planner, PredictivePlanner, RotationsPlanner
 from .devices import BoardDevice, Device, SimulatedDevice, as_device
 from .loop import LoadedLog, Log, Loop, load_log
-from .planners import DisplacementPlanner, FixedPlanner, JetPlanner, Planner, RotationsPlanner
 from .tasks import GotoTask, SortTask, State, Task, TrajectoryTask, WatchTask
 
 __all__ = [

@@ -21,9 +21,9 @@ from numpy.typing import NDArray
 
 from .._errors import ParameterError, VisionError
 from ..drive import PLATE_SIZE
+from ..plan import Planner
 from ..pulses import Pulse
 from .devices import Device, as_device, pulse_time
-from .planners import Planner
 from .tasks import State, Task
 
 __all__ = ["Log", "Loop", "load_log"]

@@ -1,16 +1,45 @@
-"""Planning: from what the parts should do to the pulses that do it.
+"""Planning: from what the parts should do to the pulses that do it, one module per method.
 
-* :class:`PredictivePlanner` (:mod:`upm.plan.predictive`): receding-horizon sampling on the
-  batched simulator, one pulse a cycle, within the drive's force and stroke.
-* :mod:`upm.plan.candidates`: the candidate pulse families, sized within :class:`upm.DriveLimits`.
+* :mod:`~upm.plan.rotations` (chapter 4): :func:`rotation_pulses`, :class:`RotationsPlanner`;
+* :mod:`~upm.plan.displacements` (chapter 5): :func:`plan_pulses`, :func:`plan_to_motion`,
+  :func:`sustain_for_displacement`, :class:`DisplacementPlanner`;
+* :mod:`~upm.plan.jets` (chapter 6): :func:`jet_pulses`, :func:`jet_plan`, :class:`JetPlanner`;
+* :mod:`~upm.plan.predictive`: :class:`PredictivePlanner`, receding-horizon sampling on the
+  batched simulator within the drive's force and stroke; its candidate families
+  (:mod:`~upm.plan.candidates`) and long-pulse look-ahead (:mod:`~upm.plan.macros`);
+* :mod:`~upm.plan.sizing`: sizing one pulse against the integrator, shared by all;
+* :mod:`~upm.plan.fixed`: the :class:`Planner` protocol and :class:`FixedPlanner`.
 
-The thesis's planners (rotations, ch. 4; displacements, ch. 5; jets, ch. 6) are in
-:mod:`upm.control.planners` and take the same limits.
+Every planner sizes its pulses within :class:`upm.DriveLimits` (``limits=device.limits``). This
+package never imports the loop, the board, vision or the plant.
 """
 
 from __future__ import annotations
 
 from .candidates import Candidates, generate
+from .displacements import DisplacementPlanner, plan_pulses, plan_to_motion, sustain_for_displacement
+from .fixed import FixedPlanner, Planner
+from .jets import JetPlanner, jet_plan, jet_pulses
+from .macros import MacroTable
 from .predictive import PredictivePlanner
+from .rotations import RotationsPlanner, rotation_pulses
+from .sizing import trim_rests
 
-__all__ = ["Candidates", "PredictivePlanner", "generate"]
+__all__ = [
+    "Candidates",
+    "DisplacementPlanner",
+    "FixedPlanner",
+    "JetPlanner",
+    "MacroTable",
+    "Planner",
+    "PredictivePlanner",
+    "RotationsPlanner",
+    "generate",
+    "jet_plan",
+    "jet_pulses",
+    "plan_pulses",
+    "plan_to_motion",
+    "rotation_pulses",
+    "sustain_for_displacement",
+    "trim_rests",
+]

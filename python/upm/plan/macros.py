@@ -65,12 +65,14 @@ class MacroTable:
             c = np.vstack(
                 [np.stack([np.zeros_like(line), line], 1), np.stack([line, np.zeros_like(line)], 1)]
             )
-            centres = np.unique(np.round(c, 9), axis=0)
+            at = np.unique(np.round(c, 9), axis=0)
+        else:
+            at = np.asarray(centres, dtype=float).reshape(-1, 2)
         cands = generate(limits, np.zeros((0, 2)), frequencies=frequencies, on_times=(self.on_time,),
                          directions=directions, grid=1, jet_radii=(), jet_directions=0)  # fmt: skip
         # keep the translations, and make rotations about the given centres at their best frequency
         self.translations = [p for p, f in zip(cands.pulses, cands.family, strict=True) if f == "translation"]
-        rot = generate(limits, np.asarray(centres, float), frequencies=frequencies, on_times=(self.on_time,),
+        rot = generate(limits, at, frequencies=frequencies, on_times=(self.on_time,),
                        directions=0, grid=0, jet_radii=(), jet_directions=0)  # fmt: skip
         self.rotations = [p for p, f in zip(rot.pulses, rot.family, strict=True) if f == "part-rotation"]
         self.pulses: list[Pulse] = self.rotations + self.translations
@@ -79,7 +81,7 @@ class MacroTable:
 
     def _build(self) -> None:
         """Simulate every macro once: rotations on a ray of parts, translations on one part."""
-        motions, parts = [], []
+        motions = []
         coast = 1.05 * self.on_time * ((self.mu_s or self.mu) / self.mu) + 0.02
         for p in self.pulses:
             motions.append(PlateMotion.sequence([p.motion(rest=False), PlateMotion.rest(coast)]))

@@ -1,0 +1,231 @@
+"""Drive limits, the stroke, task costs and the predictive planner (issue: predictive planning)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import upm
+from upm import control
+from upm.board import protocol
+from upm.board.emulator import BoardEmulator
+from upm.control.tasks import State
+from upm.drive import DriveLimits, StrokeError, flexures
+from upm.plan import PredictivePlanner, generate
+from upm.plant import Channel, Envelope, SimulatedUPM
+from upm.pulses import Pulse
+from upm.waveforms import Harmonics
+
+CHIP = 0.0195
+
+
+def _slow_plate(plant: SimulatedUPM, forces: np.ndarray, state: np.ndarray) -> np.ndarray:
+    """The plate's pose, one sample at a time: (5.8), then ``f = m q'' + b q' + k q`` by
+    semi-implicit Euler (written out here, independent of the filter the plant runs)."""
+    r = plant.plate.lever
+    m = forces
+    wrench = np.stack(
+        [m[:, 0] - m[:, 1], m[:, 2] - m[:, 3], r * ((m[:, 2] + m[:, 3]) - (m[:, 0] + m[:, 1]))], 1
+    )
+    inertia = [plant.plate.mass, plant.plate.mass, plant.plate.inertia]
+    dt = 1.0 / plant.sample_rate
+    pose = np.empty_like(wrench)
+    for k in range(3):
+        q, v = state[k]
+        b = 0.0 if plant.axes is None else plant.axes[k].damping
+        s = 0.0 if plant.axes is None else plant.axes[k].stiffness
+        for n in range(len(wrench)):
+            v += dt * (wrench[n, k] - b * v - s * q) / inertia[k]
+            q += dt * v
+            pose[n, k] = q
+    return pose
+
+
+@pytest.mark.parametrize("free", [False, True])
+def test_the_plate_model_is_the_per_sample_recurrence(free: bool) -> None:
+    plant = SimulatedUPM(axes=None) if free else SimulatedUPM()
+    start = np.array([[0.002, 0.01], [-0.001, 0.02], [0.01, 0.3]])  # per axis (position, velocity)
+    plant._state = start.copy()
+    forces = np.random.default_rng(1).normal(0.0, 50.0, (2000, 4))
+    plant.plate_state(forces)
+    expected = _slow_plate(plant, forces, start)
+    assert np.allclose(plant._state[:, 0], expected[-1], rtol=1e-9, atol=1e-12)
+    # the recorded pose keeps every 10th sample and the last
+    assert np.allclose(plant.pose[:-1], expected[::10], rtol=1e-9, atol=1e-12)
+    assert plant.max_excursion == pytest.approx(plant.limits.excursion(expected), rel=1e-9)
+
+
+def test_excursion_of_known_poses() -> None:
+    limits = DriveLimits()
+    h = limits.size / 2
+    assert limits.excursion([[0.003, -0.004, 0.0]]) == pytest.approx(0.005)
+    # a small turn about the centre moves every corner by h sqrt(2) theta
+    assert limits.excursion([[0.0, 0.0, 0.01]]) == pytest.approx(
+        2 * h * math.sqrt(2) * math.sin(0.005), rel=1e-12
+    )
+
+
+def test_candidates_stay_within_force_and_stroke_on_the_plant() -> None:
+    plant = SimulatedUPM()
+    limits = plant.limits
+    parts = np.array([[0.05, 0.05], [-0.08, 0.02], [0.1, -0.1]])
+    cands = generate(limits, parts, use=0.9)
+    families = set(cands.family)
+    assert {"translation", "rotation", "part-rotation", "jet"} <= families
+    kinds = {p.kind for p in cands.pulses}
+    assert kinds == {"translation", "rotation", "jet"}
+    assert len(cands) >= 250
+    for k in range(0, len(cands), 5):
+        p = cands.pulses[k]
+        force = p.peak_force(limits.plate, limits.axes)  # the channels' own arithmetic
+        channels = [Channel(**c) for c in p.channels(limits.plate, limits.axes)]
+        reach = plant.excursion(channels, Envelope(p.attack, p.sustain, p.decay))  # at 5 kHz
+        assert force <= limits.force * 0.9 * 1.001
+        assert reach <= limits.stroke * 0.93, (cands.family[k], p.frequency, reach)
+        # and at least one of the two limits is nearly used: the candidate is as strong as allowed
+        assert max(force / limits.force, reach / limits.stroke) > 0.85
+
+
+def test_a_pulse_beyond_the_stroke_is_refused_by_plant_host_and_emulator() -> None:
+    plant = SimulatedUPM(parts=[[0.05, 0.0]])
+    big = Pulse.rotation((0.0, 0.0), Harmonics([8.0, -4.0], [0.0, 0.0], 25.0), 0.12, 0.3, 0.12)  # 85 N, 17 mm
+    assert plant.limits.pulse_excursion(big) > plant.stroke
+    channels = [Channel(**c) for c in big.channels(plant.plate, plant.axes)]
+    with pytest.raises(StrokeError, match="stroke"):
+        plant.run(channels, Envelope(big.attack, big.sustain, big.decay))
+    assert np.all(plant._state == 0) and np.allclose(plant.parts, [[0.05, 0.0]])  # nothing moved
+    with pytest.raises(StrokeError):
+        control.SimulatedDevice(plant).execute([big])
+    with pytest.raises(StrokeError):
+        plant.limits.check(big)  # the host's check before it sends anything
+    with pytest.raises(upm.UpmError):  # and the same from the top-level name
+        DriveLimits(stroke=0.01).check(big)
+    # the board: SET_CHANNEL x 4, SET_ENVELOPE, PULSE -> NACK STROKE
+    board = BoardEmulator(SimulatedUPM(snr_db=None))
+    decoder = protocol.Decoder()
+    frames: list[protocol.Message] = [protocol.Hello(1)]
+    for k, c in enumerate(channels):
+        frames.append(protocol.SetChannel(k, 1.0, c.frequency, c.h1_amplitude, c.h1_phase, c.h2_amplitude,
+                                          c.h2_phase, c.h23_amplitude, c.h23_phase))  # fmt: skip
+    frames += [protocol.SetEnvelope(big.attack, big.sustain, big.decay), protocol.Pulse(9)]
+    replies = []
+    for seq, message in enumerate(frames, 1):
+        replies += [m for _, m in decoder.feed(board.receive(protocol.encode(message, seq), 0.0))]
+    nacks = [m for m in replies if isinstance(m, protocol.Nack)]
+    assert [n.code for n in nacks] == [protocol.NackCode.STROKE]
+    # a gentle pulse is played
+    small = Pulse.rotation((0.0, 0.0), Harmonics([2.0, -1.0], [0.0, 0.0], 35.0), 0.1, 0.3, 0.1)
+    plant.limits.check(small)
+    control.SimulatedDevice(plant).execute([small])
+    assert 0 < plant.max_excursion <= plant.stroke
+
+
+def test_the_loop_refuses_a_planner_whose_limits_differ_from_the_device() -> None:
+    plant = SimulatedUPM(parts=[[0.0, 0.0]])
+    other = DriveLimits(plant.plate, flexures(plant.plate.mass, plant.plate.inertia), stroke=0.02)
+    with pytest.raises(upm.ParameterError, match="limits differ"):
+        control.Loop(plant, plant.camera(), PredictivePlanner(other), control.WatchTask(1), part_radius=CHIP)
+    control.Loop(
+        plant, plant.camera(), PredictivePlanner(plant.limits), control.WatchTask(1), part_radius=CHIP
+    )
+    with pytest.raises(upm.ParameterError, match="limits must be"):
+        PredictivePlanner(plant.plate)  # type: ignore[arg-type]
+
+
+def _state(positions: list[list[float]], labels: tuple[str, ...]) -> State:
+    p = np.array(positions, dtype=float)
+    return State(0, 0.0, np.arange(len(p)), p, labels, 0.0)
+
+
+def test_task_costs_vanish_at_the_goal_and_grow_with_distance() -> None:
+    goals = np.array([[0.05, 0.0], [-0.05, 0.02]])
+    task = control.GotoTask(goals, starts=goals, tolerance=0.002)
+    state = _state(goals.tolist(), ("a", "b"))
+    assert task.cost(state) == 0.0
+    offsets = np.array([0.0, 0.001, 0.005, 0.02, 0.05])
+    batch = goals[None] + offsets[:, None, None] * np.array([1.0, 0.0])
+    cost = task.cost(state, batch)
+    assert cost[0] == 0.0 and np.all(np.diff(cost[1:]) > 0)
+    assert cost[-1] == pytest.approx(2 * (0.05 - 0.001))  # each part's distance less half the tolerance
+
+    sort = control.SortTask({"red": -1, "blue": 1}, line=0.1, past=0.01)
+    s = _state([[-0.2, 0.0], [0.15, 0.0]], ("red", "blue"))
+    assert sort.cost(s) == 0.0 and sort.done(s)
+    moved = np.array([[[-0.2, 0.0], [0.05, 0.0]], [[-0.2, 0.0], [0.0, 0.0]]])
+    assert sort.cost(s, moved) == pytest.approx([0.1025 - 0.05, 0.1025])
+
+    path = [[0.0, 0.0], [0.1, 0.0]]
+    traj = control.TrajectoryTask([path], speed=0.01)
+    t0 = _state([[0.0, 0.0]], ("p",))
+    assert traj.cost(t0) == 0.0
+    # after 2 s the reference is 2 cm along: a part left behind costs 2 cm, one there nothing
+    assert traj.cost(t0, np.array([[[0.0, 0.0]], [[0.02, 0.0]]]), elapsed=2.0) == pytest.approx([0.02, 0.0])
+
+
+def test_a_sort_with_a_lost_part_is_not_done() -> None:
+    sort = control.SortTask({"red": -1, "blue": 1})
+    first = State(0, 0.0, np.arange(3), np.array([[-0.15, 0.0], [0.15, 0.0], [0.15, 0.05]]),
+                  ("red", "blue", "blue"), 0.0)  # fmt: skip
+    assert sort.done(first)
+    lost = State(1, 1.0, np.arange(2), first.positions[:2], ("red", "blue"), 1.0)  # one fell off
+    assert not sort.done(lost)
+    unseen = State(1, 1.0, np.arange(3), np.vstack([first.positions[:2], [[np.nan, np.nan]]]),
+                   ("red", "blue", "blue"), 1.0)  # fmt: skip
+    assert not sort.done(unseen)
+
+
+def test_a_sorted_part_is_not_pushed_past_its_line() -> None:
+    sort = control.SortTask({"red": -1, "blue": 1}, line=0.1, past=0.01, margin=0.04)
+    s = _state([[-0.105, 0.0], [0.12, 0.0], [0.05, 0.0]], ("red", "blue", "blue"))
+    steps = sort.steps(s)
+    assert steps[0, 0] == pytest.approx(-0.005)  # to the line plus past, no further
+    assert steps[1, 0] == 0.0  # beyond it already
+    assert steps[2, 0] > 0
+
+
+def test_the_planner_picks_the_obviously_best_pulse() -> None:
+    limits = SimulatedUPM().limits
+    planner = PredictivePlanner(limits, mu=0.3, lookahead=None)
+    goal = np.array([[0.03, 0.0]])
+    task = control.GotoTask(goal, starts=goal)
+    state = _state([[0.0, 0.0]], ("p",))
+    h = Harmonics([0.6, -0.3], [0.0, 0.0], 25.0)
+    pulses = [
+        Pulse.translation((-1.0, 0.0), h, 0.12, 0.2, 0.12),
+        Pulse.translation((0.0, 1.0), h, 0.12, 0.2, 0.12),
+        Pulse.translation((1.0, 0.0), h, 0.12, 0.2, 0.12),  # towards the goal
+        Pulse.rotation((0.0, 0.0), Harmonics([2.0, -1.0], [0.0, 0.0], 35.0), 0.1, 0.2, 0.1),  # on the part
+    ]
+    best, gain, _ = planner.choose(task, state, pulses)
+    assert best == 2 and gain[2] > 0 and gain[0] < 0
+    # nothing to gain at the goal: no pulse
+    assert planner.choose(task, _state([[0.03, 0.0]], ("p",)), pulses)[0] is None
+
+
+def test_a_short_predictive_sort_sorts_without_loss_within_the_stroke() -> None:
+    parts = np.array([[-0.07, 0.06], [0.06, 0.05], [-0.05, -0.06], [0.07, -0.05]])
+    labels = ["red", "blue", "red", "blue"]
+    plant = SimulatedUPM(parts=parts, part_radius=CHIP, seed=3)
+    planner = PredictivePlanner(plant.limits, mu=0.3, part_radius=CHIP)
+    task = control.SortTask({"red": -1, "blue": 1}, line=0.09, margin=0.08)
+    log = control.Loop(plant, plant.camera(labels, seed=3), planner, task, part_radius=CHIP).run(40)
+    assert log.done and plant.fallen == 0
+    assert np.all(plant.parts[[0, 2], 0] < -0.09) and np.all(plant.parts[[1, 3], 0] > 0.09)
+    assert 0 < plant.max_excursion <= plant.stroke  # the plate's recorded pose
+    assert planner.step_errors and np.median(planner.step_errors) < 0.006
+
+
+def test_the_planner_learns_a_lower_friction() -> None:
+    # the plate's friction is 0.21, the planner is told 0.3: its estimate moves towards 0.21
+    parts = np.array([[-0.03, 0.05], [0.04, -0.05]])
+    plant = SimulatedUPM(parts=parts.copy(), mu=0.21)
+    planner = PredictivePlanner(plant.limits, mu=0.3, lookahead=None)
+    device = control.SimulatedDevice(plant)
+    task = control.GotoTask(np.array([[-0.12, 0.05], [0.12, -0.05]]), starts=parts)
+    for cycle in range(4):
+        state = State(cycle, 0.0, np.arange(2), plant.parts.copy(), ("a", "b"), 0.0)
+        device.execute(planner.plan_task(state, task))
+    planner.plan_task(State(4, 0.0, np.arange(2), plant.parts.copy(), ("a", "b"), 0.0), task)
+    assert planner.mu_estimate < 0.26
