@@ -154,7 +154,7 @@ def test_task_costs_vanish_at_the_goal_and_grow_with_distance() -> None:
     s = _state([[-0.2, 0.0], [0.15, 0.0]], ("red", "blue"))
     assert sort.cost(s) == 0.0 and sort.done(s)
     moved = np.array([[[-0.2, 0.0], [0.05, 0.0]], [[-0.2, 0.0], [0.0, 0.0]]])
-    assert sort.cost(s, moved) == pytest.approx([0.1025 - 0.05, 0.1025])
+    assert sort.cost(s, moved) == pytest.approx([0.105 - 0.05, 0.105])
 
     path = [[0.0, 0.0], [0.1, 0.0]]
     traj = control.TrajectoryTask([path], speed=0.01)

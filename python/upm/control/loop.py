@@ -355,6 +355,9 @@ class Loop:
             t2 = time.perf_counter()
             if callback is not None:
                 callback(state, pulses)
+            expected = getattr(self.planner, "expected", None)
+            if expected is not None and pulses:  # the planner's prediction guides the next search
+                self.tracker.expect(*expected)
             waited = float(getattr(self.device, "waited", 0.0))
             self.device.execute(pulses)
             t3 = time.perf_counter()

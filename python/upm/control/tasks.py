@@ -393,7 +393,7 @@ class SortTask:
         margin: float = 0.04,
         spacing: float = 0.045,
         max_step: float = 0.02,
-        past: float = 0.01,
+        past: float = 0.02,
         free_y: bool = False,
     ) -> None:
         self.free_y = bool(free_y)
@@ -460,12 +460,13 @@ class SortTask:
         return out
 
     def cost(self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0) -> FloatArray:
-        """Sum over labelled parts of the distance [m] still to go along x to ``line`` plus a
-        quarter of ``past`` (a little beyond the line, so vision noise does not unsort a part);
-        a lost part (NaN) counts as the plate's width."""
+        """Sum over labelled parts of the distance [m] still to go along x to ``line`` plus half
+        of ``past`` (beyond the line, so that neither vision noise nor the far field of a pulse
+        that moves another part unsorts a part just over it); a lost part (NaN) counts as the
+        plate's width."""
         q = _at(state, positions)
         side = self._side(state)
-        target = self.line + 0.25 * self.past
+        target = self.line + 0.5 * self.past
         left = np.maximum(target - side * q[..., 0], 0.0)
         left = np.where(np.isfinite(left), left, 2 * self.half)
         out: FloatArray = np.sum(np.where(side != 0, left, 0.0), axis=-1)

@@ -31,6 +31,13 @@ __all__ = ["MacroTable"]
 FloatArray = NDArray[np.float64]
 
 
+def _stopped(t: FloatArray, stuck: NDArray[np.bool_], on: float) -> float:
+    """When the last part stopped after the pulse's end (``stuck`` (T, M) at times ``t``)."""
+    moving = ~np.all(stuck, axis=1) & (t >= on - 1e-9)
+    late = np.nonzero(moving)[0]
+    return float(t[late[-1]] + (t[1] - t[0])) if len(late) else on
+
+
 class MacroTable:
     """Displacement tables of long pulses (see the module docstring).
 
@@ -95,17 +102,22 @@ class MacroTable:
         dt = 1.0 / (40.0 * top)
         duration = self.on_time + coast
         self.turn = np.zeros((len(self.rotations), n, 2))  # displacement of a part at (r, 0) from C
+        self.durations = np.full(len(self.pulses), duration)
+        inside = self.radii <= 0.75 * self.limits.size  # parts that can be on the plate
+        every = max(1, round(0.01 / dt))
         for k, (m, ray) in enumerate(zip(motions[: len(self.rotations)], rays, strict=True)):
             run = simulate_batch([m], ray, duration=duration, dt=dt, mu=self.mu, mu_s=self.mu_s,
-                                 record_every=10**9)  # fmt: skip
+                                 record_every=every)  # fmt: skip
             self.turn[k] = run.positions[0, -1] - ray
+            self.durations[k] = _stopped(run.t, run.stuck[0][:, inside], self.on_time)
         self.shift = np.zeros((len(self.translations), 2))
         if self.translations:
             run = simulate_batch(motions[len(self.rotations) :], np.zeros((1, 2)), duration=duration, dt=dt,
-                                 mu=self.mu, mu_s=self.mu_s, record_every=10**9)  # fmt: skip
+                                 mu=self.mu, mu_s=self.mu_s, record_every=every)  # fmt: skip
             self.shift = run.positions[:, -1, 0]
+            for k in range(len(self.translations)):
+                self.durations[len(self.rotations) + k] = _stopped(run.t, run.stuck[k], self.on_time)
         self.centres = np.array([p.center for p in self.rotations]).reshape(-1, 2)
-        self.durations = np.full(len(self.pulses), duration)
 
     def refresh(self, mu: float) -> None:
         """Rebuild for a new friction estimate when it moved by more than 5 %."""

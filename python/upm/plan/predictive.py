@@ -35,6 +35,7 @@ from ..drive import DriveLimits
 from ..motion import PlateMotion
 from ..pulses import Pulse
 from ..sim import Disk, simulate_batch
+from ..waveforms import Harmonics
 from .candidates import Candidates, generate
 from .macros import MacroTable
 
@@ -91,6 +92,17 @@ def _separate(positions: FloatArray, radius: float, gap: float = 1e-4) -> FloatA
             q[a] += 0.5 * (need[a, b] + gap) * u
             q[b] -= 0.5 * (need[a, b] + gap) * u
     return q
+
+
+def _scaled(pulse: Pulse, factor: float) -> Pulse:
+    """``pulse`` at ``factor`` times its amplitude (its force and excursion scale alike)."""
+    if factor >= 1.0:
+        return pulse
+    if pulse.kind == "jet":
+        return replace(pulse, amplitude=pulse.amplitude * factor)
+    assert pulse.waveform is not None
+    h = pulse.waveform
+    return replace(pulse, waveform=Harmonics(h.cos * factor, h.sin * factor, float(h.frequency)))
 
 
 class PredictivePlanner:
@@ -175,8 +187,11 @@ class PredictivePlanner:
         self.step_errors: list[float] = []
         """|predicted - achieved| step of every part after every pulse [m]."""
         self.candidate_counts: list[int] = []
+        self.expected: tuple[NDArray[np.int64], FloatArray] | None = None
+        """Part ids and where the last pulse is predicted to leave them (for the tracker)."""
         self._cache: dict[tuple[object, ...], tuple[float, float]] = {}
         self._plate = np.zeros((3, 2))  # the plate's state expected after the last pulse and its rest
+        self._t_next = 0.0  # plate time at which that is
         self._last: tuple[Pulse, NDArray[np.int64], FloatArray, FloatArray] | None = None
 
     # -- prediction ---------------------------------------------------------------------------
@@ -283,8 +298,11 @@ class PredictivePlanner:
         self.step_errors += [float(e) for e in np.hypot(*(achieved[ok] - guessed[ok]).T)]
         if not self.adapt:
             return
-        moved = ok & (np.hypot(*achieved.T) > 2e-3)
-        if moved.sum() >= 1:
+        # only steps well clear of vision noise and of a neighbour's nudge inform the friction:
+        # parts predicted to move more than 1 cm that also did
+        big = (np.hypot(*guessed.T) > 0.01) & (np.hypot(*achieved.T) > 0.005)
+        moved = ok & big
+        if moved.sum() >= 2:
             # friction: the value among a few that best explains this pulse (parts replicated, one
             # friction each: point parts do not interact), moved half way in log
             factors = np.array([0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4])
@@ -311,11 +329,11 @@ class PredictivePlanner:
                     if aa > 0:
                         f = float(np.exp(np.clip(-bb / (2 * aa), x0, x2)))
             # damped, and trusted only where the pulse moved the parts well clear of noise
-            weight = 0.5 if float(np.median(np.hypot(*achieved[moved].T))) > 8e-3 else 0.2
+            weight = 0.5 if float(np.median(np.hypot(*achieved[moved].T))) > 0.02 else 0.25
             self.mu_estimate = float(np.clip(self.mu_estimate * f**weight, 0.05, 1.5))
         for k, r in zip(np.nonzero(ok)[0], a[ok], strict=True):
             g2 = float(guessed[k] @ guessed[k])
-            if g2 < (3e-3) ** 2:
+            if g2 < (8e-3) ** 2:
                 continue
             ratio = float(np.clip(achieved[k] @ guessed[k] / g2, 0.5, 1.5))
             pid = int(last_ids[r])
@@ -415,16 +433,23 @@ class PredictivePlanner:
             f2, d2 = self.predict([pulses[k] for k in top], pos, disks=True, fine=True)
             f2 = np.where(np.isfinite(f2), pos + gain_of[None, :, None] * (f2 - pos), np.nan)
             g2, r2 = self._score(task, state, pos, f2, d2)
+            r2 = np.maximum(r2, self._two_step(task, state, pos, f2, d2))
             gain[top], rate[top] = g2, r2
-            best = top[int(np.argmax(r2))]
+            best = top[int(np.argmax(np.where(np.isfinite(r2), r2, -np.inf)))]
             self._durations = dict(zip(top, d2, strict=True))
             self._finals = dict(zip(top, f2, strict=True))
         else:
             self._durations = {k: durations[k] for k in range(len(pulses))}
             self._finals = {k: final[k] for k in range(len(pulses))}
-        if best is None or not (
+        if best is not None and not (
             gain[best] >= self.min_gain or rate[best] * self._durations.get(best, 1.0) >= self.min_gain
         ):
+            # the look-ahead's favourite does not hold up: the best sure one-step gain instead
+            one_step = np.where(gain >= self.min_gain, gain / np.maximum(durations, 1e-9), -np.inf)
+            best = int(np.argmax(one_step)) if np.isfinite(one_step).any() else None
+            if best is not None and best not in self._durations:
+                self._durations[best], self._finals[best] = durations[best], final[best]
+        if best is None:
             return None, gain, rate
         return best, gain, rate
 
@@ -445,7 +470,10 @@ class PredictivePlanner:
         cost = np.asarray(task.cost(state, after, total), dtype=float)
         cost = cost + self._penalty(after.reshape(flat), overlaps=False).reshape(total.shape)
         # the first step's own losses (a part pushed off) count in full
-        lost = ~np.all(np.isfinite(final), axis=(1, 2))
+        half = self.limits.size / 2
+        lost = ~np.all(np.isfinite(final), axis=(1, 2)) | np.any(
+            np.abs(np.nan_to_num(final)) > half - 0.5 * self.edge, axis=(1, 2)
+        )
         out: FloatArray = np.max((rest - cost) / total, axis=1)
         out[lost] = -np.inf
         return out
@@ -455,9 +483,25 @@ class PredictivePlanner:
         pos = np.asarray(state.positions, dtype=float)
         ids = np.asarray(getattr(state, "ids", np.arange(len(pos))), dtype=np.int64)
         self._correct(ids, pos)
+        now = float(getattr(state, "time", self._t_next))
+        if now > self._t_next + 1e-6 and np.any(self._plate):  # the plate rode out the idle time
+            n = min(int((now - self._t_next) * 2000), 10000)
+            _, _, _, self._plate = self.limits.respond(np.zeros((n, 3)), 5e-4, self._plate)
+        self._t_next = now
         if not len(pos):
             return []
+        self.expected = None
         cands = self.candidates(pos, self._descent(task, state, pos))
+        if self.macros is not None:  # the long pulses of the look-ahead are playable themselves
+            self.macros.refresh(self.mu_estimate)
+            room = min(1.0, max(self.limits.stroke - self._carried(), 0.0) / self.limits.stroke)
+            macros = [_scaled(p, room) for p in self.macros.pulses]
+            cands = Candidates(
+                cands.pulses + macros,
+                np.concatenate([cands.family, np.full(len(self.macros.pulses), "macro")]),
+                np.concatenate([cands.force, np.full(len(self.macros.pulses), np.nan)]),
+                np.concatenate([cands.excursion, np.full(len(self.macros.pulses), np.nan)]),
+            )
         self.candidate_counts.append(len(cands))
         best, _, _ = self.choose(task, state, cands.pulses, ids)
         if best is None:
@@ -466,7 +510,9 @@ class PredictivePlanner:
         rest = float(self._durations[best]) - pulse.on_time + 0.01
         played = replace(pulse, rest=max(rest, 0.0))
         self._advance_plate(played)
+        self._t_next = now + played.duration
         self._last = (played, ids.copy(), pos.copy(), np.asarray(self._finals[best], dtype=float))
+        self.expected = (ids.copy(), self._last[3].copy())
         return [played]
 
     def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]:

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._arrays import as_float, as_int, check_range
-from .._errors import VisionError
+from .._errors import ShapeError, VisionError
 from .parts import BLOB_AREA, BLOB_RING, THESIS_PALETTE, Palette, Rectifier, detect, label_parts, refine
 from .table import Table, check_frame
 
@@ -177,6 +177,21 @@ class Tracker:
                 entered = self._redetect(self.rect.warp(img))
         left = self._drop()
         return self._report(entered, left, redetected, time.perf_counter() - start)
+
+    def expect(self, ids: ArrayLike, positions: ArrayLike) -> None:
+        """Where parts ``ids`` should be in the next frame, ``positions (n, 2)`` [m, plate frame]
+        (a planner's prediction of the pulse it played): the next local search starts there
+        instead of at the constant-velocity guess, so parts that moved further than ``search``
+        are still followed. Unknown ids and non-finite positions are ignored."""
+        want = np.asarray(ids, dtype=np.int64).reshape(-1)
+        at = np.asarray(positions, dtype=np.float64).reshape(-1, 2)
+        if len(want) != len(at):
+            raise ShapeError(f"ids and positions must match; got {len(want)} ids and {len(at)} positions")
+        index = {int(i): k for k, i in enumerate(self._ids)}
+        for i, p in zip(want, at, strict=True):
+            k = index.get(int(i))
+            if k is not None and np.all(np.isfinite(p)) and self._missed[k] == 0:
+                self._vel[k] = self.rect.to_top(p[None])[0] - self._pos[k]
 
     def run(self, source: _Source, frames: int | None = None) -> Iterator[Tracks]:
         """Track every frame of ``source`` (an OpenCV ``VideoCapture``, a
