@@ -365,3 +365,26 @@ def test_exactly_one_opencv_package_installed() -> None:
         if (d.metadata["Name"] or "").lower().startswith("opencv")
     }
     assert names == {"opencv-python-headless"}
+
+
+def test_tracker_follows_a_long_step_where_it_is_told_to_expect_it() -> None:
+    # Two pennies swap sides in one step, 12 cm each, far beyond the search radius: told where to
+    # look (a planner's prediction, 2 mm off), the tracker keeps each id on its own penny; left to
+    # its constant-velocity guess it re-acquires them swapped.
+    cam = Camera()
+    start = np.array([[-0.06, 0.0], [0.06, 0.02]])
+    moved = start + np.array([[0.12, 0.0], [-0.12, 0.0]])
+    table = find_table(render(cam, start, "penny").image)
+    blind = Tracker(table, PENNY, detect_every=0, search=8.0)
+    told = Tracker(table, PENNY, detect_every=0, search=8.0)
+    first = told.update(render(cam, start, "penny", rng=1).image)
+    blind.update(render(cam, start, "penny", rng=1).image)
+    owner = np.argmin(np.linalg.norm(first.positions[:, None] - start[None], axis=2), axis=1)  # row -> penny
+    told.expect(first.ids, moved[owner] + 0.0015)
+    after = told.update(render(cam, moved, "penny", rng=2).image)
+    assert not after.lost.any() and after.ids.tolist() == first.ids.tolist()
+    assert np.abs(after.positions - moved[owner]).max() < 0.001
+    lost = blind.update(render(cam, moved, "penny", rng=2).image)
+    assert np.abs(lost.positions - moved[owner]).max() > 0.1  # swapped
+    with pytest.raises(upm.ShapeError):
+        told.expect([0, 1], [[0.0, 0.0]])

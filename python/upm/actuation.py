@@ -49,8 +49,10 @@ FloatArray = NDArray[np.float64]
 
 def wrench(motors: ArrayLike, lever: float) -> FloatArray:
     """``(fx, fy, tau)`` of motor amplitudes ``(X1, X2, Y1, Y2)`` at lever arm ``lever`` [m] (5.8)."""
-    x1, x2, y1, y2 = vector("motors", motors, 4)
-    return np.array([x1 - x2, y1 - y2, lever * ((y1 + y2) - (x1 + x2))])
+    from .drive import wrench_matrix  # the one home of (5.8); drive imports this module
+
+    out: FloatArray = wrench_matrix(lever) @ vector("motors", motors, 4)
+    return out
 
 
 def center_of_rotation(u: ArrayLike) -> tuple[FloatArray, float]:

@@ -568,7 +568,11 @@ def run_demo(
     if cycles is not None:
         setup.cycles = int(cycles)
     say = print if verbose else (lambda *a, **k: None)
-    say(f"upm demo {name}: {demo.summary} (thesis {demo.figure})" + ("  [board emulator]" if board else ""))
+    using = "" if planner is None else f"; planner: {type(setup.planner).__name__} instead"
+    say(
+        f"upm demo {name}: {demo.summary} (thesis {demo.figure}{using})"
+        + ("  [board emulator]" if board else "")
+    )
     started = time.perf_counter()
     if board:
         from .board import Board
@@ -612,6 +616,12 @@ def run_demo(
         f"  wall time {metrics['wall_time']:.1f} s; vision {metrics['vision_ms']:.1f} ms/frame, planning "
         f"{metrics['planning_ms']:.0f} ms/cycle; step tracking error median "
         f"{1000 * metrics['tracking_error_median']:.1f} mm"
+        + (
+            f"; predicted-vs-achieved step error median {1000 * metrics['prediction_error_median']:.1f} mm"
+            if np.isfinite(metrics["prediction_error_median"])
+            else ""
+        )
+        + (f"; largest plate-corner excursion {1000 * metrics['max_stroke']:.1f} mm" if not board else "")
     )
     say("  wrote " + ", ".join(str(p) for p in written))
     return metrics

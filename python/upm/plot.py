@@ -10,6 +10,7 @@ from numpy.typing import ArrayLike
 from . import theory
 from ._arrays import as_float
 from ._errors import ParameterError
+from .drive import PLATE_SIZE
 from .feeding import feed_rate, mean_force
 from .waveforms import Harmonics, TwoHarmonic
 
@@ -231,7 +232,7 @@ def loop_paths(
     references: Any = (),
     centers: ArrayLike | None = None,
     labels: Any = None,
-    plate_size: float = 0.4064,
+    plate_size: float = PLATE_SIZE,
 ) -> Figure:
     """The parts' tracked paths on the plate during a loop run (a :class:`upm.control.Log` or a
     loaded log), with reference paths and the centres of rotation."""

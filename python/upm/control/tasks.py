@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._arrays import as_float
 from .._errors import ParameterError, ShapeError
+from ..drive import PLATE_SIZE
 
 __all__ = ["GotoTask", "SortTask", "State", "Task", "TrajectoryTask", "WatchTask"]
 
@@ -388,7 +389,7 @@ class SortTask:
         self,
         sides: Mapping[str, int],
         *,
-        plate_size: float = 0.4064,
+        plate_size: float = PLATE_SIZE,
         line: float | None = None,
         margin: float = 0.04,
         spacing: float = 0.045,

@@ -17,13 +17,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._arrays import as_float, check_range
 from .._errors import VisionError
+from ..drive import PLATE_SIZE  # the side of the thesis's plate [m] (16 in), re-exported here
 
 __all__ = ["PLATE_SIZE", "Table", "check_frame", "find_table", "plate_corners", "project"]
 
 FloatArray = NDArray[np.float64]
-
-#: Side of the thesis's plate [m] (16 in).
-PLATE_SIZE = 0.4064
 
 
 def plate_corners(plate_size: float | tuple[float, float]) -> FloatArray:
