@@ -30,7 +30,7 @@ import numpy as np
 
 import upm
 from upm import control
-from upm.demos import CHIP, LIMITS, PENNY, _figure_eight, _scatter
+from upm.demos import CHIP, LIMITS, PENNY, figure_eight, scatter
 from upm.plan import PredictivePlanner
 from upm.plant import SimulatedUPM
 
@@ -64,19 +64,19 @@ def setup(task: str, seed: int) -> tuple[np.ndarray, list[str], float, Any, int,
         mu, task = float(task[2:]), "sort8"
     if task.startswith("sort"):
         n = int(task[4:])
-        parts = _scatter(rng, n, 0.12 if n <= 8 else 0.13 if n <= 10 else 0.16, 0.052 if n <= 16 else 0.042)
+        parts = scatter(rng, n, 0.12 if n <= 8 else 0.13 if n <= 10 else 0.16, 0.052 if n <= 16 else 0.042)
         labels = ["red"] * (n // 2) + ["blue"] * (n - n // 2)
         job = control.SortTask({"red": -1, "blue": 1}, margin=0.08, spacing=0.046, max_step=0.025)
         return parts, labels, CHIP, job, 60, mu
     if task == "goto6":
-        parts = _scatter(rng, 6, 0.12, 0.04)
-        goals = _scatter(rng, 6, 0.12, 0.04)
+        parts = scatter(rng, 6, 0.12, 0.04)
+        goals = scatter(rng, 6, 0.12, 0.04)
         return parts, ["penny"] * 6, PENNY, control.GotoTask(goals, tolerance=0.003), 60, mu
     if task == "bowtie":
-        path = _figure_eight()
+        path = figure_eight()
         job = control.TrajectoryTask([path], speed=0.012, closed=True, equidistant=True, count=3,
                                      kp=0.8, kd=0.1, max_step=0.015, hold=0.012, tolerance=0.006)  # fmt: skip
-        parts = np.array([job._reference(k, 0.0) for k in range(3)]) + 0.003
+        parts = np.array([job.reference(k, 0.0) for k in range(3)]) + 0.003
         return parts, ["penny"] * 3, PENNY, job, 400, mu
     raise SystemExit(f"unknown task {task!r}")
 

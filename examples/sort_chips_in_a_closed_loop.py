@@ -9,20 +9,14 @@ through its motors. The log records what was asked and what happened.
 import numpy as np
 
 from upm import control
-from upm.actuation import Plate
-from upm.drive import flexures
 from upm.plant import SimulatedUPM
 
-plate = Plate(1.0, 0.0275, 0.2)  # 1 kg, 16 in plate; motors 20 cm from its centre
-plant = SimulatedUPM(
-    plate=plate,
-    axes=flexures(1.0, 0.0275),
-    parts=[[0.04, 0.05], [0.03, -0.06], [-0.03, 0.0], [-0.05, -0.08]],
-)
+# the default plate: 1 kg, 16 in, on flexures; four 200 N motors; 10 mm stroke (plant.limits)
+plant = SimulatedUPM(parts=[[0.04, 0.05], [0.03, -0.06], [-0.03, 0.0], [-0.05, -0.08]])
 loop = control.Loop(
     plant,
     plant.camera(["red", "red", "blue", "blue"]),
-    control.JetPlanner(mu=0.3, amplitude=0.1, rho=0.03, plate=plate, axes=plant.axes),
+    control.JetPlanner(mu=0.3, amplitude=0.1, rho=0.03, limits=plant.limits),
     control.SortTask({"red": -1, "blue": 1}, line=0.08, margin=0.08, spacing=0.046),
     part_radius=0.0195,
 )

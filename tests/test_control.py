@@ -137,7 +137,7 @@ def test_trajectory_references_wait_for_a_lagging_part_and_keep_spacing():
     ring = np.array([[0.1, 0.0], [0.0, 0.1], [-0.1, 0.0], [0.0, -0.1]])
     task = control.TrajectoryTask([ring], speed=0.01, closed=True, equidistant=True, count=2, hold=0.005)
     length = 4 * math.hypot(0.1, 0.1)
-    refs = [task._reference(k, 0.0) for k in range(2)]
+    refs = [task.reference(k, 0.0) for k in range(2)]
     np.testing.assert_allclose(refs[0], [0.1, 0.0], atol=1e-12)
     np.testing.assert_allclose(refs[1], [-0.1, 0.0], atol=1e-12)  # half the loop behind
     task.steps(state(0, refs))

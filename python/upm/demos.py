@@ -85,7 +85,8 @@ class Demo:
     report: Callable[[Log, Setup, dict[str, Any]], list[str]]
 
 
-def _scatter(rng: np.random.Generator, count: int, reach: float, gap: float) -> FloatArray:
+def scatter(rng: np.random.Generator, count: int, reach: float, gap: float) -> FloatArray:
+    """``count`` points in the square of half-side ``reach`` [m], at least ``gap`` apart."""
     pts: list[FloatArray] = []
     while len(pts) < count:
         p = rng.uniform(-reach, reach, 2)
@@ -131,7 +132,7 @@ def _trajectory2_report(log: Log, setup: Setup, m: dict[str, Any]) -> list[str]:
 
 def _sort(quick: bool, seed: int, count: int, planner: Any, max_step: float, free_y: bool = False) -> Setup:
     rng = np.random.default_rng(seed)
-    parts = _scatter(rng, count, 0.12 if count <= 8 else 0.13, 0.052)
+    parts = scatter(rng, count, 0.12 if count <= 8 else 0.13, 0.052)
     labels = ["red"] * (count // 2) + ["blue"] * (count - count // 2)
     task = SortTask({"red": -1, "blue": 1}, margin=0.08, spacing=0.046, max_step=max_step, free_y=free_y)
     return Setup(parts, labels, CHIP, planner, task, 8 if quick else 60)
@@ -236,13 +237,14 @@ def _plus_report(log: Log, setup: Setup, m: dict[str, Any]) -> list[str]:
     ]
 
 
-def _figure_eight(scale: float = 0.09, points: int = 48) -> FloatArray:
+def figure_eight(scale: float = 0.09, points: int = 48) -> FloatArray:
+    """The bow-tie experiment's closed path (Figs. 6.4-6.5) [m]."""
     t = np.linspace(0, 2 * np.pi, points, endpoint=False)
     return np.stack([scale * np.sin(t), scale * 0.6 * np.sin(2 * t)], axis=1)
 
 
 def _bowtie(quick: bool, seed: int) -> Setup:
-    path = _figure_eight()
+    path = figure_eight()
     task = TrajectoryTask(
         [path],
         speed=0.008,
@@ -256,7 +258,7 @@ def _bowtie(quick: bool, seed: int) -> Setup:
         hold=0.012,
         tolerance=0.006,
     )
-    starts = np.array([task._reference(k, 0.0) for k in range(3)]) + 0.003
+    starts = np.array([task.reference(k, 0.0) for k in range(3)]) + 0.003
     planner = JetPlanner(mu=0.3, amplitude=0.08, rho=0.025, **_MOTORS)
     return Setup(
         starts, ["penny"] * 3, PENNY, planner, task, 60 if quick else 400, [np.vstack([path, path[:1]])]

@@ -273,12 +273,13 @@ class TrajectoryTask:
             raise ParameterError("paths must hold at least one path")
         self.length = float(self.paths[0][1][-1])
         self.progress = 0.0  # arc length covered by the references [m]
-        self.slots = _Slots(np.array([self._reference(k, 0.0) for k in range(len(self.paths))]))
+        self.slots = _Slots(np.array([self.reference(k, 0.0) for k in range(len(self.paths))]))
         self._previous: dict[int, FloatArray] = {}
         self._time = 0.0
         self.waited = 0.0
 
-    def _reference(self, k: int, progress: float) -> FloatArray:
+    def reference(self, k: int, progress: float) -> FloatArray:
+        """Where the reference of slot ``k`` is after ``progress`` [m] along its path."""
         p, s = self.paths[k]
         at = progress + self.offsets[k]
         at = at % s[-1] if self.closed else min(max(at, 0.0), s[-1])
@@ -293,7 +294,7 @@ class TrajectoryTask:
         out = np.full_like(state.positions, np.nan)
         for k, j in enumerate(slot):
             if j >= 0:
-                out[k] = self._reference(int(j), progress)
+                out[k] = self.reference(int(j), progress)
         return out
 
     def errors(self, state: State) -> FloatArray:

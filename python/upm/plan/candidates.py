@@ -17,6 +17,7 @@ and more motor force; the limits decide which wins for each shape.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -79,6 +80,7 @@ def generate(
     cache: dict[tuple[object, ...], tuple[float, float]] | None = None,
     carried: float = 0.0,
     jet_toward: FloatArray | None = None,
+    pulse_cache: dict[tuple[object, ...], Pulse] | None = None,
     jet_on_times: tuple[float, ...] | None = None,
     rotation_on_times: tuple[float, ...] | None = None,
 ) -> Candidates:
@@ -88,6 +90,7 @@ def generate(
     ``use``: the fraction of the force and stroke headroom a pulse may use (the rest is margin for
     what the plate carries over from the pulse before). ``cache`` keeps the unit-amplitude reach
     of shapes that do not depend on the parts (translations, grid rotations) across calls.
+    ``pulse_cache`` keeps the pulses of those shapes by amplitude.
     ``jet_toward (M, 2)``: where each part should go (a direction; zero: no jet at that part);
     jets then feed along it and 35 degrees to either side instead of ``jet_directions`` evenly
     spread directions. ``jet_on_times``, ``rotation_on_times``: on-times of the jets and of the
@@ -187,7 +190,9 @@ def generate(
         if cache is not None:
             for j in todo:
                 cache[keys[int(j)]] = (float(force[j]), float(reach[j]))
-    room = max(limits.stroke - carried, 0.0)
+    # the stroke left, down to a quarter millimetre: amplitudes then repeat from cycle to cycle
+    # and the fixed shapes' pulses are found in ``pulse_cache``
+    room = math.floor(max(limits.stroke - carried, 0.0) / 2.5e-4) * 2.5e-4
     scale = use * np.minimum(limits.force / np.maximum(force, 1e-300), room / np.maximum(reach, 1e-300))
     # per shape, the frequency with the largest amplitude (ties: the higher frequency)
     shape_a = np.array(shape)
@@ -201,6 +206,10 @@ def generate(
             continue
         a, s = float(attack[i]), float(sustain[i])
         amp = float(scale[i])
+        fixed = _family in ("translation", "rotation")
+        if fixed and pulse_cache is not None and (keys[i], amp) in pulse_cache:
+            pulses.append(pulse_cache[(keys[i], amp)])
+            continue
         if kind == "translation":
             pulses.append(Pulse.translation(d, Harmonics([amp, -amp / 2], [0.0, 0.0], f), a, s, a))
         elif kind == "rotation":
@@ -208,6 +217,10 @@ def generate(
             pulses.append(Pulse.rotation(c, Harmonics([w, -w / 2], [0.0, 0.0], f), a, s, a))
         else:
             pulses.append(Pulse.jet(c, d, rho, amp, f, a, s, a))
+        if fixed and pulse_cache is not None:
+            if len(pulse_cache) > 20000:
+                pulse_cache.clear()
+            pulse_cache[(keys[i], amp)] = pulses[-1]
     return Candidates(
         pulses,
         np.array([s[1] for s, k in zip(specs, keep, strict=True) if k]),

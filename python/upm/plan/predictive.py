@@ -190,6 +190,8 @@ class PredictivePlanner:
         self.expected: tuple[NDArray[np.int64], FloatArray] | None = None
         """Part ids and where the last pulse is predicted to leave them (for the tracker)."""
         self._cache: dict[tuple[object, ...], tuple[float, float]] = {}
+        self._pulses: dict[tuple[object, ...], Pulse] = {}
+        self._motions: dict[int, tuple[Pulse, PlateMotion]] = {}  # by id of the pulse
         self._plate = np.zeros((3, 2))  # the plate's state expected after the last pulse and its rest
         self._t_next = 0.0  # plate time at which that is
         self._last: tuple[Pulse, NDArray[np.int64], FloatArray, FloatArray] | None = None
@@ -228,7 +230,7 @@ class PredictivePlanner:
         durations = np.empty(len(pulses))
         # one batched call per on-time and highest frequency: each simulated for its own horizon
         groups: dict[tuple[float, float], list[int]] = {}
-        motions = [p.motion(rest=False) for p in pulses]
+        motions = [self._motion(p) for p in pulses]
         for k, (p, m) in enumerate(zip(pulses, motions, strict=True)):
             groups.setdefault((round(p.on_time, 6), m.max_frequency), []).append(k)
         for (on, top), members in groups.items():
@@ -254,6 +256,18 @@ class PredictivePlanner:
                 stop = t[late[-1]] + t[1] - t[0] if len(late) else on
                 durations[k] = max(stop, on)
         return final, durations
+
+    def _motion(self, pulse: Pulse) -> PlateMotion:
+        """The pulse's motion, kept while the pulse is (the cached ones recur every cycle; the
+        pulse is held with it, so its id is not reused)."""
+        hit = self._motions.get(id(pulse))
+        if hit is not None and hit[0] is pulse:
+            return hit[1]
+        if len(self._motions) > 4000:
+            self._motions = {}
+        m = pulse.motion(rest=False)
+        self._motions[id(pulse)] = (pulse, m)
+        return m
 
     # -- scoring --------------------------------------------------------------------------------
     def _penalty(self, q: FloatArray, overlaps: bool = True) -> FloatArray:
@@ -410,6 +424,7 @@ class PredictivePlanner:
             cache=self._cache,
             carried=self._carried(),
             jet_toward=toward,
+            pulse_cache=self._pulses,
             jet_on_times=(0.35, 0.6),
             rotation_on_times=self.on_times[:2],
         )
