@@ -73,7 +73,7 @@ def test_candidates_stay_within_force_and_stroke_on_the_plant() -> None:
     parts = np.array([[0.05, 0.05], [-0.08, 0.02], [0.1, -0.1]])
     cands = generate(limits, parts, use=0.9)
     families = set(cands.family)
-    assert {"translation", "rotation", "part-rotation", "jet"} <= families
+    assert {"translation", "rotation", "part-rotation", "jet", "fine-jet"} <= families
     kinds = {p.kind for p in cands.pulses}
     assert kinds == {"translation", "rotation", "jet"}
     assert len(cands) >= 250
@@ -85,7 +85,9 @@ def test_candidates_stay_within_force_and_stroke_on_the_plant() -> None:
         assert force <= limits.force * 0.9 * 1.001
         assert reach <= limits.stroke * 0.93, (cands.family[k], p.frequency, reach)
         # and at least one of the two limits is nearly used: the candidate is as strong as allowed
-        assert max(force / limits.force, reach / limits.stroke) > 0.85
+        # (but for the gentle jets, at a set fraction of that)
+        if cands.family[k] != "fine-jet":
+            assert max(force / limits.force, reach / limits.stroke) > 0.85
 
 
 def test_a_pulse_beyond_the_stroke_is_refused_by_plant_host_and_emulator() -> None:

@@ -81,6 +81,7 @@ def generate(
     carried: float = 0.0,
     jet_toward: FloatArray | None = None,
     pulse_cache: dict[tuple[object, ...], Pulse] | None = None,
+    fine: tuple[float, ...] = (0.12, 0.35),
     jet_on_times: tuple[float, ...] | None = None,
     rotation_on_times: tuple[float, ...] | None = None,
 ) -> Candidates:
@@ -90,7 +91,8 @@ def generate(
     ``use``: the fraction of the force and stroke headroom a pulse may use (the rest is margin for
     what the plate carries over from the pulse before). ``cache`` keeps the unit-amplitude reach
     of shapes that do not depend on the parts (translations, grid rotations) across calls.
-    ``pulse_cache`` keeps the pulses of those shapes by amplitude.
+    ``pulse_cache`` keeps the pulses of those shapes by amplitude. ``fine``: fractions of the
+    largest amplitude for short jets along ``jet_toward`` (the last millimetres of a step).
     ``jet_toward (M, 2)``: where each part should go (a direction; zero: no jet at that part);
     jets then feed along it and 35 degrees to either side instead of ``jet_directions`` evenly
     spread directions. ``jet_on_times``, ``rotation_on_times``: on-times of the jets and of the
@@ -117,13 +119,23 @@ def generate(
     shape: list[int] = []  # which shape each spec plays (one frequency of it is kept)
     n_shapes = 0
 
+    fraction: list[float] = []  # of the largest amplitude the drive allows
+
     def add(
-        kind: str, family: str, c: FloatArray, d: FloatArray, rho: float, on: float, freqs: tuple[float, ...]
+        kind: str,
+        family: str,
+        c: FloatArray,
+        d: FloatArray,
+        rho: float,
+        on: float,
+        freqs: tuple[float, ...],
+        part: float = 1.0,
     ) -> None:
         nonlocal n_shapes
         for f in freqs:
             specs.append((kind, family, c, d, rho, f, on))
             shape.append(n_shapes)
+            fraction.append(part)
         n_shapes += 1
 
     for on in on_times:
@@ -153,6 +165,12 @@ def generate(
             for rho in jet_radii:
                 for d in ways:
                     add("jet", "jet", p, d, rho, on, frequencies)
+        # and gentle short jets for the last millimetres: a part's speed saturates at a velocity
+        # proportional to the amplitude, so a weaker jet moves it less
+        short = min(jet_on_times or (on_part,))
+        for part in fine:
+            for d in ways:
+                add("jet", "fine-jet", p, d, jet_radii[0], short, frequencies[-1:], part)
     k = len(specs)
     attack = np.array([(6.0 if s[0] == "jet" else 3.0) / s[5] for s in specs])
     freq = np.array([s[5] for s in specs])
@@ -194,6 +212,7 @@ def generate(
     # and the fixed shapes' pulses are found in ``pulse_cache``
     room = math.floor(max(limits.stroke - carried, 0.0) / 2.5e-4) * 2.5e-4
     scale = use * np.minimum(limits.force / np.maximum(force, 1e-300), room / np.maximum(reach, 1e-300))
+    scale = scale * np.array(fraction)
     # per shape, the frequency with the largest amplitude (ties: the higher frequency)
     shape_a = np.array(shape)
     keep = np.zeros(len(specs), dtype=bool)

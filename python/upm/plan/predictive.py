@@ -148,7 +148,7 @@ class PredictivePlanner:
         use: float = 0.9,
         edge: float = 0.035,
         lost_cost: float = 1.0,
-        min_gain: float = 5e-4,
+        min_gain: float = 1e-4,
         rerank: int = 4,
         adapt: bool = True,
         dt_factor: int = 24,
