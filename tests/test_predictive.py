@@ -57,6 +57,20 @@ def test_the_plate_model_is_the_per_sample_recurrence(free: bool) -> None:
     assert plant.max_excursion == pytest.approx(plant.limits.excursion(expected), rel=1e-9)
 
 
+def test_the_planner_knows_where_the_plate_is_after_a_pulse() -> None:
+    # DriveLimits.play (phasors, precompensated per harmonic) against the plant playing the same
+    # pulse through its four motor channels (the board's fields) and the rest after it
+    plant = SimulatedUPM()
+    pulse = Pulse.rotation(
+        (0.05, 0.0), Harmonics([5.0, -2.5], [0.0, 0.0], 35.0), 3 / 35, 0.23, 3 / 35, rest=0.05
+    )
+    pose, after = plant.limits.play(pulse)
+    channels = [Channel(**c) for c in pulse.channels(plant.plate, plant.axes)]
+    plant.run(channels, Envelope(pulse.attack, pulse.sustain, pulse.decay), rest=pulse.rest)
+    assert np.allclose(after, plant._state, rtol=1e-6, atol=1e-12)
+    assert plant.limits.excursion(pose) == pytest.approx(plant.max_excursion, rel=1e-3)
+
+
 def test_excursion_of_known_poses() -> None:
     limits = DriveLimits()
     h = limits.size / 2

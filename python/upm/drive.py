@@ -47,6 +47,21 @@ PLATE_SIZE = 0.4064
 DEFAULT_PLATE = Plate(1.0, 0.0275, 0.2)
 
 
+def envelope(t: FloatArray, attack: float, sustain: float, decay: float) -> FloatArray:
+    """The raised-cosine envelope at times ``t`` [s] (0 outside the pulse): what the board
+    multiplies every motor's force by (``upm.plant.Envelope``)."""
+    on = attack + sustain + decay
+    e = np.where((t >= 0) & (t <= on), 1.0, 0.0)
+    if attack > 0:
+        rise = (t >= 0) & (t < attack)
+        e[rise] = 0.5 - 0.5 * np.cos(np.pi * t[rise] / attack)
+    if decay > 0:
+        fall = (t > attack + sustain) & (t <= on)
+        e[fall] = 0.5 - 0.5 * np.cos(np.pi * (on - t[fall]) / decay)
+    out: FloatArray = e
+    return out
+
+
 @functools.lru_cache(maxsize=256)
 def _unit_response(
     limits: DriveLimits, frequency: float, attack: float, sustain: float, decay: float, samples: int
@@ -58,14 +73,8 @@ def _unit_response(
 
     on = attack + sustain + decay
     dt = on / (samples - 1)
-    t = np.arange(samples) * dt
-    env = np.ones(samples)
-    if attack > 0:
-        rise = t < attack
-        env[rise] = 0.5 - 0.5 * np.cos(np.pi * t[rise] / attack)
-    if decay > 0:
-        fall = t > attack + sustain
-        env[fall] = 0.5 - 0.5 * np.cos(np.pi * np.clip(on - t[fall], 0.0, None) / decay)
+    t = np.arange(samples, dtype=np.float64) * dt
+    env = envelope(t, attack, sustain, decay)
     out = np.empty((len(HARMONICS), samples, 3), complex)
     for j, h in enumerate(HARMONICS):
         z = env * np.exp(2j * np.pi * h * frequency * t)
@@ -226,6 +235,40 @@ class DriveLimits:
             acc[..., k] = (f - b * v_prev - st * q_prev) / m
             after[..., k, 0], after[..., k, 1] = q[..., -1], v[..., -1]
         return acc, vel, pos, after
+
+    def responses(self, frequency: float) -> NDArray[np.complex128]:
+        """Velocity per force of each axis at each harmonic of ``frequency`` [Hz], ``(3, 3)``
+        (harmonic 1, 2, 2/3; axis x, y, rotation): the suspension's, or the free plate's inertia."""
+        from .pulses import HARMONICS
+
+        w = 2 * np.pi * np.array(HARMONICS)[:, None] * frequency
+        inertia = np.array([self.plate.mass, self.plate.mass, self.plate.inertia])
+        if self.axes is None:
+            out: NDArray[np.complex128] = 1.0 / (1j * w * inertia)
+            return out
+        m = np.array([x.mass for x in self.axes])
+        b = np.array([x.damping for x in self.axes])
+        k = np.array([x.stiffness for x in self.axes])
+        return 1j * w / (k - m * w**2 + 1j * b * w)
+
+    def play(
+        self, pulse: Pulse, state: ArrayLike | None = None, sample_rate: float = 5000.0
+    ) -> tuple[FloatArray, FloatArray]:
+        """The plate's pose ``(T, 3)`` while ``pulse`` and its rest play from ``state`` (per axis
+        position, velocity; default at rest at home), and the state after: the precompensated,
+        enveloped wrench through :meth:`respond`."""
+        from .pulses import HARMONICS
+
+        t = np.arange(round(pulse.duration * sample_rate)) / sample_rate
+        wrench = np.zeros((len(t), 3))
+        if pulse.kind != "rest":
+            ph = pulse.phasors()
+            force = np.stack([ph[h] for h in HARMONICS]) / self.responses(pulse.frequency)
+            for j, h in enumerate(HARMONICS):
+                wrench += np.real(np.exp(2j * np.pi * h * pulse.frequency * t)[:, None] * force[j][None])
+            wrench *= envelope(t, pulse.attack, pulse.sustain, pulse.decay)[:, None]
+        _, _, pose, after = self.respond(wrench, 1.0 / sample_rate, state)
+        return pose, after
 
     def reach(
         self,

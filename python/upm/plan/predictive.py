@@ -131,6 +131,9 @@ class PredictivePlanner:
         Fit friction and per-part gains online from predicted against achieved steps.
     dt_factor : int
         Integrator steps per period of the highest harmonic when ranking (re-ranking uses twice).
+    grid, jet_radii :
+        Rotation centres on a ``grid x grid`` lattice over the plate's middle half (and on its
+        middle lines); jet radii [m].
     lookahead : float or None
         On-time [s] of the long pulses (:class:`~upm.plan.macros.MacroTable`) each candidate is
         also scored with as a second step; ``None``: one step only.
@@ -169,6 +172,11 @@ class PredictivePlanner:
         if not 0 < use <= 1:
             raise ParameterError(f"use must be in (0, 1]; got {use!r}")
         self.use = float(use)
+        for name, value in (("edge", edge), ("lost_cost", lost_cost), ("min_gain", min_gain)):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ParameterError(f"{name} must be finite and >= 0; got {value!r}")
+        if isinstance(rerank, bool) or not isinstance(rerank, int) or rerank < 0:
+            raise ParameterError(f"rerank must be an integer >= 0; got {rerank!r}")
         self.edge = float(edge)
         self.lost_cost = float(lost_cost)
         self.min_gain = float(min_gain)
@@ -367,35 +375,7 @@ class PredictivePlanner:
 
     def _advance_plate(self, pulse: Pulse) -> None:
         """The plate's state after ``pulse`` and its rest, by the limits' plate model."""
-        from ..pulses import HARMONICS
-
-        fs = 5000.0
-        t = np.arange(round(pulse.duration * fs)) / fs
-        motion = pulse.motion(rest=False)
-        env_t = np.clip(t, 0.0, pulse.on_time)
-        ph = pulse.phasors()
-        w = 2 * np.pi * pulse.frequency
-        plate, axes = self.limits.plate, self.limits.axes
-        inertia = np.array([plate.mass, plate.mass, plate.inertia])
-        wrench = np.zeros((len(t), 3))
-        env = np.zeros(len(t))
-        a, s_, d = pulse.attack, pulse.sustain, pulse.decay
-        env[(t >= a) & (t <= a + s_)] = 1.0
-        if a > 0:
-            env[t < a] = 0.5 - 0.5 * np.cos(np.pi * t[t < a] / a)
-        fall = (t > a + s_) & (t <= pulse.on_time)
-        if d > 0:
-            env[fall] = 0.5 - 0.5 * np.cos(np.pi * (pulse.on_time - t[fall]) / d)
-        del motion, env_t
-        for h in HARMONICS:
-            wh = h * w
-            if axes is None:
-                response = 1.0 / (1j * wh * inertia)
-            else:
-                response = np.array([complex(x.velocity_response(h * pulse.frequency)) for x in axes])
-            wrench += np.real(np.exp(1j * wh * t)[:, None] * (ph[h] / response)[None])
-        wrench *= env[:, None]
-        _, _, _, self._plate = self.limits.respond(wrench, 1.0 / fs, self._plate)
+        _, self._plate = self.limits.play(pulse, self._plate)
 
     @staticmethod
     def _descent(task: _CostTask, state: Any, pos: FloatArray, h: float = 1e-3) -> FloatArray:
