@@ -42,6 +42,24 @@ ComplexArray = NDArray[np.complex128]
 HARMONICS = (1.0, 2.0, 2.0 / 3.0)
 
 
+def _playable(waveform: object) -> None:
+    """A single Harmonics of harmonics 1 and 2 only (what a board channel plays)."""
+    if not isinstance(waveform, Harmonics) or waveform.shape != ():
+        raise ParameterError(f"waveform must be a single upm.Harmonics; got {waveform!r}")
+    if waveform.cos.shape[-1] > 2 and np.any(waveform.cos[2:] != 0) | np.any(waveform.sin[2:] != 0):
+        raise ParameterError("waveform must have harmonics 1 and 2 only (what a board channel plays)")
+
+
+def _unit(name: str, value: ArrayLike) -> FloatArray:
+    """A non-zero 2-vector, normalised."""
+    d = vector(name, value, 2)
+    n = float(np.hypot(*d))
+    if not n > 0:
+        raise ParameterError(f"{name} must be non-zero")
+    out: FloatArray = np.asarray(d, dtype=np.float64) / n
+    return out
+
+
 def _finite(name: str, value: float, low: float = 0.0, strict: bool = False) -> float:
     ok = isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(value)
     if not ok or value < low or (strict and value == low):
@@ -85,10 +103,7 @@ class Pulse:
     ) -> Pulse:
         """A rotation about ``center`` [m] at angular rate ``waveform`` [rad/s] (its first two
         harmonics; the board plays no higher ones)."""
-        if not isinstance(waveform, Harmonics) or waveform.shape != ():
-            raise ParameterError(f"waveform must be a single upm.Harmonics; got {waveform!r}")
-        if waveform.cos.shape[-1] > 2 and np.any(waveform.cos[2:] != 0) | np.any(waveform.sin[2:] != 0):
-            raise ParameterError("waveform must have harmonics 1 and 2 only (what a board channel plays)")
+        _playable(waveform)
         cx, cy = vector("center", center, 2)
         return cls(
             "rotation",
@@ -110,21 +125,15 @@ class Pulse:
     ) -> Pulse:
         """A translation along ``direction`` at speed ``waveform`` [m/s] (its first two harmonics):
         the Coulomb pump of chapter 3, the same force on every part on the plate."""
-        if not isinstance(waveform, Harmonics) or waveform.shape != ():
-            raise ParameterError(f"waveform must be a single upm.Harmonics; got {waveform!r}")
-        if waveform.cos.shape[-1] > 2 and np.any(waveform.cos[2:] != 0) | np.any(waveform.sin[2:] != 0):
-            raise ParameterError("waveform must have harmonics 1 and 2 only (what a board channel plays)")
-        d = vector("direction", direction, 2)
-        n = float(np.hypot(*d))
-        if not n > 0:
-            raise ParameterError("direction must be non-zero")
+        _playable(waveform)
+        d = _unit("direction", direction)
         return cls(
             "translation",
             (0.0, 0.0),
             float(waveform.frequency),
             *cls._times(attack, sustain, decay, rest),
             waveform=waveform,
-            direction=(float(d[0] / n), float(d[1] / n)),
+            direction=(float(d[0]), float(d[1])),
         )
 
     @classmethod
@@ -143,16 +152,13 @@ class Pulse:
         """The jet (6.4) focused at ``center`` [m], feeding along ``direction``, radius ``rho`` [m],
         translation amplitude ``amplitude`` [m/s] at ``frequency`` [Hz]."""
         cx, cy = vector("center", center, 2)
-        d = vector("direction", direction, 2)
-        n = float(np.hypot(*d))
-        if not n > 0:
-            raise ParameterError("direction must be non-zero")
+        d = _unit("direction", direction)
         return cls(
             "jet",
             (float(cx), float(cy)),
             _finite("frequency", frequency, strict=True),
             *cls._times(attack, sustain, decay, rest),
-            direction=(float(d[0] / n), float(d[1] / n)),
+            direction=(float(d[0]), float(d[1])),
             rho=_finite("rho", rho, strict=True),
             amplitude=_finite("amplitude", amplitude, strict=True),
         )
