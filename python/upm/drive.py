@@ -236,20 +236,24 @@ class DriveLimits:
             after[..., k, 0], after[..., k, 1] = q[..., -1], v[..., -1]
         return acc, vel, pos, after
 
+    def ride_out(self, state: ArrayLike, seconds: float, dt: float = 5e-4) -> tuple[FloatArray, FloatArray]:
+        """The plate left to move freely on its suspension for ``seconds`` from ``state``: its
+        pose ``(T, 3)`` and the state after (:meth:`respond` with no force)."""
+        _, _, pose, after = self.respond(np.zeros((max(int(seconds / dt), 1), 3)), dt, state)
+        return pose, after
+
     def responses(self, frequency: float) -> NDArray[np.complex128]:
         """Velocity per force of each axis at each harmonic of ``frequency`` [Hz], ``(3, 3)``
-        (harmonic 1, 2, 2/3; axis x, y, rotation): the suspension's, or the free plate's inertia."""
+        (harmonic 1, 2, 2/3; axis x, y, rotation): each axis's
+        :meth:`~upm.actuation.Axis.velocity_response`, or the free plate's inertia (5.10)."""
         from .pulses import HARMONICS
 
-        w = 2 * np.pi * np.array(HARMONICS)[:, None] * frequency
-        inertia = np.array([self.plate.mass, self.plate.mass, self.plate.inertia])
+        hz = np.array(HARMONICS) * float(frequency)
         if self.axes is None:
-            out: NDArray[np.complex128] = 1.0 / (1j * w * inertia)
+            inertia = np.array([self.plate.mass, self.plate.mass, self.plate.inertia])
+            out: NDArray[np.complex128] = 1.0 / (1j * 2 * np.pi * hz[:, None] * inertia)
             return out
-        m = np.array([x.mass for x in self.axes])
-        b = np.array([x.damping for x in self.axes])
-        k = np.array([x.stiffness for x in self.axes])
-        return 1j * w / (k - m * w**2 + 1j * b * w)
+        return np.stack([np.asarray(x.velocity_response(hz), dtype=np.complex128) for x in self.axes], axis=1)
 
     def play(
         self, pulse: Pulse, state: ArrayLike | None = None, sample_rate: float = 5000.0
@@ -291,7 +295,7 @@ class DriveLimits:
         longest pulse) from rest at home, and the corners move rigidly with the pose (the
         envelope's ramps leave a small velocity drift that the suspension turns into a slow
         wander, larger at higher frequencies). Both scale linearly with a pulse's amplitude."""
-        from .pulses import HARMONICS, motor_sharing
+        from .pulses import motor_sharing
 
         v = np.asarray(phasors, dtype=np.complex128)
         if v.ndim != 3 or v.shape[1:] != (3, 3):
@@ -299,36 +303,20 @@ class DriveLimits:
         k = len(v)
         named = (("frequency", frequency), ("attack", attack), ("sustain", sustain), ("decay", decay))
         f, a, s_, d = (np.broadcast_to(as_float(n, x), (k,)) for n, x in named)
-        inertia = np.array([self.plate.mass, self.plate.mass, self.plate.inertia])
-        if self.axes is not None:
-            m = np.array([x.mass for x in self.axes])
-            b = np.array([x.damping for x in self.axes])
-            st = np.array([x.stiffness for x in self.axes])
         share = motor_sharing(self.plate.lever)
-        peak = np.zeros((k, 4))
-        for j, h in enumerate(HARMONICS):
-            w = 2 * np.pi * h * f[:, None]
-            if self.axes is None:
-                response = 1.0 / (1j * w * inertia)
-            else:
-                response = 1j * w / (st - m * w**2 + 1j * b * w)
-            peak += np.abs((v[:, j] / response) @ share.T)
-        force: FloatArray = peak.max(axis=1)
+        force = np.empty(k)
         excursion = np.empty(k)
         groups: dict[tuple[float, float, float, float], list[int]] = {}
         for i in range(k):
             groups.setdefault((float(f[i]), float(a[i]), float(s_[i]), float(d[i])), []).append(i)
         kx, ky = self.corners[:, 0], self.corners[:, 1]
         for key, members in groups.items():
-            g = _unit_response(self, *key, samples)  # (harmonic, T, axis), complex
             idx = np.array(members)
-            w = 2 * np.pi * np.array(HARMONICS) * key[0]
-            if self.axes is None:
-                response = 1.0 / (1j * w[:, None] * inertia)
-            else:
-                response = 1j * w[:, None] / (st - m * w[:, None] ** 2 + 1j * b * w[:, None])
-            force_ph = v[idx] / response[None]  # (n, harmonic, axis) wrench phasors
-            pose = np.real(np.einsum("nha,hta->nta", force_ph, g))
+            wrench = v[idx] / self.responses(key[0])[None]  # (n, harmonic, axis) wrench phasors
+            # each motor's peak: its harmonics' amplitudes summed (minimum-norm sharing, 5.8)
+            force[idx] = np.abs(wrench @ share.T).sum(axis=1).max(axis=1)
+            g = _unit_response(self, *key, samples)  # (harmonic, T, axis), complex
+            pose = np.real(np.einsum("nha,hta->nta", wrench, g))
             c, sn = np.cos(pose[..., 2])[..., None], np.sin(pose[..., 2])[..., None]
             dx = c * kx - sn * ky + pose[..., :1] - kx
             dy = sn * kx + c * ky + pose[..., 1:2] - ky

@@ -66,13 +66,13 @@ def _at(state: State, positions: FloatArray | None) -> FloatArray:
     return q
 
 
-def _distance_sum(q: FloatArray, targets: FloatArray) -> FloatArray:
-    """Sum over parts of ``|q - target|``, parts without a target (NaN) left out; lost parts
-    (NaN in ``q``) count as far as the plate is wide (they are not done)."""
+def _distance_sum(q: FloatArray, targets: FloatArray, slack: float = 0.0) -> FloatArray:
+    """Sum over parts of ``|q - target|`` less ``slack`` (0 within it), parts without a target
+    (NaN) left out; a lost part (NaN in ``q``) counts 1 m (it is not done)."""
     d = q - targets
     r = np.hypot(d[..., 0], d[..., 1])
     has = np.all(np.isfinite(targets), axis=-1)
-    r = np.where(has, np.where(np.isfinite(r), r, 1.0), 0.0)
+    r = np.where(has, np.where(np.isfinite(r), np.maximum(r - slack, 0.0), 1.0), 0.0)
     out: FloatArray = np.sum(r, axis=-1)
     return out
 
@@ -170,14 +170,7 @@ class GotoTask:
 
     def cost(self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0) -> FloatArray:
         """Sum of the parts' distances to their goals [m], each less the tolerance (0 within it)."""
-        q = _at(state, positions)
-        targets = self._targets(state)
-        d = q - targets
-        r = np.hypot(d[..., 0], d[..., 1])
-        has = np.all(np.isfinite(targets), axis=-1)
-        r = np.where(has, np.where(np.isfinite(r), np.maximum(r - 0.5 * self.tolerance, 0.0), 1.0), 0.0)
-        out: FloatArray = np.sum(r, axis=-1)
-        return out
+        return _distance_sum(_at(state, positions), self._targets(state), 0.5 * self.tolerance)
 
     def steps(self, state: State) -> FloatArray:
         d = self._targets(state) - state.positions

@@ -47,6 +47,14 @@ class Candidates:
     def __len__(self) -> int:
         return len(self.pulses)
 
+    def __add__(self, other: Candidates) -> Candidates:
+        return Candidates(
+            self.pulses + other.pulses,
+            np.concatenate([self.family, other.family]),
+            np.concatenate([self.force, other.force]),
+            np.concatenate([self.excursion, other.excursion]),
+        )
+
 
 def _unit_phasors(kind: str, center: FloatArray, direction: FloatArray, rho: float) -> NDArray[np.complex128]:
     """Velocity phasors (harmonics 1, 2, 2/3; axes u1, u2, u3) at unit amplitude, as
@@ -87,7 +95,8 @@ def generate(
 ) -> Candidates:
     """Candidate pulses for parts at ``positions (M, 2)`` [m], sized within ``limits``.
 
-    ``grid``: rotation centres on a ``grid x grid`` lattice over the middle half of the plate;
+    ``grid``: rotation centres on a ``grid x grid`` lattice over the middle half of the plate and
+    on its middle lines (0: none);
     ``use``: the fraction of the force and stroke headroom a pulse may use (the rest is margin for
     what the plate carries over from the pulse before). ``cache`` keeps the unit-amplitude reach
     of shapes that do not depend on the parts (translations, grid rotations) across calls.
@@ -106,15 +115,18 @@ def generate(
     specs: list[tuple[str, str, FloatArray, FloatArray, float, float, float]] = []
     angles = 2 * np.pi * np.arange(directions) / directions
     half = limits.size / 4
-    lattice = np.linspace(-half, half, grid) if grid > 1 else np.zeros(1)
-    centres = np.array([(x, y) for x in lattice for y in lattice])
-    # and on the plate's two middle lines, out past its edges: a rotation about (0, c) pushes the
-    # parts above c one way along x and the parts below it the other (and likewise along y)
-    line = np.linspace(-0.75 * limits.size, 0.75 * limits.size, 13)
-    line = line[np.abs(line) > half + 1e-9]
-    centres = np.vstack(
-        [centres, np.stack([np.zeros_like(line), line], 1), np.stack([line, np.zeros_like(line)], 1)]
-    )
+    if grid > 0:
+        lattice = np.linspace(-half, half, grid) if grid > 1 else np.zeros(1)
+        centres = np.array([(x, y) for x in lattice for y in lattice])
+        # and on the plate's two middle lines, out past its edges: a rotation about (0, c) pushes
+        # the parts above c one way along x and the parts below it the other (likewise along y)
+        line = np.linspace(-0.75 * limits.size, 0.75 * limits.size, 13)
+        line = line[np.abs(line) > half + 1e-9]
+        centres = np.vstack(
+            [centres, np.stack([np.zeros_like(line), line], 1), np.stack([line, np.zeros_like(line)], 1)]
+        )
+    else:
+        centres = np.zeros((0, 2))
     zero = np.zeros(2)
     shape: list[int] = []  # which shape each spec plays (one frequency of it is kept)
     n_shapes = 0
@@ -180,29 +192,20 @@ def generate(
     force = np.full(k, np.nan)
     reach = np.full(k, np.nan)
     keys: list[tuple[object, ...]] = []
-    for i, (kind, family, c, d, rho, f, t) in enumerate(specs):
+    sized_at: list[FloatArray] = []
+    fixed = np.array([s[1] in ("translation", "rotation") for s in specs], dtype=bool)
+    for i, (kind, _, c, d, rho, f, t) in enumerate(specs):
         # shapes at a part are sized at its position rounded to 5 mm (their reach changes by well
         # under 2 % over that), so they too are mostly found in the cache from cycle to cycle
-        at = np.round(c, 9) if family in ("translation", "rotation") else np.round(c / 0.005) * 0.005
+        at = np.round(c, 9) if fixed[i] else np.round(c / 0.005) * 0.005
         key = (kind, *at, *np.round(d, 9), rho, f, t)
         keys.append(key)
+        sized_at.append(at)
         if cache is not None and key in cache:
             force[i], reach[i] = cache[key]
     todo = np.nonzero(np.isnan(force))[0]
     if len(todo):
-        ph = np.stack(
-            [
-                _unit_phasors(
-                    specs[i][0],
-                    np.array(keys[i][1:3], dtype=float)
-                    if specs[i][1] in ("jet", "part-rotation")
-                    else specs[i][2],
-                    specs[i][3],
-                    specs[i][4],
-                )
-                for i in todo
-            ]
-        )
+        ph = np.stack([_unit_phasors(specs[i][0], sized_at[i], specs[i][3], specs[i][4]) for i in todo])
         fo, ex = limits.reach(ph, freq[todo], attack[todo], sustain[todo], attack[todo], samples=1536)
         force[todo], reach[todo] = fo, ex
         if cache is not None:
@@ -220,13 +223,12 @@ def generate(
         idx = np.nonzero(shape_a == shape_j)[0]
         keep[idx[np.argmax(scale[idx] * (1 + 1e-9 * freq[idx]))]] = True
     pulses: list[Pulse] = []
-    for i, (kind, _family, c, d, rho, f, _t) in enumerate(specs):
+    for i, (kind, _, c, d, rho, f, _t) in enumerate(specs):
         if not keep[i]:
             continue
         a, s = float(attack[i]), float(sustain[i])
         amp = float(scale[i])
-        fixed = _family in ("translation", "rotation")
-        if fixed and pulse_cache is not None and (keys[i], amp) in pulse_cache:
+        if fixed[i] and pulse_cache is not None and (keys[i], amp) in pulse_cache:
             pulses.append(pulse_cache[(keys[i], amp)])
             continue
         if kind == "translation":
@@ -236,7 +238,7 @@ def generate(
             pulses.append(Pulse.rotation(c, Harmonics([w, -w / 2], [0.0, 0.0], f), a, s, a))
         else:
             pulses.append(Pulse.jet(c, d, rho, amp, f, a, s, a))
-        if fixed and pulse_cache is not None:
+        if fixed[i] and pulse_cache is not None:
             if len(pulse_cache) > 20000:
                 pulse_cache.clear()
             pulse_cache[(keys[i], amp)] = pulses[-1]

@@ -16,6 +16,7 @@ parts would end); it is rebuilt when the planner's friction estimate moves by mo
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,7 +25,8 @@ from ..drive import DriveLimits
 from ..motion import PlateMotion
 from ..pulses import Pulse
 from ..sim import simulate_batch
-from .candidates import generate
+from .candidates import Candidates, generate
+from .sizing import scaled
 
 __all__ = ["MacroTable"]
 
@@ -66,7 +68,8 @@ class MacroTable:
         directions: int = 8,
         frequencies: tuple[float, ...] = (25.0, 35.0, 50.0, 70.0),
     ) -> None:
-        self.limits, self.mu, self.mu_s, self.on_time = limits, float(mu), mu_s, float(on_time)
+        self.limits, self.mu, self.on_time = limits, float(mu), float(on_time)
+        self.static = 1.0 if mu_s is None else float(mu_s) / self.mu  # mu_s / mu, kept as mu moves
         if centres is None:
             line = np.linspace(-0.75 * limits.size, 0.75 * limits.size, 13)
             c = np.vstack(
@@ -75,49 +78,62 @@ class MacroTable:
             at = np.unique(np.round(c, 9), axis=0)
         else:
             at = np.asarray(centres, dtype=float).reshape(-1, 2)
-        cands = generate(limits, np.zeros((0, 2)), frequencies=frequencies, on_times=(self.on_time,),
-                         directions=directions, grid=1, jet_radii=(), jet_directions=0)  # fmt: skip
-        # keep the translations, and make rotations about the given centres at their best frequency
-        self.translations = [p for p, f in zip(cands.pulses, cands.family, strict=True) if f == "translation"]
-        rot = generate(limits, at, frequencies=frequencies, on_times=(self.on_time,),
-                       directions=0, grid=0, jet_radii=(), jet_directions=0)  # fmt: skip
-        self.rotations = [p for p, f in zip(rot.pulses, rot.family, strict=True) if f == "part-rotation"]
-        self.pulses: list[Pulse] = self.rotations + self.translations
+        # translations, and rotations about the centres (each "part" here), at their best frequency
+        made = generate(limits, at, frequencies=frequencies, on_times=(self.on_time,), directions=directions,
+                        grid=0, jet_radii=(), jet_directions=0, fine=())  # fmt: skip
+        keep = np.isin(made.family, ("part-rotation", "translation"))
+        order = np.argsort(made.family[keep] != "part-rotation", kind="stable")  # rotations first
+        self.sized = Candidates(
+            [made.pulses[k] for k in np.nonzero(keep)[0][order]],
+            np.full(int(keep.sum()), "macro"),
+            made.force[keep][order],
+            made.excursion[keep][order],
+        )
+        self.pulses: list[Pulse] = self.sized.pulses
+        self.rotations = [p for p in self.pulses if p.kind == "rotation"]
+        self.translations = [p for p in self.pulses if p.kind == "translation"]
         self.radii = np.concatenate([[0.0], np.geomspace(0.003, 1.2 * limits.size, 47)])
         self._build()
 
     def _build(self) -> None:
-        """Simulate every macro once: rotations on a ray of parts, translations on one part."""
-        motions = []
-        coast = 1.05 * self.on_time * ((self.mu_s or self.mu) / self.mu) + 0.02
-        for p in self.pulses:
-            motions.append(PlateMotion.sequence([p.motion(rest=False), PlateMotion.rest(coast)]))
-        n = len(self.radii)
-        rays = []
-        for p in self.rotations:
-            c = np.array(p.center)
-            rays.append(c + np.stack([self.radii, np.zeros(n)], 1))
-        # one batched call per layout size: rotations each on their own ray, translations at home
-        top = max(m.max_frequency for m in motions)
-        dt = 1.0 / (40.0 * top)
+        """Simulate every macro once, in one batched call: a rotation's effect on a part depends
+        only on where the part is from its centre (the plate's velocity there is
+        ``w R90(P - C)``), so every rotation is played about the origin on one ray of parts, and
+        the translations on the same ray (they move every part alike)."""
+        coast = 1.05 * self.on_time * self.static + 0.02
+        about_origin = [replace(p, center=(0.0, 0.0)) if p.kind == "rotation" else p for p in self.pulses]
+        motions = [
+            PlateMotion.sequence([p.motion(rest=False), PlateMotion.rest(coast)]) for p in about_origin
+        ]
+        ray = np.stack([self.radii, np.zeros(len(self.radii))], 1)
+        dt = 1.0 / (40.0 * max(m.max_frequency for m in motions))
         duration = self.on_time + coast
-        self.turn = np.zeros((len(self.rotations), n, 2))  # displacement of a part at (r, 0) from C
-        self.durations = np.full(len(self.pulses), duration)
+        run = simulate_batch(motions, ray, duration=duration, dt=dt, mu=self.mu, mu_s=self.mu * self.static,
+                             record_every=max(1, round(0.01 / dt)))  # fmt: skip
+        moved = run.positions[:, -1] - ray[None]
+        n_rot = len(self.rotations)
+        self.turn = moved[:n_rot]  # displacement of a part at (r, 0) from the centre
+        self.shift = moved[n_rot:, 0]
         inside = self.radii <= 0.75 * self.limits.size  # parts that can be on the plate
-        every = max(1, round(0.01 / dt))
-        for k, (m, ray) in enumerate(zip(motions[: len(self.rotations)], rays, strict=True)):
-            run = simulate_batch([m], ray, duration=duration, dt=dt, mu=self.mu, mu_s=self.mu_s,
-                                 record_every=every)  # fmt: skip
-            self.turn[k] = run.positions[0, -1] - ray
-            self.durations[k] = _stopped(run.t, run.stuck[0][:, inside], self.on_time)
-        self.shift = np.zeros((len(self.translations), 2))
-        if self.translations:
-            run = simulate_batch(motions[len(self.rotations) :], np.zeros((1, 2)), duration=duration, dt=dt,
-                                 mu=self.mu, mu_s=self.mu_s, record_every=every)  # fmt: skip
-            self.shift = run.positions[:, -1, 0]
-            for k in range(len(self.translations)):
-                self.durations[len(self.rotations) + k] = _stopped(run.t, run.stuck[k], self.on_time)
+        self.durations = np.array(
+            [_stopped(run.t, run.stuck[k][:, inside] if k < n_rot else run.stuck[k][:, :1], self.on_time)
+             for k in range(len(self.pulses))]
+        )  # fmt: skip
         self.centres = np.array([p.center for p in self.rotations]).reshape(-1, 2)
+
+    def playable(self, carried: float = 0.0) -> Candidates:
+        """The macro pulses as candidates, their amplitude lowered in proportion to the stroke
+        that the plate's leftover motion (``carried`` [m]) leaves."""
+        room = min(1.0, max(self.limits.stroke - carried, 0.0) / self.limits.stroke)
+        if room >= 1.0:
+            return self.sized
+        pulses = [
+            replace(p, amplitude=p.amplitude * room)
+            if p.kind == "jet"
+            else replace(p, waveform=scaled(p.waveform, room))  # type: ignore[arg-type]
+            for p in self.pulses
+        ]
+        return Candidates(pulses, self.sized.family, self.sized.force * room, self.sized.excursion * room)
 
     def refresh(self, mu: float) -> None:
         """Rebuild for a new friction estimate when it moved by more than 5 %."""

@@ -5,9 +5,9 @@ Each cycle :class:`PredictivePlanner`
 1. builds a few hundred candidate pulses at the drive's force and stroke limits
    (:func:`upm.plan.candidates.generate`: translations, rotations about a grid and about each
    part, jets at each part; several frequencies and on-times);
-2. predicts them all from the tracked positions in one :func:`upm.simulate_batch` call (point
-   parts, a coarse step, the parts followed until they stop), each part's predicted step scaled by
-   its learnt gain;
+2. predicts them all from the tracked positions in batched :func:`upm.simulate_batch` calls (one
+   per on-time and frequency; point parts, a coarse step, the parts followed until they stop),
+   each part's predicted step scaled by its learnt gain;
 3. scores each by the task's own cost (``task.cost(state, positions, elapsed)``) against resting
    for as long, plus penalties for parts leaving the plate's usable area and for overlapping
    parts, per second of plate time (the pulse and the rest while the parts stop);
@@ -35,9 +35,9 @@ from ..drive import DriveLimits
 from ..motion import PlateMotion
 from ..pulses import Pulse
 from ..sim import Disk, simulate_batch
-from ..waveforms import Harmonics
 from .candidates import Candidates, generate
 from .macros import MacroTable
+from .sizing import positive as _positive
 
 __all__ = ["PredictivePlanner"]
 
@@ -46,12 +46,6 @@ FloatArray = NDArray[np.float64]
 
 class _CostTask(Protocol):
     def cost(self, state: Any, positions: FloatArray | None = None, elapsed: Any = 0.0) -> Any: ...
-
-
-def _positive(name: str, value: float) -> float:
-    if not (isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(value) and value > 0):
-        raise ParameterError(f"{name} must be finite and > 0; got {value!r}")
-    return float(value)
 
 
 class _Steps:
@@ -92,17 +86,6 @@ def _separate(positions: FloatArray, radius: float, gap: float = 1e-4) -> FloatA
             q[a] += 0.5 * (need[a, b] + gap) * u
             q[b] -= 0.5 * (need[a, b] + gap) * u
     return q
-
-
-def _scaled(pulse: Pulse, factor: float) -> Pulse:
-    """``pulse`` at ``factor`` times its amplitude (its force and excursion scale alike)."""
-    if factor >= 1.0:
-        return pulse
-    if pulse.kind == "jet":
-        return replace(pulse, amplitude=pulse.amplitude * factor)
-    assert pulse.waveform is not None
-    h = pulse.waveform
-    return replace(pulse, waveform=Harmonics(h.cos * factor, h.sin * factor, float(h.frequency)))
 
 
 class PredictivePlanner:
@@ -194,7 +177,6 @@ class PredictivePlanner:
         self.gains: dict[int, float] = {}
         self.step_errors: list[float] = []
         """|predicted - achieved| step of every part after every pulse [m]."""
-        self.candidate_counts: list[int] = []
         self.expected: tuple[NDArray[np.int64], FloatArray] | None = None
         """Part ids and where the last pulse is predicted to leave them (for the tracker)."""
         self._cache: dict[tuple[object, ...], tuple[float, float]] = {}
@@ -205,14 +187,15 @@ class PredictivePlanner:
         self._last: tuple[Pulse, NDArray[np.int64], FloatArray, FloatArray] | None = None
 
     # -- prediction ---------------------------------------------------------------------------
-    def _mu_s(self, mu: float) -> float:
-        return mu if self.mu_s is None else self.mu_s * mu / self.mu
+    @property
+    def _static(self) -> float:
+        """``mu_s / mu``: the static friction keeps its ratio as the estimate of ``mu`` moves."""
+        return 1.0 if self.mu_s is None else self.mu_s / self.mu
 
-    def _coast(self, pulses: Sequence[Pulse], mu: float) -> float:
+    def _coast(self, pulses: Sequence[Pulse]) -> float:
         """Longest time parts need to stop after a pulse: a part gains at most ``mu_s g`` while
         the pulse lasts and loses ``mu g`` after."""
-        on = max(p.on_time for p in pulses)
-        return 1.05 * on * self._mu_s(mu) / mu + 0.02
+        return 1.05 * max(p.on_time for p in pulses) * self._static + 0.02
 
     def predict(
         self,
@@ -226,8 +209,7 @@ class PredictivePlanner:
         """Positions ``(K, M, 2)`` after each pulse once the parts have stopped, and the plate time
         ``(K,)`` [s] each takes (the pulse and the rest until the last part stops, to 10 ms)."""
         mu_v = self.mu_estimate if mu is None else mu
-        mu0 = float(np.min(mu_v))
-        mu_s = np.asarray(mu_v, dtype=float) * (self._mu_s(1.0) if self.mu_s is not None else 1.0)
+        mu_s = np.asarray(mu_v, dtype=float) * self._static
         if disks and self.part_radius is not None:
             apart = _separate(positions, self.part_radius)
             parts: Any = [Disk((float(x), float(y)), self.part_radius) for x, y in apart]
@@ -242,7 +224,7 @@ class PredictivePlanner:
         for k, (p, m) in enumerate(zip(pulses, motions, strict=True)):
             groups.setdefault((round(p.on_time, 6), m.max_frequency), []).append(k)
         for (on, top), members in groups.items():
-            horizon = on + self._coast([pulses[k] for k in members], mu0)
+            horizon = on + self._coast([pulses[k] for k in members])
             seq = [
                 PlateMotion.sequence([motions[k], PlateMotion.rest(horizon - pulses[k].on_time + 1e-3)])
                 for k in members
@@ -353,6 +335,8 @@ class PredictivePlanner:
             # damped, and trusted only where the pulse moved the parts well clear of noise
             weight = 0.5 if float(np.median(np.hypot(*achieved[moved].T))) > 0.02 else 0.25
             self.mu_estimate = float(np.clip(self.mu_estimate * f**weight, 0.05, 1.5))
+            if self.macros is not None:
+                self.macros.refresh(self.mu_estimate)
         for k, r in zip(np.nonzero(ok)[0], a[ok], strict=True):
             g2 = float(guessed[k] @ guessed[k])
             if g2 < (8e-3) ** 2:
@@ -368,9 +352,7 @@ class PredictivePlanner:
         response from the expected state over the longest candidate and 0.3 s more)."""
         if not np.any(self._plate):
             return 0.0
-        dt = 1e-3
-        n = int((max(self.on_times) + 0.3) / dt)
-        _, _, pose, _ = self.limits.respond(np.zeros((n, 3)), dt, self._plate)
+        pose, _ = self.limits.ride_out(self._plate, max(self.on_times) + 0.3, dt=1e-3)
         return self.limits.excursion(pose)
 
     def _advance_plate(self, pulse: Pulse) -> None:
@@ -390,9 +372,12 @@ class PredictivePlanner:
         out: FloatArray = -(c[:, :, 0] - c[:, :, 1]) / (2 * h)
         return out
 
-    def candidates(self, positions: FloatArray, toward: FloatArray | None = None) -> Candidates:
+    def candidates(
+        self, positions: FloatArray, toward: FloatArray | None = None, carried: float | None = None
+    ) -> Candidates:
         """This cycle's candidates for parts at ``positions`` (see :mod:`upm.plan.candidates`),
-        within the stroke the plate's leftover motion leaves; jets along ``toward (M, 2)``."""
+        within the stroke the plate's leftover motion leaves (``carried`` [m], default from the
+        planner's plate model); jets along ``toward (M, 2)``."""
         return generate(
             self.limits,
             positions,
@@ -402,7 +387,7 @@ class PredictivePlanner:
             jet_radii=self.jet_radii,
             use=self.use,
             cache=self._cache,
-            carried=self._carried(),
+            carried=self._carried() if carried is None else carried,
             jet_toward=toward,
             pulse_cache=self._pulses,
             jet_on_times=(0.35, 0.6),
@@ -414,6 +399,13 @@ class PredictivePlanner:
     ) -> tuple[int | None, FloatArray, FloatArray]:
         """Index of the best of ``pulses`` for ``task`` (``None``: none gains ``min_gain``), with
         every pulse's predicted gain [m] and gain per second."""
+        best, gain, rate, _, _ = self._choose(task, state, pulses, ids)
+        return best, gain, rate
+
+    def _choose(
+        self, task: _CostTask, state: Any, pulses: Sequence[Pulse], ids: NDArray[np.int64] | None = None
+    ) -> tuple[int | None, FloatArray, FloatArray, float, FloatArray]:
+        """:meth:`choose`, and the best pulse's plate time [s] and predicted final positions."""
         pos = np.asarray(state.positions, dtype=float)
         ids = np.arange(len(pos)) if ids is None else ids
         final, durations = self.predict(pulses, pos)
@@ -431,22 +423,18 @@ class PredictivePlanner:
             r2 = np.maximum(r2, self._two_step(task, state, pos, f2, d2))
             gain[top], rate[top] = g2, r2
             best = top[int(np.argmax(np.where(np.isfinite(r2), r2, -np.inf)))]
-            self._durations = dict(zip(top, d2, strict=True))
-            self._finals = dict(zip(top, f2, strict=True))
-        else:
-            self._durations = {k: durations[k] for k in range(len(pulses))}
-            self._finals = {k: final[k] for k in range(len(pulses))}
+            # the re-ranked pulses' fine predictions replace the coarse ones
+            durations, final = durations.copy(), final.copy()
+            durations[top], final[top] = d2, f2
         if best is not None and not (
-            gain[best] >= self.min_gain or rate[best] * self._durations.get(best, 1.0) >= self.min_gain
+            gain[best] >= self.min_gain or rate[best] * durations[best] >= self.min_gain
         ):
             # the look-ahead's favourite does not hold up: the best sure one-step gain instead
             one_step = np.where(gain >= self.min_gain, gain / np.maximum(durations, 1e-9), -np.inf)
             best = int(np.argmax(one_step)) if np.isfinite(one_step).any() else None
-            if best is not None and best not in self._durations:
-                self._durations[best], self._finals[best] = durations[best], final[best]
         if best is None:
-            return None, gain, rate
-        return best, gain, rate
+            return None, gain, rate, math.nan, np.full_like(pos, np.nan)
+        return best, gain, rate, float(durations[best]), final[best]
 
     def _two_step(
         self, task: _CostTask, state: Any, pos: FloatArray, final: FloatArray, durations: FloatArray
@@ -454,7 +442,6 @@ class PredictivePlanner:
         """Gain per second of each candidate followed by the best long pulse (its table)."""
         if self.macros is None:
             return np.full(len(final), -np.inf)
-        self.macros.refresh(self.mu_estimate)
         safe = np.where(np.isfinite(final), final, pos)
         after = self.macros.apply(safe)  # (K, R, M, 2)
         total = durations[:, None] + self.macros.durations[None, :]
@@ -480,33 +467,23 @@ class PredictivePlanner:
         self._correct(ids, pos)
         now = float(getattr(state, "time", self._t_next))
         if now > self._t_next + 1e-6 and np.any(self._plate):  # the plate rode out the idle time
-            n = min(int((now - self._t_next) * 2000), 10000)
-            _, _, _, self._plate = self.limits.respond(np.zeros((n, 3)), 5e-4, self._plate)
+            _, self._plate = self.limits.ride_out(self._plate, min(now - self._t_next, 5.0))
         self._t_next = now
         if not len(pos):
             return []
         self.expected = None
-        cands = self.candidates(pos, self._descent(task, state, pos))
+        carried = self._carried()
+        cands = self.candidates(pos, self._descent(task, state, pos), carried)
         if self.macros is not None:  # the long pulses of the look-ahead are playable themselves
-            self.macros.refresh(self.mu_estimate)
-            room = min(1.0, max(self.limits.stroke - self._carried(), 0.0) / self.limits.stroke)
-            macros = [_scaled(p, room) for p in self.macros.pulses]
-            cands = Candidates(
-                cands.pulses + macros,
-                np.concatenate([cands.family, np.full(len(self.macros.pulses), "macro")]),
-                np.concatenate([cands.force, np.full(len(self.macros.pulses), np.nan)]),
-                np.concatenate([cands.excursion, np.full(len(self.macros.pulses), np.nan)]),
-            )
-        self.candidate_counts.append(len(cands))
-        best, _, _ = self.choose(task, state, cands.pulses, ids)
+            cands = cands + self.macros.playable(carried)
+        best, _, _, duration, final = self._choose(task, state, cands.pulses, ids)
         if best is None:
             return []
         pulse = cands.pulses[best]
-        rest = float(self._durations[best]) - pulse.on_time + 0.01
-        played = replace(pulse, rest=max(rest, 0.0))
+        played = replace(pulse, rest=max(duration - pulse.on_time + 0.01, 0.0))
         self._advance_plate(played)
         self._t_next = now + played.duration
-        self._last = (played, ids.copy(), pos.copy(), np.asarray(self._finals[best], dtype=float))
+        self._last = (played, ids.copy(), pos.copy(), np.asarray(final, dtype=float))
         self.expected = (ids.copy(), self._last[3].copy())
         return [played]
 
