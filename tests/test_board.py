@@ -1,5 +1,6 @@
 """The host driver and the board emulator, end to end over a real pseudo-terminal and TCP."""
 
+import math
 import os
 import signal
 import subprocess
@@ -83,6 +84,19 @@ def test_limits_are_checked_by_host_and_board(emulator):
             board._command(protocol.SetChannel(0, 1e6, F))
         assert refused.value.code == protocol.NackCode.OUT_OF_LIMITS
         assert board.status().faults & protocol.Status.LIMIT_REFUSED
+        # NaN passed the host's comparisons before; now the host refuses it, and a bad envelope
+        # or watchdog, before anything is sent (the board's counters do not move).
+        before = board.status()
+        for call in (
+            lambda: board.set_channel(0, math.nan, F),
+            lambda: board.set_channel(7, 1.0, F),
+            lambda: board.set_envelope(0.02, math.inf, 0.02),
+            lambda: board.set_envelope(-0.01, 0.2, 0.02),
+            lambda: board.set_watchdog(70000),
+        ):
+            with pytest.raises(protocol.ProtocolError):
+                call()
+        assert board.status().rejected == before.rejected
 
 
 def test_context_manager_stops_the_motors_on_exceptions(emulator):

@@ -196,6 +196,40 @@ def test_jets_sort_four_chips_through_the_loop_without_overlap(tmp_path):
     assert back.frames.shape[0] == len(log.frames) and back.frames.shape[-1] == 3
 
 
+def test_an_interrupted_run_keeps_its_log(tmp_path):
+    # Before: the log was written only at the end, so Ctrl-C threw the whole run away.
+    parts = np.array([[0.05, 0.05], [-0.03, -0.06]])
+    plant = plant_with(parts)
+    task = control.SortTask({"red": -1, "blue": 1}, line=0.09, margin=0.08, spacing=0.046, max_step=0.025)
+    planner = control.JetPlanner(mu=0.3, amplitude=0.1, rho=0.03, plate=PLATE, axes=AXES)
+    loop = control.Loop(plant, plant.camera(["red", "blue"]), planner, task, part_radius=CHIP)
+    play, calls = loop.device.execute, []
+
+    def interrupted(pulses):
+        calls.append(len(pulses))
+        if len(calls) == 4:
+            raise KeyboardInterrupt
+        play(pulses)
+
+    loop.device.execute = interrupted
+    with pytest.raises(KeyboardInterrupt):
+        loop.run(25, log=tmp_path / "run.npz", flush_every=1e-6)
+    back = control.load_log(tmp_path / "run.npz")
+    assert back.stopped.startswith("KeyboardInterrupt") and not back.done
+    assert back.positions.shape[0] == 3  # the three cycles played before the interrupt
+    assert back.tracking_error().shape == back.positions.shape[:2]
+    assert not list(tmp_path.glob(".*"))  # no partial files left behind
+
+
+def test_a_log_path_that_cannot_be_written_is_refused_before_the_run(tmp_path):
+    plant = plant_with([[0.0, 0.0]])
+    loop = control.Loop(plant, plant.camera(), control.JetPlanner(), control.WatchTask(1), part_radius=PENNY)
+    (tmp_path / "file").write_text("")
+    with pytest.raises(upm.ParameterError, match="log: cannot write"):
+        loop.run(1, log=tmp_path / "file" / "log.npz")
+    assert loop.plate_time == 0.0
+
+
 def test_displacements_bring_two_parts_to_their_goals():
     # parts that do not cross each other's way: two close parts make the system ill-conditioned (4.2.5)
     starts = np.array([[-0.05, -0.03], [0.05, -0.03]])

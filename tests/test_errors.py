@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import upm
-from upm import _core, theory
+from upm import _core, actuation, theory
 
 
 @pytest.mark.parametrize(
@@ -104,3 +104,112 @@ def test_arbitrary_floats_give_a_result_or_an_upm_error(a, b, c, d):
             continue
         values = out if isinstance(out, tuple) else (out,)
         assert all(math.isfinite(float(v)) for v in values), (call, out)
+
+
+SPIN = upm.PlateMotion.rotation((0.0, 0.0), upm.Harmonics([2.0, -1.0], frequency=35.0))
+CORNERS = upm.corner_centers((-1, -0.5, 1, 0.5))
+JET = {"center": (0, 0), "direction": (0, 1), "rho": 0.1, "amplitude": 0.1, "frequency": 35.0}
+TWO = ([(0.5, 0), (-0.75, 0.25)], [(0.01, 0.01), (-0.01, 0)], CORNERS)
+
+
+@pytest.mark.parametrize(
+    ("call", "match"),
+    [
+        # The cases a user met (issue 23, item 8): built-in exceptions before.
+        (
+            lambda: upm.PlateMotion.jet(**{**JET, "frequency": "abc"}),
+            "frequency must be a real number; got 'abc'",
+        ),
+        (lambda: upm.PlateMotion.rest("1s"), "duration must be a real number; got '1s'"),
+        (
+            lambda: upm.PlateMotion.jet(**{**JET, "frequency": None}),
+            "frequency must be a real number; got None",
+        ),
+        (lambda: upm.solve_rotations(*TWO, curls=["x", "y"]), "curls must be a real number"),
+        (
+            lambda: actuation.synthetic_accelerometers(
+                actuation.Plate(1, 0.0275, 0.2), [1, 0, 0, 1], (0.1, 0.1), 35.0, duration=0
+            ),
+            r"duration must lie in \(0, inf\]; got 0",
+        ),
+        (lambda: actuation.check_drive(35.0, []), "axes must hold at least 1 item"),
+        (lambda: actuation.check_drive(math.nan, [actuation.Axis(1, 2, 350)]), "frequency must be finite"),
+        (lambda: actuation.wrench([1, 0, 0, 1], lever="x"), "lever must be a real number; got 'x'"),
+        (
+            lambda: upm.simulate_batch([SPIN], np.zeros((1, 2)), duration=0.01, dt=5e-4, mu=0.3, threads=-1),
+            r"threads must be an integer in \[1, 4096\]; got -1",
+        ),
+        (
+            lambda: upm.simulate(
+                SPIN,
+                [upm.Disk((0, 0), 0.01)],
+                duration=0.01,
+                dt=5e-4,
+                mu=0.3,
+                contacts=True,
+                contact_iterations=-1,
+            ),
+            r"contact_iterations must be an integer in \[1, 1000\]",
+        ),
+        (lambda: upm.theorem1_force(1, 2**70, 0.0), r"n2 must be an integer <= 2147483647"),
+        (lambda: upm.TwoHarmonic(b=None, phi=0.0), "b must be a real number or an array of them; got None"),
+        (lambda: upm.solve_rotations(*TWO, order="bogus"), "order must be 'priority'"),
+        # Silent or misleading before (item 10).
+        (
+            lambda: upm.simulate(SPIN, np.zeros((1, 2)), duration=1e-4, dt=5e-4, mu=0.3),
+            r"duration must be at least one step dt = 0.0005 s; got 0.0001",
+        ),
+        (lambda: upm.PlateMotion.jet(**{**JET, "amplitude": 0}), "amplitude must be non-zero"),
+        (lambda: upm.Harmonics([1 + 1j]), "cos must be a real number"),
+        (
+            lambda: upm.simulate(
+                SPIN,
+                np.array([[0.15, 0.0]]),
+                duration=0.01,
+                dt=5e-4,
+                mu=0.3,
+                contacts=True,
+                walls="plate",
+                plate_size=0.4,
+            ),
+            r"contacts=True needs every part to be a upm.Disk.*parts\[0\] is a point",
+        ),
+        # Bounded costs (item 3).
+        (lambda: upm.force_table(1, 10001, 0.1), r"n2 must be an integer <= 1000; got 10001"),
+        (lambda: upm.Harmonics(np.r_[1.0, np.zeros(1000)]), "at most 256 terms"),
+        (lambda: upm.sustain_for_displacement(1.5, radius=0.05, mu=0.3), "at most half a turn"),
+        (lambda: upm.jet_pulses([(0.05, 0.0)], [(0.01, 0.0)], mu=1e300), r"mu must lie in \(0, 10\]"),
+    ],
+)
+def test_the_cases_users_met_name_the_parameter(call, match):
+    with pytest.raises(upm.UpmError, match=match):
+        call()
+
+
+def test_a_numpy_integer_is_a_valid_number():
+    # Before: "mass must be finite and > 0; got np.int64(1)".
+    plate = actuation.Plate(mass=np.int64(1), inertia=0.0275, lever=0.2)
+    assert plate.mass == 1.0 and isinstance(plate.mass, float)
+
+
+def test_zero_parts_need_zero_strengths():
+    # Before: a Rust panic turned into InternalError ("please report").
+    plan = upm.solve_rotations(np.zeros((0, 2)), np.zeros((0, 2)), CORNERS)
+    np.testing.assert_array_equal(plan.strengths, np.zeros(4))
+    batch = upm.solve_rotations_batch(np.zeros((0, 2, 2)), np.zeros((0, 2, 2)), CORNERS)
+    assert batch.strengths.shape[0] == 0
+
+
+def test_a_far_part_does_not_merge_the_centres():
+    # Before: "centres 0 and 3 are both at (-1, -0.5)" for a part 1e12 m away. The system is
+    # solvable, and (rightly) ill-conditioned.
+    with pytest.warns(upm.RankWarning, match="ill-conditioned"):
+        plan = upm.solve_rotations([(1e12, 0.0)], [(0.1, 0.0)], CORNERS)
+    assert np.all(np.isfinite(plan.strengths))
+
+
+def test_solve_rotations_warns_on_infeasible_forces_and_ill_conditioning():
+    with pytest.warns(upm.PlanWarning, match="100 mu m g"):
+        upm.solve_rotations([(0.5, 0.0)], [(100.0, 0.0)], CORNERS, mu_m_g=1.0)
+    with pytest.warns(upm.RankWarning, match="ill-conditioned"):
+        upm.solve_rotations([(0.5, 0.0), (0.5 + 1e-9, 0.0)], [(0.1, 0.1), (-0.1, 0.0)], CORNERS)

@@ -1,6 +1,7 @@
 """Board protocol v1 (docs/protocol.md): golden frames from an independent reference encoder,
 round trips, fault injection and a decoder fuzz."""
 
+import math
 import struct
 
 import pytest
@@ -84,12 +85,14 @@ def test_documented_example_frame():
 
 floats = st.floats(width=32, allow_nan=False, allow_infinity=False)
 u32 = st.integers(0, 2**32 - 1)
+positive = st.floats(min_value=2.0**-10, max_value=2.0**20, width=32)
+durations = st.floats(min_value=0.0, max_value=2.0**20, width=32)
 messages = st.one_of(
     st.builds(p.Hello, st.integers(0, 255), u32, floats, floats, floats, u32, st.integers(0, 65535)),
     st.builds(
-        p.SetChannel, st.integers(0, 255), floats, floats, floats, floats, floats, floats, floats, floats
+        p.SetChannel, st.integers(0, 3), floats, positive, floats, floats, floats, floats, floats, floats
     ),
-    st.builds(p.SetEnvelope, floats, floats, floats),
+    st.builds(p.SetEnvelope, durations, durations, durations),
     st.builds(p.Pulse, u32),
     st.builds(p.PulseDone, u32, u32),
     st.builds(p.Status, st.integers(0, 255), st.integers(0, 65535), u32, u32, u32),
@@ -167,3 +170,30 @@ def test_errors_are_board_errors():
         p.encode(p.Samples(0, ((0, 0, 0, 0),) * 200), 0)
     decoder = p.Decoder()
     assert decoder.feed(b"\x01" * 5000) == [] and decoder.rejected == 1
+
+
+@pytest.mark.parametrize(
+    ("message", "seq", "match"),
+    [
+        (p.SetChannel(7, 1.0, 35.0), 1, r"channel must be 0..3"),
+        (p.SetChannel(0, math.nan, 35.0), 1, r"SetChannel.amplitude must be a finite number"),
+        (p.SetChannel(0, 1.0, -35.0), 1, r"SetChannel.frequency must be > 0"),
+        (p.SetChannel(0, 1e39, 35.0), 1, r"within float32"),
+        (p.SetEnvelope(0.02, -0.1, 0.02), 1, r"SetEnvelope.sustain must be >= 0"),
+        (p.SetWatchdog(70000), 1, r"SetWatchdog.milliseconds must be an integer in \[0, 65535\]"),
+        (p.SetWatchdog(0), 1, r"SetWatchdog.milliseconds must be 1..60000"),
+        (
+            p.Samples(0, ((40000, 0, 0, 0),)),
+            1,
+            r"Samples.values\[0\] must be an integer in \[-32768, 32767\]",
+        ),
+        (p.Samples(0, ((1, 2, 3),)), 1, r"must be 4 integers"),
+        (p.Pulse(1.5), 1, r"Pulse.id must be an integer"),
+        (p.Stop(), 1.5, r"seq must be an integer in \[0, 65535\]"),
+        (p.Stop(), 70000, r"seq must be an integer"),
+    ],
+)
+def test_encode_refuses_what_the_wire_cannot_carry(message, seq, match):
+    # Before: struct.error, or a frame with channel 7, NaN or a negative frequency on the wire.
+    with pytest.raises(p.ProtocolError, match=match):
+        p.encode(message, seq)

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import math
 import operator
-from typing import Any
+from collections.abc import Sequence
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -11,10 +13,94 @@ from numpy.typing import ArrayLike, NDArray
 from ._errors import ParameterError, ShapeError
 
 FloatArray = NDArray[np.float64]
+T = TypeVar("T")
+
+_REALS = (int, float, np.integer, np.floating)
+
+
+def show(value: Any) -> str:
+    """A short description of ``value`` for an error message."""
+    if isinstance(value, np.ndarray):
+        return f"an array of shape {value.shape}" if value.ndim else repr(value[()])
+    text = repr(value)
+    return text if len(text) <= 60 else f"{text[:57]}..."
+
+
+def real(
+    name: str,
+    value: Any,
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = False,
+    high_open: bool = False,
+    finite: bool = True,
+) -> float:
+    """``value`` as a Python float: a real scalar (Python or NumPy, or a 0-d array), finite unless
+    ``finite=False``, within the stated interval; `ParameterError` naming ``name`` otherwise."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, _REALS):
+        raise ParameterError(f"{name} must be a real number; got {show(value)}")
+    try:
+        x = float(value)
+    except OverflowError:
+        raise ParameterError(f"{name} is too large for a float; got {show(value)}") from None
+    if finite and not math.isfinite(x):
+        raise ParameterError(f"{name} must be finite; got {x}")
+    ok = (low is None or (x > low if low_open else x >= low)) and (
+        high is None or (x < high if high_open else x <= high)
+    )
+    if not ok:
+        left, right = "(" if low_open else "[", ")" if high_open else "]"
+        lo = "-inf" if low is None else f"{low:g}"
+        hi = "inf" if high is None else f"{high:g}"
+        raise ParameterError(f"{name} must lie in {left}{lo}, {hi}{right}; got {x:g}")
+    return x
+
+
+def integer(name: str, value: Any, *, low: int | None = None, high: int | None = None) -> int:
+    """``value`` as a Python int (not a bool) within ``[low, high]``; `ParameterError` otherwise."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    if isinstance(value, (bool, np.bool_)):
+        raise ParameterError(f"{name} must be an integer; got {value!r}")
+    n = as_int(name, value)
+    if (low is not None and n < low) or (high is not None and n > high):
+        if low is None:
+            allowed = f"<= {high}"
+        elif high is None:
+            allowed = f">= {low}"
+        else:
+            allowed = f"in [{low}, {high}]"
+        raise ParameterError(f"{name} must be an integer {allowed}; got {show(n)}")
+    return n
+
+
+def instance(name: str, value: Any, kind: type[T], what: str) -> T:
+    """``value`` itself if it is a ``kind``; `ParameterError` naming ``name`` and ``what`` otherwise."""
+    if not isinstance(value, kind):
+        raise ParameterError(f"{name} must be {what}; got {type(value).__name__}")
+    return value
+
+
+def items(name: str, value: Any, kind: type[T], what: str, *, min_len: int = 0) -> list[T]:
+    """``value`` as a list of ``kind`` with at least ``min_len`` items; `ParameterError` otherwise."""
+    if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray, tuple)):
+        raise ParameterError(f"{name} must be a sequence of {what}; got {show(value)}")
+    out = list(value)
+    for k, item in enumerate(out):
+        if not isinstance(item, kind):
+            raise ParameterError(f"{name}[{k}] must be {what}; got {type(item).__name__}")
+    if len(out) < min_len:
+        raise ParameterError(f"{name} must hold at least {min_len} item(s) ({what}); got {len(out)}")
+    return out
 
 
 def as_float(name: str, value: ArrayLike, *, finite: bool = True) -> FloatArray:
     """``value`` as a float64 array; `ParameterError` naming ``name`` if it is not real or finite."""
+    if value is None:
+        raise ParameterError(f"{name} must be a real number or an array of them; got None")
     try:
         array = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as error:
@@ -45,7 +131,7 @@ def as_int(name: str, value: Any) -> int:
     try:
         return operator.index(value)
     except TypeError as error:
-        raise ParameterError(f"{name} must be an integer; got {value!r}") from error
+        raise ParameterError(f"{name} must be an integer; got {show(value)}") from error
 
 
 def broadcast_shape(**arrays: FloatArray) -> tuple[int, ...]:

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import _core
-from ._arrays import as_float, vector
+from ._arrays import as_float, instance, integer, items, real, vector
 from ._errors import ParameterError, ResonanceWarning, ShapeError
 
 __all__ = [
@@ -51,7 +51,8 @@ def wrench(motors: ArrayLike, lever: float) -> FloatArray:
     """``(fx, fy, tau)`` of motor amplitudes ``(X1, X2, Y1, Y2)`` at lever arm ``lever`` [m] (5.8)."""
     from .drive import wrench_matrix  # the one home of (5.8); drive imports this module
 
-    out: FloatArray = wrench_matrix(lever) @ vector("motors", motors, 4)
+    arm = real("lever", lever, low=0.0, low_open=True)
+    out: FloatArray = wrench_matrix(arm) @ vector("motors", motors, 4)
     return out
 
 
@@ -73,9 +74,7 @@ class Plate:
 
     def __post_init__(self) -> None:
         for name in ("mass", "inertia", "lever"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ParameterError(f"{name} must be finite and > 0; got {value!r}")
+            object.__setattr__(self, name, real(name, getattr(self, name), low=0.0, low_open=True))
 
     def velocity_amplitudes(self, motors: ArrayLike) -> FloatArray:
         """``(fx/M, fy/M, tau/I)``: the plate velocity per unit of ``(1/w)[sin wt + cos(2wt)/2]`` (5.10)."""
@@ -111,6 +110,11 @@ class Axis:
     damping: float
     stiffness: float
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "mass", real("mass", self.mass, low=0.0, low_open=True))
+        object.__setattr__(self, "damping", real("damping", self.damping, low=0.0))
+        object.__setattr__(self, "stiffness", real("stiffness", self.stiffness, low=0.0))
+
     def _response(self, w: FloatArray) -> tuple[float | None, FloatArray, FloatArray]:
         resonance, re, im = _core.axis_response(
             self.mass, self.damping, self.stiffness, np.ascontiguousarray(w)
@@ -130,14 +134,26 @@ class Axis:
         return complex(out) if out.ndim == 0 else out
 
 
+def _harmonics(harmonics: Sequence[float]) -> tuple[float, ...]:
+    """Harmonic numbers: a non-empty sequence of positive reals."""
+    h = as_float("harmonics", harmonics)
+    if h.ndim != 1 or h.size == 0 or not np.all(h > 0):
+        raise ParameterError(f"harmonics must be a non-empty sequence of numbers > 0; got {harmonics!r}")
+    return tuple(float(x) for x in h)
+
+
 def check_drive(
     frequency: float, axes: Sequence[Axis], *, margin: float = 3.0, harmonics: Sequence[float] = (1.0, 2.0)
 ) -> bool:
     """Whether every component of the drive (``harmonics`` of ``frequency`` [Hz]; jets add 2/3)
     is at least ``margin`` times above every axis's resonance, where velocity is the integral of
     force over mass (5.10). Warns `upm.ResonanceWarning` and returns False otherwise."""
-    lowest = min(harmonics) * frequency * 2 * np.pi
-    worst = max((a.resonance or 0.0) for a in axes)
+    f = real("frequency", frequency, low=0.0, low_open=True)
+    listed = items("axes", axes, Axis, "a upm.actuation.Axis", min_len=1)
+    ratio = real("margin", margin, low=0.0)
+    lowest = min(_harmonics(harmonics)) * f * 2 * np.pi
+    worst = max((a.resonance or 0.0) for a in listed)
+    margin = ratio
     if lowest < margin * worst:
         warnings.warn(
             f"the drive's lowest component ({lowest / (2 * np.pi):.4g} Hz) is within {margin:g}x of a "
@@ -188,11 +204,11 @@ def harmonic_fit(
     s = as_float("samples", samples)
     if s.ndim != 1:
         raise ShapeError(f"samples must be one-dimensional; got shape {s.shape}")
-    h = tuple(float(x) for x in harmonics)
-    c, offset, residual = _core.harmonic_fit(
-        np.ascontiguousarray(s), float(sample_rate), float(frequency), list(h)
-    )
-    return HarmonicFit(c, float(offset), float(residual), float(frequency), h)
+    h = _harmonics(harmonics)
+    f = real("frequency", frequency, low=0.0, low_open=True)
+    rate = real("sample_rate", sample_rate, low=0.0, low_open=True)
+    c, offset, residual = _core.harmonic_fit(np.ascontiguousarray(s), rate, f, list(h))
+    return HarmonicFit(c, float(offset), float(residual), f, h)
 
 
 def velocity_from_fit(
@@ -250,6 +266,10 @@ def cor_from_accelerometers(
     return AccelerometerRotation(np.array(c), np.asarray(w), float(residual))
 
 
+#: The most samples :func:`synthetic_accelerometers` records (an hour at 5 kHz).
+MAX_SAMPLES = 18_000_000
+
+
 def synthetic_accelerometers(
     plate: Plate,
     motors: ArrayLike,
@@ -269,9 +289,26 @@ def synthetic_accelerometers(
     white noise at ``snr_db`` (relative to the signal's RMS; ``None``: none) from ``seed``, then
     quantised to ``bits`` over ``+-full_scale`` (default: 1.25 x the peak).
     """
-    u = plate.velocity_amplitudes(motors)
-    w = 2 * np.pi * frequency
-    t = np.arange(round(duration * sample_rate)) / sample_rate
+    u = instance("plate", plate, Plate, "a upm.actuation.Plate").velocity_amplitudes(motors)
+    f = real("frequency", frequency, low=0.0, low_open=True)
+    rate = real("sample_rate", sample_rate, low=0.0, low_open=True)
+    span = real("duration", duration, low=0.0, low_open=True)
+    count = span * rate
+    if count < 2 or count > MAX_SAMPLES:
+        raise ParameterError(
+            f"duration * sample_rate must give 2..{MAX_SAMPLES} samples; got {count:.3g} "
+            f"(duration {span:g} s at {rate:g} Hz)"
+        )
+    if bits is not None:
+        integer("bits", bits, low=2, high=32)
+    if full_scale is not None:
+        real("full_scale", full_scale, low=0.0, low_open=True)
+    if snr_db is not None:
+        real("snr_db", snr_db)
+    if seed is not None and not isinstance(seed, np.random.Generator):
+        integer("seed", seed, low=0)
+    w = 2 * np.pi * f
+    t = np.arange(round(count)) / rate
     shape = (np.sin(w * t) + 0.5 * np.cos(2 * w * t)) / w  # velocity per unit amplitude
     dshape = np.cos(w * t) - np.sin(2 * w * t)  # its derivative
     p1 = vector("r1", r1, 2)

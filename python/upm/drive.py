@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._arrays import as_float
+from ._arrays import as_float, real
 from ._errors import ParameterError, ShapeError
 from .actuation import Axis, Plate
 
@@ -107,10 +107,7 @@ def flexures(mass: float, inertia: float, hz: float = 3.0, zeta: float = 0.2) ->
 
 
 def _check(name: str, value: float) -> float:
-    ok = isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(value) and value > 0
-    if not ok:
-        raise ParameterError(f"{name} must be finite and > 0; got {value!r}")
-    return float(value)
+    return real(name, value, low=0.0, low_open=True)
 
 
 @dataclass(frozen=True)

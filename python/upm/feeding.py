@@ -12,7 +12,7 @@ from typing import Any
 from numpy.typing import ArrayLike
 
 from . import _core
-from ._arrays import as_float, as_int, broadcast_shape, flat, shaped
+from ._arrays import as_float, broadcast_shape, flat, integer, shaped
 from ._errors import ParameterError
 from .waveforms import Waveform
 
@@ -75,8 +75,15 @@ def mean_force(waveform: Waveform, part_velocity: ArrayLike = 0.0) -> Any:
     return shaped(batch.mean_force(table), shape)
 
 
-def _pair(n1: Any, n2: Any) -> tuple[int, int]:
-    return as_int("n1", n1), as_int("n2", n2)
+#: The largest harmonic number of :func:`force_table`: its cost grows as ``n2**2`` per element
+#: (the velocity has up to ``2 n2`` roots a period): about 0.2 s an element at this bound.
+FORCE_TABLE_MAX_N2 = 1000
+#: The largest harmonic number of :func:`theorem1_force` (a closed form; ``n1 n2`` must fit).
+THEOREM1_MAX_N = 2**31 - 1
+
+
+def _pair(n1: Any, n2: Any, high: int) -> tuple[int, int]:
+    return integer("n1", n1, high=high), integer("n2", n2, high=high)
 
 
 def theorem1_force(n1: int, n2: int, psi: ArrayLike) -> Any:
@@ -97,7 +104,7 @@ def theorem1_force(n1: int, n2: int, psi: ArrayLike) -> Any:
     -------
     float or ndarray of ``psi``'s shape
     """
-    a, b = _pair(n1, n2)
+    a, b = _pair(n1, n2, THEOREM1_MAX_N)
     p = as_float("psi", psi)
     return shaped(_core.theorem1_force(a, b, flat(p, p.shape)), p.shape)
 
@@ -112,7 +119,8 @@ def force_table(n1: int, n2: int, psi: ArrayLike, b: ArrayLike = 1.0) -> Any:
     Parameters
     ----------
     n1, n2 : int
-        Coprime harmonic numbers, ``1 <= n1 < n2``.
+        Coprime harmonic numbers, ``1 <= n1 < n2 <= 1000`` (`FORCE_TABLE_MAX_N2`: the cost of an
+        element grows as ``n2**2``).
     psi : array_like
         Phase [rad].
     b : array_like, optional
@@ -122,7 +130,7 @@ def force_table(n1: int, n2: int, psi: ArrayLike, b: ArrayLike = 1.0) -> Any:
     -------
     float or ndarray of shape ``broadcast(psi.shape, b.shape)``
     """
-    a, c = _pair(n1, n2)
+    a, c = _pair(n1, n2, FORCE_TABLE_MAX_N2)
     p, amp = as_float("psi", psi), as_float("b", b)
     shape = broadcast_shape(psi=p, b=amp)
     return shaped(_core.force_table(a, c, flat(p, shape), flat(amp, shape)), shape)

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import _core
-from ._arrays import as_float, point
+from ._arrays import as_float, point, real
 from ._errors import ParameterError, ShapeError
 from .motion import PlateMotion
 
@@ -29,9 +29,7 @@ def _points(name: str, points: ArrayLike) -> tuple[NDArray[np.float64], tuple[in
 
 
 def _tol(tol: float) -> float:
-    if not (np.isfinite(tol) and tol > 0):
-        raise ParameterError(f"tol must be finite and > 0; got {tol}")
-    return float(tol)
+    return real("tol", tol, low=0.0, low_open=True)
 
 
 def rotation_field(points: ArrayLike, center: ArrayLike) -> NDArray[np.float64]:
@@ -66,7 +64,9 @@ def jet_field(
     Returns an array of shape ``(..., 2)`` like ``points``.
     """
     p, lead = _points("points", points)
-    out = _core.jet_field(p, point("center", center), point("direction", direction), float(rho), _tol(tol))
+    out = _core.jet_field(
+        p, point("center", center), point("direction", direction), real("rho", rho), _tol(tol)
+    )
     return np.asarray(out).reshape(*lead, 2)
 
 

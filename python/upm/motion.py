@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from . import _core
-from ._arrays import as_float, point
+from ._arrays import as_float, items, point, real
 from ._errors import ParameterError, ShapeError
 from .waveforms import Waveform
 
@@ -74,20 +74,23 @@ class PlateMotion:
         far away the force vanishes; ``rho`` [m] is where the two terms have equal peaks. Period
         ``3 / frequency``.
         """
+        a = real("amplitude", amplitude)
+        if a == 0:
+            raise ParameterError("amplitude must be non-zero; got 0 (a jet of amplitude 0 is a rest)")
         return cls(
             _core.PlateMotion.jet(
                 point("center", center),
                 point("direction", direction),
-                float(rho),
-                float(amplitude),
-                float(frequency),
+                real("rho", rho),
+                a,
+                real("frequency", frequency),
             )
         )
 
     @classmethod
     def rest(cls, duration: float) -> PlateMotion:
         """The plate at rest for ``duration`` [s]."""
-        return cls(_core.PlateMotion.rest(float(duration)))
+        return cls(_core.PlateMotion.rest(real("duration", duration)))
 
     @classmethod
     def from_samples(cls, t: ArrayLike, u1: ArrayLike, u2: ArrayLike, u3: ArrayLike) -> PlateMotion:
@@ -107,18 +110,18 @@ class PlateMotion:
     @classmethod
     def sequence(cls, motions: Sequence[PlateMotion]) -> PlateMotion:
         """The motions one after another; every one but the last needs a duration."""
-        items = list(motions)
-        if not all(isinstance(m, PlateMotion) for m in items):
-            raise ParameterError("motions must be a sequence of upm.PlateMotion")
-        return cls(_core.PlateMotion.sequence([m._inner for m in items]))
+        listed = items("motions", motions, PlateMotion, "a upm.PlateMotion", min_len=1)
+        return cls(_core.PlateMotion.sequence([m._inner for m in listed]))
 
     def for_duration(self, seconds: float) -> PlateMotion:
         """This motion for ``seconds`` [s] only."""
-        return PlateMotion(self._inner.for_duration(float(seconds)))
+        return PlateMotion(self._inner.for_duration(real("seconds", seconds)))
 
     def with_envelope(self, attack: float, sustain: float, decay: float) -> PlateMotion:
         """This motion under a raised-cosine envelope (SPEC §5); lasts ``attack + sustain + decay``."""
-        return PlateMotion(self._inner.with_envelope(float(attack), float(sustain), float(decay)))
+        return PlateMotion(
+            self._inner.with_envelope(real("attack", attack), real("sustain", sustain), real("decay", decay))
+        )
 
     @property
     def duration(self) -> float | None:
@@ -149,7 +152,8 @@ class PlateMotion:
 
     def is_closed(self, tol: float = 1e-9) -> bool:
         """Whether the plate returns home: every component of :meth:`displacement` within ``tol``."""
-        return bool(np.all(np.abs(self.displacement()) <= tol))
+        bound = real("tol", tol, low=0.0)
+        return bool(np.all(np.abs(self.displacement()) <= bound))
 
     def __repr__(self) -> str:
         d = self.duration

@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import _core
-from ._arrays import as_float, as_int
+from ._arrays import as_float, integer, items, real
 from ._errors import ParameterError, ShapeError
 from .motion import PlateMotion
 
@@ -97,7 +97,7 @@ def _walls(walls: Any, plate_size: float | None) -> np.ndarray | None:
             raise ParameterError(f'walls must be None, "plate" or an array (K, 2, 2); got {walls!r}')
         if plate_size is None:
             raise ParameterError('walls="plate" needs plate_size (the side of the square plate, m)')
-        h = 0.5 * float(plate_size)
+        h = 0.5 * real("plate_size", plate_size, low=0.0, low_open=True)
         c = [(-h, -h), (h, -h), (h, h), (-h, h)]
         return np.array([[*c[k], *c[(k + 1) % 4]] for k in range(4)], dtype=np.float64)
     w = as_float("walls", walls)
@@ -153,12 +153,21 @@ def _run(
 ) -> tuple[Any, ...]:
     if not all(isinstance(m, PlateMotion) for m in motions):
         raise ParameterError("motion must be a upm.PlateMotion")
+    step = real("dt", dt, low=0.0, low_open=True)
+    span = real("duration", duration, low=0.0, low_open=True)
+    if span < step * (1 - 1e-9):
+        raise ParameterError(f"duration must be at least one step dt = {step:g} s; got {span:g}")
     pos, vel, radius, angle, spin = _parts(parts)
+    if contacts and np.any(radius == 0):
+        first = int(np.flatnonzero(radius == 0)[0])
+        raise ParameterError(
+            f"contacts=True needs every part to be a upm.Disk (points have no size to collide or meet a "
+            f"wall); parts[{first}] is a point: give it a radius, or simulate without contacts"
+        )
     m = pos.shape[0]
     mu_a = _per_part("mu", mu, m)
     mu_s_a = mu_a if mu_s is None else _per_part("mu_s", mu_s, m)
-    if isinstance(record_every, bool) or not isinstance(record_every, (int, np.integer)) or record_every < 1:
-        raise ParameterError(f"record_every must be an integer >= 1; got {record_every!r}")
+    every = integer("record_every", record_every, low=1, high=2**62)
     return _core.simulate(
         [mo._inner for mo in motions],
         pos,
@@ -168,12 +177,12 @@ def _run(
         radius,
         angle,
         spin,
-        dt=float(dt),
-        duration=float(duration),
-        g=float(g),
-        plate_size=None if plate_size is None else float(plate_size),
-        record_every=int(record_every),
-        threads=None if threads is None else as_int("threads", threads),
+        dt=step,
+        duration=span,
+        g=real("g", g, low=0.0, low_open=True),
+        plate_size=None if plate_size is None else real("plate_size", plate_size, low=0.0, low_open=True),
+        record_every=every,
+        threads=None if threads is None else integer("threads", threads, low=1, high=4096),
         **(contacts or {}),
     )
 
@@ -195,17 +204,14 @@ def _contact(
         if walls is not None:
             raise ParameterError("walls need contacts=True")
         return {}
-    for name, v in (("restitution", restitution), ("part_friction", part_friction)):
-        if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
-            raise ParameterError(f"{name} must be a number; got {v!r}")
     return {
         "contacts": True,
-        "restitution": float(restitution),
-        "part_friction": float(part_friction),
+        "restitution": real("restitution", restitution),
+        "part_friction": real("part_friction", part_friction),
         "walls": _walls(walls, plate_size),
         "walls_move_with_plate": bool(walls_move_with_plate),
         "mass": _masses(parts),
-        "contact_iterations": as_int("contact_iterations", contact_iterations),
+        "contact_iterations": integer("contact_iterations", contact_iterations, low=1, high=1000),
     }
 
 
@@ -307,7 +313,7 @@ def simulate_batch(
     threads (default: rayon's global pool, one thread per core); :func:`upm.sweep` runs each
     chunk on one and parallelises over chunks. The contact arguments are :func:`simulate`'s.
     """
-    ms = list(motions)
+    ms = items("motions", motions, PlateMotion, "a upm.PlateMotion")
     if not ms:
         raise ParameterError("motions must contain at least one upm.PlateMotion")
     contact = _contact(parts, plate_size, contacts, restitution, part_friction, walls, walls_move_with_plate,

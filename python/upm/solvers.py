@@ -10,7 +10,6 @@ Square systems are solved exactly; with redundant centres the SVD gives the mini
 
 from __future__ import annotations
 
-import math
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -20,7 +19,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import _core
-from ._errors import ParameterError, RankWarning, ShapeError
+from ._arrays import as_float, integer, real, show, vector
+from ._errors import ParameterError, PlanWarning, RankWarning, ShapeError
 
 __all__ = [
     "DisplacementPlan",
@@ -36,6 +36,8 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
+#: The most centres ring_centers lays out (a plate has a few dozen at most).
+MAX_CENTERS = 100_000
 OrderRule = str | Callable[[FloatArray, FloatArray, FloatArray], ArrayLike]
 
 
@@ -87,10 +89,7 @@ class DisplacementPlan(_Plan):
 
 
 def _pairs(name: str, value: ArrayLike, ndim: int = 2) -> FloatArray:
-    try:
-        a = np.ascontiguousarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as error:
-        raise ParameterError(f"{name} must be an array of real numbers; got {value!r}") from error
+    a = np.ascontiguousarray(as_float(name, value))
     if a.ndim != ndim or a.shape[-1] != 2:
         want = "(K, 2)" if ndim == 2 else "(B, K, 2)"
         raise ShapeError(f"{name} must have shape {want}; got {a.shape}")
@@ -99,10 +98,14 @@ def _pairs(name: str, value: ArrayLike, ndim: int = 2) -> FloatArray:
 
 def _options(rcond: float | None, damping: float | None, max_strength: float | None) -> tuple[Any, ...]:
     return (
-        None if rcond is None else float(rcond),
-        0.0 if damping is None else float(damping),
-        None if max_strength is None else float(max_strength),
+        None if rcond is None else real("rcond", rcond, low=0.0),
+        0.0 if damping is None else real("damping", damping, low=0.0),
+        None if max_strength is None else real("max_strength", max_strength, low=0.0, low_open=True),
     )
+
+
+def _mu_m_g(value: Any) -> float:
+    return real("mu_m_g", value, low=0.0, low_open=True)
 
 
 _NO_POINTS = np.zeros((0, 2))
@@ -116,7 +119,7 @@ def _curls(
         if curl_points is not None:
             raise ParameterError("curl_points needs curls (the curl wanted at each point)")
         return _NO_POINTS, _NO_VALUES
-    values = np.ascontiguousarray(curls, dtype=np.float64).reshape(-1)
+    values = np.ascontiguousarray(as_float("curls", curls)).reshape(-1)
     points = parts if curl_points is None else _pairs("curl_points", curl_points)
     if points.shape[0] != values.size:
         raise ShapeError(
@@ -137,6 +140,31 @@ def _warn_rank(low: int, constraints: int) -> None:
         )
 
 
+#: Condition numbers above this make a plan's strengths amplify rounding and position errors.
+ILL_CONDITIONED = 1e8
+
+
+def _warn_plan(forces: FloatArray, mu_m_g: float, condition: float, strengths: FloatArray) -> None:
+    """Warn on forces no friction can give and on a system so ill-conditioned that the strengths
+    mean little."""
+    biggest = float(np.max(np.hypot(forces[..., 0], forces[..., 1]), initial=0.0))
+    if biggest > mu_m_g:
+        warnings.warn(
+            f"a requested force is {biggest / mu_m_g:.3g} mu m g, but the average friction force never "
+            "exceeds mu m g (forces are in the unit of mu_m_g): no plate motion gives this plan",
+            PlanWarning,
+            stacklevel=3,
+        )
+    if condition > ILL_CONDITIONED:
+        warnings.warn(
+            f"the system is ill-conditioned (condition number {condition:.3g}): strengths up to "
+            f"{float(np.max(np.abs(strengths), initial=0.0)):.3g} amplify every error in the positions; "
+            "move the centres, set rcond or damping, or bound them with max_strength",
+            RankWarning,
+            stacklevel=3,
+        )
+
+
 def _order(
     plan_order: NDArray[np.int64],
     strengths: FloatArray,
@@ -146,7 +174,7 @@ def _order(
 ) -> NDArray[np.int64]:
     if isinstance(order, str) and order == "priority":
         return plan_order
-    return rotation_order(strengths, parts, centers, rule=order)
+    return _by_rule(strengths, parts, centers, order, "order")
 
 
 def solve_rotations(
@@ -169,13 +197,15 @@ def solve_rotations(
     parts : array_like, shape (M, 2)
         Part positions [m]; none may lie on a centre.
     forces : array_like, shape (M, 2)
-        Desired average force on each part [N] (same unit as ``mu_m_g``).
+        Desired average force on each part, in the unit of ``mu_m_g``: with the default
+        ``mu_m_g=1`` as ``force / (mu m g)`` (upm's rule for every force), or in newtons with
+        ``mu_m_g`` in newtons. None may exceed ``mu_m_g`` (warns `upm.PlanWarning`).
     centers : array_like, shape (N, 2)
         Distinct centres of rotation [m]; ``N >= 2M + Q``.
     curls : array_like, shape (Q,), optional
         Desired curl of the force field [N/m] at ``curl_points`` (default: at the parts).
     mu_m_g : float
-        Friction scale ``mu m g`` [N].
+        Friction scale ``mu m g``: 1 (the default) for forces as ``force / (mu m g)``, or [N].
     rcond : float, optional
         Singular values below ``rcond * s_max`` are dropped (default ``eps * max(2M+Q, N)``).
     damping : float, optional
@@ -188,7 +218,8 @@ def solve_rotations(
     Returns
     -------
     RotationPlan
-        Warns :class:`upm.RankWarning` when the system is rank deficient.
+        Warns :class:`upm.RankWarning` when the system is rank deficient or ill-conditioned
+        (condition number above 1e8).
 
     Examples
     --------
@@ -206,10 +237,11 @@ def solve_rotations(
     c = _pairs("centers", centers)
     q, k = _curls(curls, curl_points, p)
     s, o, pred, pc, res, cost, sv, rank, cond = _core.solve(
-        p, f, c, q, k, float(mu_m_g), *_options(rcond, damping, max_strength)
+        p, f, c, q, k, _mu_m_g(mu_m_g), *_options(rcond, damping, max_strength)
     )
     r0 = int(rank[0])
     _warn_rank(r0, 2 * p.shape[0] + k.size)
+    _warn_plan(f, _mu_m_g(mu_m_g), float(cond[0]), s[0])
     return RotationPlan(
         s[0], _order(o[0], s[0], p, c, order), float(res[0]), float(cost[0]), sv[0], r0,
         float(cond[0]), p, c, pred[0], pc[0], float(mu_m_g),
@@ -268,7 +300,7 @@ def solve_rotations_batch(
     p = _pairs("parts", parts, 3)
     f = _pairs("forces", forces, 3)
     b = p.shape[0]
-    c = np.asarray(centers, dtype=np.float64)
+    c = as_float("centers", centers)
     c = _pairs("centers", np.broadcast_to(c, (b, *c.shape)) if c.ndim == 2 else c, 3)
     if curls is None:
         if curl_points is not None:
@@ -276,16 +308,17 @@ def solve_rotations_batch(
         q = np.zeros((b, 0, 2))
         k = np.zeros((b, 0))
     else:
-        k = np.ascontiguousarray(curls, dtype=np.float64)
+        k = np.ascontiguousarray(as_float("curls", curls))
         if k.ndim != 2 or k.shape[0] != b:
             raise ShapeError(f"curls must have shape ({b}, Q); got {k.shape}")
-        qa = p if curl_points is None else np.asarray(curl_points, dtype=np.float64)
+        qa = p if curl_points is None else as_float("curl_points", curl_points)
         q = _pairs("curl_points", np.broadcast_to(qa, (b, *qa.shape)) if qa.ndim == 2 else qa, 3)
     s, o, pred, pc, res, cost, sv, rank, cond = _core.solve_batch(
-        p, f, np.ascontiguousarray(c), np.ascontiguousarray(q), k, float(mu_m_g),
+        p, f, np.ascontiguousarray(c), np.ascontiguousarray(q), k, _mu_m_g(mu_m_g),
         *_options(rcond, damping, max_strength),
     )  # fmt: skip
-    _warn_rank(int(np.min(rank)), 2 * p.shape[1] + k.shape[1])
+    if b:
+        _warn_rank(int(np.min(rank)), 2 * p.shape[1] + k.shape[1])
     return RotationPlan(s, o, res, cost, sv, rank, cond, p, c, pred, pc, float(mu_m_g))
 
 
@@ -300,11 +333,20 @@ def rotation_order(
     ``rule(strengths, parts, centers)`` returns one priority per centre (largest runs first).
     Ties keep the centres' order.
     """
-    k = np.ascontiguousarray(strengths, dtype=np.float64).reshape(-1)
+    k = np.ascontiguousarray(as_float("strengths", strengths)).reshape(-1)
     p = _pairs("parts", parts)
     c = _pairs("centers", centers)
     if k.size != c.shape[0]:
         raise ShapeError(f"strengths has {k.size} entries; centers has {c.shape[0]}")
+    return _by_rule(k, p, c, rule, "rule")
+
+
+def _by_rule(k: FloatArray, p: FloatArray, c: FloatArray, rule: Any, name: str) -> NDArray[np.int64]:
+    """The order of ``rule`` (passed as parameter ``name``) for strengths ``k``."""
+    if isinstance(rule, np.ndarray):
+        raise ParameterError(
+            f"{name} must be 'priority', 'magnitude', 'given' or a callable; got {show(rule)}"
+        )
     if callable(rule):
         rho = np.asarray(rule(k, p, c), dtype=np.float64)
         if rho.shape != k.shape:
@@ -316,7 +358,9 @@ def rotation_order(
     elif rule == "given":
         return np.arange(k.size, dtype=np.int64)
     else:
-        raise ParameterError(f"rule must be 'priority', 'magnitude', 'given' or a callable; got {rule!r}")
+        raise ParameterError(
+            f"{name} must be 'priority', 'magnitude', 'given' or a callable; got {show(rule)}"
+        )
     return np.argsort(-rho, kind="stable").astype(np.int64)
 
 
@@ -368,8 +412,8 @@ def flow_error(
 def corner_centers(workspace: ArrayLike) -> FloatArray:
     """The four corners of a rectangular workspace ``(xmin, ymin, xmax, ymax)`` [m], as in 4.2.1:
     lower-left, lower-right, upper-right, upper-left. Shape ``(4, 2)``."""
-    w = np.asarray(workspace, dtype=np.float64)
-    if w.shape != (4,) or not np.all(np.isfinite(w)) or not (w[2] > w[0] and w[3] > w[1]):
+    w = as_float("workspace", workspace)
+    if w.shape != (4,) or not (w[2] > w[0] and w[3] > w[1]):
         raise ParameterError(
             f"workspace must be finite (xmin, ymin, xmax, ymax) with max > min; got {workspace!r}"
         )
@@ -380,21 +424,19 @@ def corner_centers(workspace: ArrayLike) -> FloatArray:
 def ring_centers(count: int, radius: float, center: ArrayLike = (0.0, 0.0), phase: float = 0.0) -> FloatArray:
     """``count`` centres evenly spaced on a circle of ``radius`` [m] about ``center``, the first at
     angle ``phase`` [rad]. Shape ``(count, 2)``."""
-    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
-        raise ParameterError(f"count must be an integer >= 1; got {count!r}")
-    if not (math.isfinite(radius) and radius > 0):
-        raise ParameterError(f"radius must be finite and > 0; got {radius}")
-    c = np.asarray(center, dtype=np.float64)
-    a = phase + 2 * np.pi * np.arange(count) / count
-    return c + radius * np.stack([np.cos(a), np.sin(a)], axis=1)
+    n = integer("count", count, low=1, high=MAX_CENTERS)
+    r = real("radius", radius, low=0.0, low_open=True)
+    c = vector("center", center, 2)
+    a = real("phase", phase) + 2 * np.pi * np.arange(n) / n
+    return c + r * np.stack([np.cos(a), np.sin(a)], axis=1)
 
 
 def grid_centers(shape: tuple[int, int], workspace: ArrayLike) -> FloatArray:
     """A ``shape = (nx, ny)`` grid of centres spanning ``workspace = (xmin, ymin, xmax, ymax)`` [m],
     corners included, x fastest. Shape ``(nx * ny, 2)``."""
-    nx, ny = shape
-    if any(isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2 for n in (nx, ny)):
-        raise ParameterError(f"shape must be two integers >= 2; got {shape!r}")
+    if isinstance(shape, (str, bytes)) or not isinstance(shape, (tuple, list, np.ndarray)) or len(shape) != 2:
+        raise ParameterError(f"shape must be two integers (nx, ny) >= 2; got {show(shape)}")
+    nx, ny = (integer(f"shape[{k}]", n, low=2, high=1000) for k, n in enumerate(shape))
     x0, y0, x1, y1 = corner_centers(workspace)[[0, 2]].reshape(-1)
     gx, gy = np.meshgrid(np.linspace(x0, x1, nx), np.linspace(y0, y1, ny))
     return np.stack([gx.reshape(-1), gy.reshape(-1)], axis=1)

@@ -100,14 +100,19 @@ def _harmonic_batch(
     return _core.WaveformBatch.harmonics(c, s, flat(frequency, shape))
 
 
+#: The most terms a :class:`Harmonics` series may have (1000 terms defeat the exact root
+#: isolation that ``feed_rate`` and ``mean_force`` rely on; 256 take about 0.1 s each).
+MAX_HARMONICS = 256
+
+
 class Harmonics(Waveform):
     """A finite harmonic series ``v(t) = sum_k cos[k-1] cos(k w t) + sin[k-1] sin(k w t)``.
 
     Parameters
     ----------
     cos, sin : array_like, shape (..., K)
-        Coefficients [m/s] of harmonic ``k = 1..K`` (the last axis); the shorter one is padded
-        with zeros. Leading axes are batch axes and broadcast with ``frequency``.
+        Coefficients [m/s] of harmonic ``k = 1..K`` (the last axis, ``K <= 256``); the shorter one
+        is padded with zeros. Leading axes are batch axes and broadcast with ``frequency``.
     frequency : array_like, optional
         Base frequency ``w / (2 pi)`` [Hz], > 0. The default ``1/(2 pi)`` gives the thesis's period
         ``2 pi`` (time in radians).
@@ -119,6 +124,11 @@ class Harmonics(Waveform):
         f = as_float("frequency", frequency)
         check_range("frequency", f, low=0.0, low_open=True)
         k = max(c.shape[-1], s.shape[-1], 1)
+        if k > MAX_HARMONICS:
+            raise ParameterError(
+                f"a Harmonics series has at most {MAX_HARMONICS} terms (the exact root isolation of its "
+                f"velocity needs a few per term and a period); got {k}: truncate the series"
+            )
         c, s = _pad(c, k), _pad(s, k)
         self.shape = broadcast_shape(cos=c[..., 0], sin=s[..., 0], frequency=f)
         self.cos: FloatArray = np.broadcast_to(c, (*self.shape, k))

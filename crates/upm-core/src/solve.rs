@@ -473,6 +473,10 @@ fn svd_solve(
     damping: f64,
 ) -> Result<(DVector<f64>, Vec<f64>, usize)> {
     let (m, n) = a.shape();
+    if m == 0 || n == 0 {
+        // No constraints (or no unknowns): the minimum-norm solution is zero, of rank 0.
+        return Ok((DVector::zeros(n), Vec::new(), 0));
+    }
     let rcond = rcond.unwrap_or(f64::EPSILON * m.max(n) as f64);
     if damping == 0.0 && m.min(n) > 0 {
         if let Some(solved) = bidiagonal_solve(&a, b, rcond)? {
@@ -630,14 +634,12 @@ fn check_points(name: &str, points: &[[f64; 2]]) -> Result<()> {
     Ok(())
 }
 
-/// Length scale of a layout: below `1e-12` of it two points count as the same.
-fn coincidence_tol(sets: &[&[[f64; 2]]]) -> f64 {
-    let scale = sets
-        .iter()
-        .flat_map(|s| s.iter())
-        .map(|p| p[0].abs().max(p[1].abs()))
-        .fold(0.0, f64::max);
-    1e-12 * scale.max(f64::MIN_POSITIVE)
+/// Whether `a` and `b` count as the same point: closer than `1e-12` of their own size, so a part
+/// far away does not make nearby centres coincide.
+fn coincide(a: [f64; 2], b: [f64; 2]) -> bool {
+    let size = a[0].abs().max(a[1].abs()).max(b[0].abs()).max(b[1].abs());
+    let tol = 1e-12 * size.max(f64::MIN_POSITIVE);
+    (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) <= tol * tol
 }
 
 /// Validates centres (finite, distinct) and the points the system is evaluated at (finite, on no
@@ -649,10 +651,9 @@ fn check_layout(parts: &[[f64; 2]], centers: &[[f64; 2]], others: &[[f64; 2]]) -
     if centers.is_empty() {
         return Err(Error::parameter("centers", "must hold at least one centre"));
     }
-    let tol = coincidence_tol(&[parts, centers, others]);
     for (j, c) in centers.iter().enumerate() {
         for (l, d) in centers.iter().enumerate().skip(j + 1) {
-            if (c[0] - d[0]).powi(2) + (c[1] - d[1]).powi(2) <= tol * tol {
+            if coincide(*c, *d) {
                 return Err(Error::parameter(
                     "centers",
                     format!(
@@ -666,7 +667,7 @@ fn check_layout(parts: &[[f64; 2]], centers: &[[f64; 2]], others: &[[f64; 2]]) -
     for (name, set) in [("parts", parts), ("curl_points", others)] {
         for (i, p) in set.iter().enumerate() {
             for (j, c) in centers.iter().enumerate() {
-                if (p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) <= tol * tol {
+                if coincide(*p, *c) {
                     return Err(Error::parameter(
                         name,
                         format!(
@@ -984,6 +985,16 @@ pub fn flow_exact(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn no_parts_need_no_rotation() {
+        let centers = [[-1.0, -0.5], [1.0, -0.5], [1.0, 0.5], [-1.0, 0.5]];
+        let plan =
+            solve_rotations(&[], &[], &centers, Curls::default(), 1.0, &Options::default())
+                .unwrap();
+        assert_eq!(plan.strengths, vec![0.0; 4]);
+        assert_eq!(plan.rank, 0);
+    }
 
     #[test]
     fn bounded_equals_unbounded_when_the_bound_does_not_bind() {

@@ -205,16 +205,16 @@ class Board:
         h2 cos(2wt + p2) + h23 cos(2wt/3 + p23)]``; default the thesis's ``cos wt - sin 2wt`` (5.9).
         Checked against the board's limits before sending."""
         info = self.info
-        if not 0 <= channel <= 3:
-            raise BoardError(f"channel must be 0..3 (X1, X2, Y1, Y2); got {channel}")
+        message = p.SetChannel(channel, amplitude, frequency, *h1, *h2, *h23)
+        message.check()  # types, finiteness, channel 0..3, frequency > 0 (ProtocolError)
         peak = abs(amplitude) * (abs(h1[0]) + abs(h2[0]) + abs(h23[0]))
-        if info is not None and peak > info.max_amplitude:
+        if info is not None and not peak <= info.max_amplitude:
             raise BoardError(f"amplitude peak {peak:g} exceeds the board's limit {info.max_amplitude:g}")
         if info is not None and not info.min_frequency <= frequency <= info.max_frequency:
             raise BoardError(
                 f"frequency must be in [{info.min_frequency:g}, {info.max_frequency:g}] Hz; got {frequency:g}"
             )
-        self._command(p.SetChannel(channel, amplitude, frequency, *h1, *h2, *h23))
+        self._command(message)
 
     def set_motors(self, amplitudes: Any, frequency: float) -> None:
         """All four channels at once with the default waveform (5.9)."""
@@ -222,12 +222,16 @@ class Board:
             self.set_channel(k, float(a), frequency)
 
     def set_envelope(self, attack: float, sustain: float, decay: float) -> None:
-        """Raised-cosine envelope of the next pulses [s]."""
-        self._command(p.SetEnvelope(attack, sustain, decay))
+        """Raised-cosine envelope of the next pulses [s]; each finite and >= 0, checked before sending."""
+        message = p.SetEnvelope(attack, sustain, decay)
+        message.check()
+        self._command(message)
 
     def set_watchdog(self, milliseconds: int) -> None:
-        """The board's watchdog period [ms]."""
-        self._command(p.SetWatchdog(milliseconds))
+        """The board's watchdog period [ms], 1..60000, checked before sending."""
+        message = p.SetWatchdog(milliseconds)
+        message.check()
+        self._command(message)
 
     def pulse(self, pulse_id: int = 0, *, wait: bool = True, timeout: float | None = None) -> int | None:
         """Play one envelope; with ``wait``, block until it ends and return the sample counter at

@@ -8,11 +8,13 @@ is COBS-encoded and followed by one zero byte. Nothing here does I/O.
 from __future__ import annotations
 
 import binascii
+import math
 import struct
 from dataclasses import dataclass, fields
 from enum import IntEnum
-from typing import ClassVar
+from typing import Any, ClassVar
 
+import numpy as np
 from cobs import cobs
 
 from .._errors import BoardError
@@ -74,6 +76,40 @@ class State(IntEnum):
     FAULT = 4
 
 
+_INT_RANGES = {"B": (0, 0xFF), "H": (0, 0xFFFF), "I": (0, 0xFFFFFFFF), "h": (-0x8000, 0x7FFF)}
+_FLOAT32_MAX = 3.4028234663852886e38
+
+
+def _codes(layout: str) -> list[str]:
+    """The field codes of a struct layout: ``"<Bff6f"`` -> ``B f f f f f f f f``."""
+    out: list[str] = []
+    count = ""
+    for ch in layout.lstrip("<"):
+        if ch.isdigit():
+            count += ch
+        else:
+            out.extend(ch * int(count or 1))
+            count = ""
+    return out
+
+
+def _check_field(name: str, value: Any, code: str) -> None:
+    if code == "f":
+        ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+        if not ok or not math.isfinite(value) or abs(value) > _FLOAT32_MAX:
+            raise ProtocolError(f"{name} must be a finite number within float32; got {value!r}")
+        return
+    low, high = _INT_RANGES[code]
+    ok = isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+    if not ok or not low <= value <= high:
+        raise ProtocolError(f"{name} must be an integer in [{low}, {high}]; got {value!r}")
+
+
+def _require(ok: bool, message: str) -> None:
+    if not ok:
+        raise ProtocolError(message)
+
+
 @dataclass(frozen=True)
 class Message:
     """Base of every message; ``TYPE`` is its type byte, ``FORMAT`` its fixed payload layout."""
@@ -82,7 +118,18 @@ class Message:
     FORMAT: ClassVar[str] = "<"
 
     def payload(self) -> bytes:
+        self.check()
         return struct.pack(self.FORMAT, *(getattr(self, f.name) for f in fields(self)))
+
+    def check(self) -> None:
+        """`ProtocolError` naming the field unless every field fits its wire type (integers in
+        range, floats finite and within float32) and the message's own rules (:meth:`rules`)."""
+        for f, code in zip(fields(self), _codes(self.FORMAT), strict=True):
+            _check_field(f"{type(self).__name__}.{f.name}", getattr(self, f.name), code)
+        self.rules()
+
+    def rules(self) -> None:
+        """Checks beyond the wire types (none by default)."""
 
     @classmethod
     def parse(cls, payload: bytes) -> Message:
@@ -125,6 +172,12 @@ class SetChannel(Message):
     h23_amplitude: float = 0.0
     h23_phase: float = 0.0
 
+    def rules(self) -> None:
+        _require(
+            0 <= self.channel <= 3, f"SetChannel.channel must be 0..3 (X1, X2, Y1, Y2); got {self.channel}"
+        )
+        _require(self.frequency > 0, f"SetChannel.frequency must be > 0 Hz; got {self.frequency!r}")
+
 
 @dataclass(frozen=True)
 class SetEnvelope(Message):
@@ -135,6 +188,11 @@ class SetEnvelope(Message):
     attack: float
     sustain: float
     decay: float
+
+    def rules(self) -> None:
+        for name in ("attack", "sustain", "decay"):
+            value = getattr(self, name)
+            _require(value >= 0, f"SetEnvelope.{name} must be >= 0 s; got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -203,6 +261,14 @@ class SetWatchdog(Message):
     FORMAT = "<H"
     milliseconds: int
 
+    def rules(self) -> None:
+        _require(
+            self.milliseconds >= 1, f"SetWatchdog.milliseconds must be 1..60000; got {self.milliseconds}"
+        )
+        _require(
+            self.milliseconds <= 60000, f"SetWatchdog.milliseconds must be 1..60000; got {self.milliseconds}"
+        )
+
 
 @dataclass(frozen=True)
 class Samples(Message):
@@ -213,7 +279,23 @@ class Samples(Message):
     first: int
     values: tuple[tuple[int, int, int, int], ...]
 
+    def check(self) -> None:
+        _check_field("Samples.first", self.first, "I")
+        rows = self.values
+        _require(
+            isinstance(rows, (tuple, list)) and len(rows) <= 0xFFFF,
+            f"Samples.values must be a sequence of at most 65535 rows; got {type(rows).__name__}",
+        )
+        for k, row in enumerate(rows):
+            _require(
+                isinstance(row, (tuple, list)) and len(row) == 4,
+                f"Samples.values[{k}] must be 4 integers (a1x, a1y, a2x, a2y); got {row!r}",
+            )
+            for v in row:
+                _check_field(f"Samples.values[{k}]", v, "h")
+
     def payload(self) -> bytes:
+        self.check()
         flat = [v for row in self.values for v in row]
         return struct.pack(f"<IH{len(flat)}h", self.first, len(self.values), *flat)
 
@@ -260,11 +342,12 @@ _TYPES: dict[int, type[Message]] = {
 
 def encode(message: Message, seq: int) -> bytes:
     """The wire bytes of ``message`` with sequence number ``seq``: COBS(frame) + b"\\x00"."""
+    if not isinstance(message, Message):
+        raise ProtocolError(f"message must be a protocol Message; got {type(message).__name__}")
+    _check_field("seq", seq, "H")
     payload = message.payload()
     if len(payload) > MAX_PAYLOAD:
         raise ProtocolError(f"payload of {len(payload)} bytes exceeds {MAX_PAYLOAD}")
-    if not 0 <= seq <= 0xFFFF:
-        raise ProtocolError(f"seq must be in [0, 65535]; got {seq}")
     body = _HEADER.pack(VERSION, message.TYPE, seq, len(payload)) + payload
     crc = binascii.crc_hqx(body, 0xFFFF)
     return bytes(cobs.encode(body + struct.pack("<H", crc))) + b"\x00"
@@ -272,6 +355,8 @@ def encode(message: Message, seq: int) -> bytes:
 
 def decode_frame(frame: bytes) -> tuple[int, Message]:
     """``(seq, message)`` of one COBS-encoded frame without its zero delimiter."""
+    if not isinstance(frame, (bytes, bytearray, memoryview)):
+        raise ProtocolError(f"frame must be bytes; got {type(frame).__name__}")
     try:
         body = cobs.decode(frame)
     except cobs.DecodeError as error:

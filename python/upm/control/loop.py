@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -19,6 +20,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from .._arrays import integer, real
 from .._errors import ParameterError, VisionError
 from ..drive import PLATE_SIZE
 from ..plan import Planner
@@ -152,20 +154,34 @@ class Log:
         }
 
     def save(self, path: str | Path) -> Path:
-        """Write the log to ``path`` (``.npz``; metadata as JSON inside)."""
-        path = Path(path)
+        """Write the log to ``path`` (``.npz``; metadata as JSON inside). The file is replaced
+        atomically: a reader, or a crash mid-write, never sees half a log."""
+        path = _npz(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         meta = json.dumps({**self.meta, "done": self.done})
-        np.savez_compressed(path, meta=np.array(meta), **self.arrays())
-        return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
+        partial = path.with_name(f".{path.name}.{os.getpid()}.partial.npz")
+        try:
+            np.savez_compressed(partial, meta=np.array(meta), **self.arrays())
+            os.replace(partial, path)
+        finally:
+            partial.unlink(missing_ok=True)
+        return path
 
     def tracking_error(self) -> FloatArray:
         """``|achieved - desired|`` per cycle and part [m] (NaN where unknown; a free component,
         NaN in ``desired``, counts as met)."""
-        achieved, desired = self.achieved, self.desired
-        d = np.where(np.isnan(desired) & np.isfinite(achieved), 0.0, achieved - desired)
-        out: FloatArray = np.hypot(d[..., 0], d[..., 1])
-        return out
+        return _tracking_error(self.achieved, self.desired)
+
+
+def _npz(path: str | Path) -> Path:
+    path = Path(path)
+    return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
+
+
+def _tracking_error(achieved: FloatArray, desired: FloatArray) -> FloatArray:
+    d = np.where(np.isnan(desired) & np.isfinite(achieved), 0.0, achieved - desired)
+    out: FloatArray = np.hypot(d[..., 0], d[..., 1])
+    return out
 
 
 @dataclass(frozen=True)
@@ -181,6 +197,21 @@ class LoadedLog:
             return self.data[name]
         except KeyError:
             raise AttributeError(name) from None
+
+    @property
+    def done(self) -> bool:
+        """Whether the task was done when the run ended."""
+        return bool(self.meta.get("done", False))
+
+    @property
+    def stopped(self) -> str:
+        """Why the run ended: ``"done"``, ``"cycles"``, ``"timeout"``, ``"running"`` (a periodic
+        flush of a run still going, or one that was killed), or the exception that ended it."""
+        return str(self.meta.get("stopped", "running"))
+
+    def tracking_error(self) -> FloatArray:
+        """As :meth:`Log.tracking_error`."""
+        return _tracking_error(self.data["achieved"], self.data["desired"])
 
 
 def load_log(path: str | Path) -> LoadedLog:
@@ -299,13 +330,47 @@ class Loop:
         timeout: float | None = None,
         log: str | Path | None = None,
         callback: Callable[[State, list[Pulse]], None] | None = None,
+        flush_every: float = 30.0,
     ) -> Log:
         """Run until the task is done, ``cycles`` cycles have passed, or ``timeout`` seconds of
-        plate time; returns the :class:`Log` (also written to ``log`` when given)."""
-        if cycles < 1:
-            raise ParameterError(f"cycles must be >= 1; got {cycles}")
+        plate time; returns the :class:`Log`.
+
+        With ``log``, the log is written on the way out whatever ends the run (Ctrl-C or an
+        exception included: ``meta["stopped"]`` says what), and every ``flush_every`` seconds of
+        wall time on the way, so a long experiment is never lost. The path is checked before the
+        first cycle."""
+        cycles = integer("cycles", cycles, low=1)
+        if timeout is not None:
+            real("timeout", timeout, low=0.0, low_open=True)
+        flush = real("flush_every", flush_every, low=0.0, low_open=True)
         out = Log(meta={"planner": type(self.planner).__name__, "task": type(self.task).__name__})
         start = time.perf_counter()
+        target = None if log is None else _writable(log)
+        out.meta["stopped"] = "running"
+        try:
+            self._cycles(out, cycles, timeout, callback, start, target, flush)
+        except BaseException as error:
+            out.meta["stopped"] = f"{type(error).__name__}: {error}"[:500]
+            raise
+        finally:
+            out.meta.update(
+                cycles=len(out.rows), plate_time=self.plate_time, wall=time.perf_counter() - start
+            )
+            if target is not None:
+                out.save(target)
+        return out
+
+    def _cycles(
+        self,
+        out: Log,
+        cycles: int,
+        timeout: float | None,
+        callback: Callable[[State, list[Pulse]], None] | None,
+        start: float,
+        target: Path | None,
+        flush: float,
+    ) -> None:
+        flushed = start
         last_cycle = 0.0
         prev: dict[int, FloatArray] = {}  # positions at the start of the last cycle
         known: set[int] = set()
@@ -339,6 +404,7 @@ class Loop:
                 out.record(tracks.ids, pos, nothing, errors, self.plate_time, time.perf_counter() - start, [],
                            (t1 - t0, 0.0, 0.0))  # fmt: skip
                 out.done = finished
+                out.meta["stopped"] = "done" if finished else ("cycles" if cycle == cycles else "timeout")
                 break
             steps = np.asarray(self.task.steps(state), dtype=np.float64)
             seen = np.all(np.isfinite(pos), axis=1)
@@ -367,7 +433,20 @@ class Loop:
             desired = np.where(seen[:, None], steps, np.nan)
             out.record(tracks.ids, pos, desired, errors, state.time, time.perf_counter() - start, pulses,
                        (t1 - t0, t2 - t1, t3 - t2))  # fmt: skip
-        out.meta.update(cycles=len(out.rows), plate_time=self.plate_time, wall=time.perf_counter() - start)
-        if log is not None:
-            out.save(log)
-        return out
+            if target is not None and time.perf_counter() - flushed >= flush:
+                out.meta.update(cycles=len(out.rows), plate_time=self.plate_time)
+                out.save(target)
+                flushed = time.perf_counter()
+
+
+def _writable(log: str | Path) -> Path:
+    """The log's path, its folder created and proven writable now rather than after the run."""
+    path = _npz(log)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        probe = path.with_name(f".{path.name}.{os.getpid()}.probe")
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as error:
+        raise ParameterError(f"log: cannot write {str(path)!r}: {error.strerror or error}") from error
+    return path

@@ -33,6 +33,7 @@ from .sizing import (
     as_centers,
     clear_of_centers,
     drive_limits,
+    friction,
     harmonics_of,
     positive,
     settle_time,
@@ -296,8 +297,12 @@ def sustain_for_displacement(
     h = harmonics_of(waveform, amplitude, frequency)
     target = positive("d", d)
     r = positive("radius", radius)
-    mu_f = positive("mu", mu)
-    mu_s_f = mu_f if mu_s is None else float(mu_s)
+    if target > math.pi * r:
+        raise ParameterError(
+            f"d must be at most half a turn about the centre, pi * radius = {math.pi * r:.3g} m; got "
+            f"{target:.3g} m: split the displacement into several pulses"
+        )
+    mu_f, mu_s_f = friction(mu, mu_s)
     period = 1.0 / float(h.frequency)
     rise = period if attack is None else positive("attack", attack)
     probe = Probe(np.array([r, 0.0]), np.array([0.0, 1.0]), mu_f, mu_s_f, positive("g", g))

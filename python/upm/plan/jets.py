@@ -19,7 +19,16 @@ from ..actuation import Axis, Plate
 from ..drive import DriveLimits
 from ..motion import PlateMotion
 from ..pulses import Pulse, program
-from .sizing import Probe, drive_limits, envelope_times, positive, settle_time, solve_increasing, trim_rests
+from .sizing import (
+    Probe,
+    drive_limits,
+    envelope_times,
+    friction,
+    positive,
+    settle_time,
+    solve_increasing,
+    trim_rests,
+)
 
 __all__ = ["JetPlanner", "jet_plan", "jet_pulses"]
 
@@ -74,8 +83,7 @@ def jet_pulses(
     s = as_float("steps", steps)
     if p.ndim != 2 or p.shape[1] != 2 or s.shape != p.shape:
         raise ShapeError(f"parts and steps must both have shape (M, 2); got {p.shape} and {s.shape}")
-    mu_f = positive("mu", mu)
-    mu_s_f = mu_f if mu_s is None else float(mu_s)
+    mu_f, mu_s_f = friction(mu, mu_s)
     positive("amplitude", amplitude)
     positive("frequency", frequency)
     if rho is None:

@@ -16,7 +16,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._arrays import as_float
+from .._arrays import as_float, real
 from .._errors import ConvergenceError, ParameterError
 from ..actuation import Axis, Plate
 from ..drive import DriveLimits
@@ -66,14 +66,30 @@ def scaled(h: Harmonics, factor: float) -> Harmonics:
 
 
 def positive(name: str, value: float) -> float:
-    if not (isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(value) and value > 0):
-        raise ParameterError(f"{name} must be finite and > 0; got {value!r}")
-    return float(value)
+    return real(name, value, low=0.0, low_open=True)
 
 
-def solve_increasing(f: Callable[[float], float], target: float, x0: float, name: str) -> float:
-    """``x > 0`` with ``f(x) = target`` for increasing ``f``: geometric bracketing, then Illinois
-    false position on ``log x``, to 1e-4 relative."""
+#: Friction coefficients above this are not sliding friction (and make pulses unbounded).
+MAX_MU = 10.0
+
+
+def friction(mu: float, mu_s: float | None) -> tuple[float, float]:
+    """``(mu, mu_s)`` checked: ``0 < mu <= 10`` and ``mu <= mu_s <= 10`` (``mu_s`` default ``mu``)."""
+    kinetic = real("mu", mu, low=0.0, low_open=True, high=MAX_MU)
+    static = kinetic if mu_s is None else real("mu_s", mu_s, low=kinetic, high=MAX_MU)
+    return kinetic, static
+
+
+#: The longest sustain [s] a pulse is sized to; beyond it the step asked for is out of reach.
+MAX_SUSTAIN = 60.0
+
+
+def solve_increasing(
+    f: Callable[[float], float], target: float, x0: float, name: str, high: float = MAX_SUSTAIN
+) -> float:
+    """``x > 0`` with ``f(x) = target`` for increasing ``f``: geometric bracketing (up to
+    ``high``), then Illinois false position on ``log x``, to 1e-4 relative."""
+    x0 = min(x0, high)
     lo, hi = x0, x0
     f_lo = f_hi = f(x0)
     for _ in range(40):
@@ -84,7 +100,12 @@ def solve_increasing(f: Callable[[float], float], target: float, x0: float, name
     for _ in range(40):
         if f_hi >= target:
             break
-        hi *= 2
+        if hi >= high:
+            raise ParameterError(
+                f"no {name} up to {high:g} s gives a step of {target:g} m ({f_hi:.3g} m at {high:g} s): "
+                "ask for a smaller step, or a stronger drive"
+            )
+        hi = min(2 * hi, high)
         f_hi = f(hi)
     if not (f_lo <= target <= f_hi):
         raise ConvergenceError(f"could not bracket the {name} giving a step of {target:g} m")

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .. import _core
-from .._arrays import as_float, check_range
+from .._arrays import as_float, check_range, instance, integer, real
 from .._errors import VisionError
 from .table import Table, check_frame, project
 
@@ -398,10 +398,16 @@ def find_parts(
         Centres on the plate [m] and in the image [px], labels, contrast, visible area.
     """
     img = check_frame(frame)
+    instance("table", table, Table, "a upm.vision.Table (from find_table)")
+    if palette is not None:
+        instance("palette", palette, Palette, "a upm.vision.Palette or None")
+    real("part_radius", part_radius, low=0.0, low_open=True)
+    min_contrast = real("min_contrast", min_contrast, low=0.0, low_open=True)
+    if max_parts is not None:
+        max_parts = integer("max_parts", max_parts, low=1)
     if (img.shape[1], img.shape[0]) != tuple(table.image_size):
         raise VisionError(f"frame is {img.shape[1]} x {img.shape[0]} px but the table was found in "
                           f"{table.image_size[0]} x {table.image_size[1]} px frames")  # fmt: skip
-    check_range("min_contrast", as_float("min_contrast", min_contrast), low=0.0, low_open=True)
     rect = Rectifier(table, part_radius)
     top = rect.warp(img)
     background = rect.fit_background(top)

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._arrays import as_float, check_range
-from .._errors import VisionError
+from .._errors import ShapeError, VisionError
 from ..drive import PLATE_SIZE  # the side of the thesis's plate [m] (16 in), re-exported here
 
 __all__ = ["PLATE_SIZE", "Table", "check_frame", "find_table", "plate_corners", "project"]
@@ -31,7 +31,10 @@ def plate_corners(plate_size: float | tuple[float, float]) -> FloatArray:
 
 
 def _sides(plate_size: float | tuple[float, float] | ArrayLike) -> tuple[float, float]:
-    s = np.broadcast_to(as_float("plate_size", plate_size), (2,))
+    given = as_float("plate_size", plate_size)
+    if given.shape not in ((), (1,), (2,)):
+        raise ShapeError(f"plate_size must be one side or (width, height) [m]; got shape {given.shape}")
+    s = np.broadcast_to(given, (2,))
     check_range("plate_size", s, low=0.0, low_open=True)
     return float(s[0]), float(s[1])
 
