@@ -36,3 +36,49 @@ def test_example_runs(script, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     runpy.run_path(str(script), run_name="__main__")
     assert capsys.readouterr().out.strip()
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["figures", "--out", "/proc/nope"], "upm: cannot use '/proc/nope'"),
+        (["demo", "--out", "/proc/x"], "upm: cannot use"),
+        (["demo", "nosuchdemo"], "the demos: feeding, list, bowtie"),
+        (["emulate", "--tcp", "-5"], "--tcp: must be a TCP port in [0, 65535]; got -5"),
+        (["emulate", "--drop", "2"], "--drop: must be a probability in [0, 1]; got 2"),
+        (["emulate", "--scene", "/nonexistent.json"], "--scene /nonexistent.json"),
+    ],
+)
+def test_cli_errors_are_one_line_not_a_traceback(argv, message):
+    # Before: tracebacks (--out /proc/x, --tcp -5), a wrong demo list, --drop 2 accepted.
+    out = subprocess.run(
+        [sys.executable, "-m", "upm.cli", *argv], capture_output=True, text=True, timeout=120
+    )
+    assert out.returncode == 2, out.stderr
+    assert message in out.stderr and "Traceback" not in out.stderr
+
+
+def test_every_emulator_option_has_help():
+    out = subprocess.run(
+        [sys.executable, "-m", "upm.cli", "emulate", "--help"], capture_output=True, text=True, check=True
+    )
+    for option in ("--seed", "--watchdog-ms", "--duplicate", "--corrupt", "--snr-db", "--scene"):
+        line = out.stdout.split(option, 1)[1].split("\n  -", 1)[0]
+        assert len(line.split()) > 2, f"{option} has no help: {line!r}"
+
+
+@pytest.mark.parametrize(
+    ("blocked", "code", "extra"),
+    [
+        ("cobs", "from upm import control", "upm[board]"),
+        ("xarray", "import upm; upm.sweep('jet_focus', {'rho': [0.1]})", "upm[sweep]"),
+        ("cv2", "import upm.vision", "upm[vision]"),
+        ("matplotlib", "from upm import plot; plot.feeding_versus_b()", "upm[plot]"),
+        ("cobs", "from upm import cli; cli.main(['emulate', '--help'])", "upm[board]"),
+    ],
+)
+def test_a_missing_extra_names_what_to_install(blocked, code, extra):
+    script = f"import sys; sys.modules[{blocked!r}] = None\n{code}"
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert f"pip install '{extra}'" in out.stderr, out.stderr
+    assert "ModuleNotFoundError" not in out.stderr

@@ -117,11 +117,14 @@ def test_contacts_identical_run_to_run_and_for_one_and_two_threads() -> None:
 
 def test_contacts_off_is_the_plain_integrator() -> None:
     spin = upm.PlateMotion.rotation((0.0, 0.0), upm.Harmonics([2.0, -1.0], frequency=35.0))
-    parts = [upm.Disk((0.05, 0.0), 0.01), upm.Point((0.0, 0.05)), upm.Disk((-0.05, 0.0), 0.01)]
+    parts = [upm.Disk((0.05, 0.0), 0.01), upm.Disk((0.0, 0.05), 0.005), upm.Disk((-0.05, 0.0), 0.01)]
     a = upm.simulate(spin, parts, duration=0.2, dt=1e-4, mu=0.3)
     b = upm.simulate(spin, parts, duration=0.2, dt=1e-4, mu=0.3, contacts=True)
-    # Far apart: contacts change nothing (points never collide), to rounding.
+    # Far apart: contacts change nothing, to rounding.
     np.testing.assert_allclose(b.positions, a.positions, rtol=0, atol=1e-12)
+    # A point has no size to collide with: contacts refuse it rather than let it pass walls.
+    with pytest.raises(upm.ParameterError, match=r"parts\[1\] is a point"):
+        upm.simulate(spin, [parts[0], upm.Point((0.0, 0.05))], duration=0.01, dt=1e-4, mu=0.3, contacts=True)
 
 
 def test_bad_contact_input_is_refused_with_the_reason() -> None:

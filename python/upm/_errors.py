@@ -6,6 +6,7 @@ __all__ = [
     "BoardError",
     "ConvergenceError",
     "InternalError",
+    "MissingExtraError",
     "ParameterError",
     "PlanWarning",
     "RankWarning",
@@ -37,6 +38,11 @@ class ConvergenceError(UpmError, RuntimeError):
 
 class InternalError(UpmError, RuntimeError):
     """A bug in upm (a Rust panic caught at the boundary). Please report it with the message."""
+
+
+class MissingExtraError(UpmError, ImportError):
+    """An optional dependency is not installed; the message names the extra that brings it
+    (``pip install 'upm[extra]'``)."""
 
 
 class RankWarning(UserWarning):

@@ -129,13 +129,16 @@ def sweep_command(config: Path | None, listing: bool, n_jobs: int | None, quiet:
     from .sweeps import SCENARIOS, sweep
 
     if listing or config is None:
+        import textwrap
+
         for s in SCENARIOS.values():
-            print(f"{s.name}: {s.doc}")
-            needs = ", ".join(s.required)
-            optional = ", ".join(f"{k}={v}" for k, v in s.defaults.items())
-            print(f"    parameters: {needs}; defaults: {optional}")
+            print(textwrap.fill(f"{s.name}: {s.doc}", width=100, subsequent_indent="    "))
+            for k, (low, high) in s.ranges.items():
+                kind = "integer" if k in s.integers else "number"
+                default = f", default {s.defaults[k]:g}" if k in s.defaults else ", required"
+                print(f"    {k:16s} {kind} in [{low:g}, {high:g}]{default}")
             for k, unit in s.outputs.items():
-                print(f"    -> {k}: {unit}")
+                print(textwrap.fill(f"    -> {k}: {unit}", width=100, subsequent_indent="       "))
         if config is None and not listing:
             print("\nusage: upm sweep CONFIG.toml  (keys: target, [grid], [fixed], store, n_jobs, backend, "
                   "scheduler, chunk, plot)")  # fmt: skip
@@ -197,7 +200,25 @@ def sweep_command(config: Path | None, listing: bool, n_jobs: int | None, quiet:
 
 
 def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
+    """The ``upm`` command. Errors end it with a one-line message and exit code 2 (1: a demo's
+    task was not done; 130: interrupted), never a traceback."""
+    try:
+        return _main(sys.argv[1:] if argv is None else argv)
+    except UpmError as error:  # a MissingExtraError among them
+        print(f"upm: {error}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:  # `upm sweep --list | head`
+        return 0
+    except OSError as error:  # an --out that cannot be written, a file that cannot be read
+        where = f" {error.filename!r}" if error.filename else ""
+        print(f"upm: cannot use{where}: {error.strerror or error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("upm: interrupted", file=sys.stderr)
+        return 130
+
+
+def _main(argv: list[str]) -> int:
     if argv[:1] == ["emulate"]:  # its own options: hand them over untouched
         from .board import emulator
 
@@ -224,7 +245,7 @@ def main(argv: list[str] | None = None) -> int:
         "--points", action="store_true", help="parts are points that pass through each other (no contacts)"
     )
     d.add_argument("--mp4", action="store_true", help="also write animation.mp4 (needs imageio-ffmpeg)")
-    d.add_argument("--seed", type=int, default=1)
+    d.add_argument("--seed", type=int, default=1, help="seed of the layout, the camera noise and the plant")
     d.add_argument(
         "--planner",
         choices=("predictive", "jets", "rotations", "displacement"),
@@ -232,7 +253,7 @@ def main(argv: list[str] | None = None) -> int:
         help="the planner (default: the thesis's planner of the demo)",
     )
     fg = commands.add_parser("figures", help="the thesis's analytic figures (3.5, 3.6, 4.7, 6.2, 6.9)")
-    fg.add_argument("--out", type=Path, default=Path("out/figures"))
+    fg.add_argument("--out", type=Path, default=Path("out/figures"), help="directory (default: out/figures)")
     s = commands.add_parser(
         "sweep", help="a parameter sweep from a TOML file; --list: the built-in scenarios"
     )
@@ -265,8 +286,13 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"upm demo: {error}", file=sys.stderr)
                 return 2
             return 0
-        from .demos import run_demo
+        from .demos import DEMOS, run_demo
+        from .mchip_demos import DEMOS as MCHIP
 
+        if args.name not in DEMOS:
+            every = ["feeding", "list", *sorted(DEMOS), *sorted(MCHIP)]
+            print(f"upm demo: no demo {args.name!r}; the demos: {', '.join(every)}", file=sys.stderr)
+            return 2
         try:
             metrics = run_demo(args.name, args.out, board=args.board, quick=args.quick, seed=args.seed,
                                mp4=args.mp4, contacts=not args.points, planner=args.planner)  # fmt: skip

@@ -10,6 +10,7 @@ from numpy.typing import ArrayLike
 from . import theory
 from ._arrays import as_float
 from ._errors import ParameterError
+from ._extras import need
 from .drive import PLATE_SIZE
 from .feeding import feed_rate, mean_force
 from .waveforms import Harmonics, TwoHarmonic
@@ -30,14 +31,9 @@ __all__ = [
 
 
 def _pyplot() -> Any:
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
-    except ImportError as error:  # pragma: no cover - depends on the environment
-        raise ImportError("upm.plot needs matplotlib: pip install 'upm[plot]'") from error
-    return plt
+    matplotlib = need("matplotlib", "plot", "upm.plot (figures)")
+    matplotlib.use("Agg", force=False)
+    return need("matplotlib.pyplot", "plot", "upm.plot (figures)", "matplotlib")
 
 
 def feeding_versus_b(b: ArrayLike | None = None) -> Figure:

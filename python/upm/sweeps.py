@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import hashlib
-import importlib
 import inspect
 import json
 import math
@@ -34,6 +33,7 @@ from numpy.typing import NDArray
 from . import _core
 from ._arrays import as_float, as_int
 from ._errors import ParameterError, RankWarning
+from ._extras import need
 from .feeding import feed_rate, mean_force
 from .fields import jet_field
 from .motion import PlateMotion
@@ -544,7 +544,7 @@ class _Store:
     """A Zarr store holding the sweep's variables and one ``_done`` flag per chunk."""
 
     def __init__(self, path: Path, plan: _Plan, resume: bool) -> None:
-        import zarr
+        zarr = need("zarr", "sweep", "a sweep store")
 
         self.path, self.plan = path, plan
         self.done = np.zeros(plan.grid_chunks, bool)
@@ -573,9 +573,9 @@ class _Store:
         after the grid's axes)."""
         if self.group is not None:
             return
-        import xarray as xr
+        xr = need("xarray", "sweep", "upm.sweep")
 
-        da: Any = importlib.import_module("dask.array")  # untyped
+        da: Any = need("dask.array", "sweep", "a sweep with backend='dask'", "dask")
 
         plan = self.plan
         dims = list(plan.axes)
@@ -590,7 +590,7 @@ class _Store:
         ds = xr.Dataset(data, coords=dict(plan.axes), attrs=plan.attrs())
         ds.attrs["upm_sweep"] = plan.fingerprint()
         ds.to_zarr(str(self.path), mode="w", compute=False, consolidated=False)
-        import zarr
+        zarr = need("zarr", "sweep", "a sweep store")
 
         self.group = zarr.open_group(str(self.path), mode="r+")
 
@@ -660,8 +660,8 @@ def sweep(
         Before any work: an empty axis, an unknown parameter, a non-finite or out-of-range value,
         a store holding another sweep.
     """
-    import xarray as xr
-    from tqdm.auto import tqdm
+    xr = need("xarray", "sweep", "upm.sweep")
+    tqdm = need("tqdm.auto", "sweep", "upm.sweep", "tqdm").tqdm
 
     plan, scenario = _plan(target, grid, fixed, chunk)
     if backend not in ("threads", "dask"):
@@ -709,7 +709,7 @@ def sweep(
                     pool.shutdown(wait=False, cancel_futures=True)
                     raise
         else:
-            distributed: Any = importlib.import_module("distributed")  # untyped
+            distributed: Any = need("distributed", "sweep", "a sweep on a dask client", "dask[distributed]")
             own = not isinstance(client, distributed.Client)  # an address: connect, and close after
             dask_client = distributed.Client(client) if own else client
             jobs: dict[Any, tuple[int, tuple[slice, ...]]] = {

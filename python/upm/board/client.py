@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._errors import BoardError
+from .._extras import need
 from . import protocol as p
 
 __all__ = ["Board", "BoardTimeout", "CommandRefused", "VersionMismatch"]
@@ -55,10 +56,7 @@ class Board:
     """
 
     def __init__(self, url: str, *, timeout: float = 0.25, retries: int = 3, heartbeat: float = 0.05) -> None:
-        try:
-            import serial
-        except ImportError as error:  # pragma: no cover - depends on the environment
-            raise ImportError("upm.board needs pyserial: pip install 'upm[board]'") from error
+        serial = need("serial", "board", "upm.board.Board", "pyserial")
         try:
             self._port = serial.serial_for_url(url, baudrate=921600, timeout=0.005)
         except (serial.SerialException, ValueError) as error:

@@ -389,28 +389,72 @@ def serve(
                 pass  # nobody is reading the pty: the bytes are lost, as on a wire
 
 
+def _ranged(kind: type, low: float, high: float, what: str) -> Any:
+    """An argparse type: a ``kind`` in ``[low, high]``, or a usage error saying so."""
+
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {what}") from None
+        if not (low <= value <= high):  # NaN fails too
+            raise argparse.ArgumentTypeError(f"must be {what} in [{low:g}, {high:g}]; got {text}")
+        return value
+
+    return parse
+
+
+_PORT = _ranged(int, 0, 65535, "a TCP port")
+_PROBABILITY = _ranged(float, 0.0, 1.0, "a probability")
+_SECONDS = _ranged(float, 0.0, 86400.0, "a time in seconds")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="upm emulate", description=__doc__.splitlines()[0])
     parser.add_argument(
-        "--tcp", type=int, default=None, help="serve on this TCP port (0: any) instead of a pty"
+        "--tcp", type=_PORT, default=None, help="serve on this TCP port (0: any) instead of a pty"
     )
-    parser.add_argument("--watchdog-ms", type=int, default=250)
-    parser.add_argument("--drop", type=float, default=0.0, help="probability of dropping an outgoing frame")
-    parser.add_argument("--duplicate", type=float, default=0.0)
-    parser.add_argument("--corrupt", type=float, default=0.0)
-    parser.add_argument("--delay", type=float, default=0.0, help="seconds added to every outgoing chunk")
     parser.add_argument(
-        "--stall-after", type=float, default=None, help="seconds after connection to go silent"
+        "--watchdog-ms",
+        type=_ranged(int, 1, 60000, "milliseconds"),
+        default=250,
+        help="the watchdog period: motors stop when the host is silent this long (default 250)",
     )
-    parser.add_argument("--stall-for", type=float, default=0.0, help="seconds of silence")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--snr-db", type=float, default=60.0)
     parser.add_argument(
-        "--stroke", type=float, default=None, help="largest plate-corner excursion [m] (default 0.01)"
+        "--drop", type=_PROBABILITY, default=0.0, help="probability of dropping an outgoing frame"
+    )
+    parser.add_argument(
+        "--duplicate", type=_PROBABILITY, default=0.0, help="probability of sending an outgoing frame twice"
+    )
+    parser.add_argument(
+        "--corrupt",
+        type=_PROBABILITY,
+        default=0.0,
+        help="probability of flipping a byte of an outgoing frame",
+    )
+    parser.add_argument("--delay", type=_SECONDS, default=0.0, help="seconds added to every outgoing chunk")
+    parser.add_argument(
+        "--stall-after", type=_SECONDS, default=None, help="seconds after connection to go silent"
+    )
+    parser.add_argument("--stall-for", type=_SECONDS, default=0.0, help="seconds of silence")
+    parser.add_argument(
+        "--seed", type=_ranged(int, 0, 2**63, "a seed"), default=0, help="seed of the faults and sensor noise"
+    )
+    parser.add_argument(
+        "--snr-db",
+        type=_ranged(float, -100.0, 300.0, "decibels"),
+        default=60.0,
+        help="accelerometer signal-to-noise ratio [dB] (default 60)",
+    )
+    parser.add_argument(
+        "--stroke",
+        type=_ranged(float, 1e-6, 1.0, "metres"),
+        default=None,
+        help="largest plate-corner excursion [m] (default 0.01)",
     )
     parser.add_argument(
         "--camera-port",
-        type=int,
+        type=_PORT,
         default=None,
         help="also serve the overhead camera on this TCP port (0: any)",
     )
@@ -418,8 +462,8 @@ def main(argv: list[str] | None = None) -> int:
         "--scene",
         type=str,
         default=None,
-        help='JSON file: {"parts": [[x, y], ...], "labels": [...], "mu": 0.3, "plate": [m, I, r], '
-        '"camera": {...}, "render": {...}}',
+        help='the plate\'s contents, a JSON file: {"parts": [[x, y], ...], "labels": [...], "mu": 0.3, '
+        '"plate": [m, I, r], "stroke": 0.01, "camera": {...}, "render": {...}}',
     )
     args = parser.parse_args(argv)
     faults = Faults(
@@ -427,8 +471,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     scene: dict[str, Any] = {}
     if args.scene is not None:
-        with open(args.scene) as f:
-            scene = json.load(f)
+        try:
+            with open(args.scene) as f:
+                scene = json.load(f)
+        except (OSError, ValueError) as error:
+            parser.error(f"--scene {args.scene}: {error}")
     options: dict[str, Any] = {}
     if "plate" in scene:  # [mass, inertia, lever], on the default flexures
         plate = Plate(*(float(v) for v in scene["plate"]))

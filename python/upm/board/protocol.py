@@ -15,9 +15,11 @@ from enum import IntEnum
 from typing import Any, ClassVar
 
 import numpy as np
-from cobs import cobs
 
 from .._errors import BoardError
+from .._extras import need
+
+cobs = need("cobs.cobs", "board", "the board protocol (upm.board, upm.control)", "cobs")
 
 __all__ = [
     "MAX_PAYLOAD",

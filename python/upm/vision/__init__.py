@@ -8,10 +8,12 @@ from __future__ import annotations
 
 try:
     import cv2  # noqa: F401
-except ImportError as error:  # pragma: no cover - depends on the environment
-    raise ImportError(
-        "upm.vision needs OpenCV: pip install 'upm[vision]' (opencv-python-headless)"
-    ) from error
+except ImportError:  # tested with cv2 blocked in a subprocess
+    from .._errors import MissingExtraError
+
+    raise MissingExtraError(
+        "upm.vision needs OpenCV (opencv-python-headless), which is not installed: pip install 'upm[vision]'"
+    ) from None
 
 from .._errors import VisionError
 from .parts import THESIS_PALETTE, Palette, Parts, find_parts
