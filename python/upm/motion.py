@@ -49,20 +49,23 @@ class PlateMotion:
     0.74
     """
 
-    __slots__ = ("_inner",)
+    __slots__ = ("_inner", "_recipe")
 
-    def __init__(self, inner: _core.PlateMotion):
+    def __init__(self, inner: _core.PlateMotion, recipe: tuple[Any, ...] | None = None):
         self._inner = inner
+        self._recipe = recipe  # how it was built: rebuilds it (pickling) and compares it (==)
 
     @classmethod
     def translation(cls, direction: ArrayLike, waveform: Waveform) -> PlateMotion:
         """Translation along ``direction`` (normalised) with speed ``waveform(t)`` [m/s]."""
-        return cls(_core.PlateMotion.translation(point("direction", direction), _scalar_waveform(waveform)))
+        d = point("direction", direction)
+        return cls(_core.PlateMotion.translation(d, _scalar_waveform(waveform)), ("translation", d, waveform))
 
     @classmethod
     def rotation(cls, center: ArrayLike, waveform: Waveform) -> PlateMotion:
         """Rotation about ``center`` [m] at angular rate ``waveform(t)`` [rad/s]."""
-        return cls(_core.PlateMotion.rotation(point("center", center), _scalar_waveform(waveform)))
+        c = point("center", center)
+        return cls(_core.PlateMotion.rotation(c, _scalar_waveform(waveform)), ("rotation", c, waveform))
 
     @classmethod
     def jet(
@@ -77,20 +80,15 @@ class PlateMotion:
         a = real("amplitude", amplitude)
         if a == 0:
             raise ParameterError("amplitude must be non-zero; got 0 (a jet of amplitude 0 is a rest)")
-        return cls(
-            _core.PlateMotion.jet(
-                point("center", center),
-                point("direction", direction),
-                real("rho", rho),
-                a,
-                real("frequency", frequency),
-            )
-        )
+        args = (point("center", center), point("direction", direction), real("rho", rho), a,
+                real("frequency", frequency))  # fmt: skip
+        return cls(_core.PlateMotion.jet(*args), ("jet", *args))
 
     @classmethod
     def rest(cls, duration: float) -> PlateMotion:
         """The plate at rest for ``duration`` [s]."""
-        return cls(_core.PlateMotion.rest(real("duration", duration)))
+        seconds = real("duration", duration)
+        return cls(_core.PlateMotion.rest(seconds), ("rest", seconds))
 
     @classmethod
     def from_samples(cls, t: ArrayLike, u1: ArrayLike, u2: ArrayLike, u3: ArrayLike) -> PlateMotion:
@@ -105,23 +103,24 @@ class PlateMotion:
             raise ShapeError(
                 f"t, u1, u2, u3 must have equal lengths; got {ts.size}, {[c.size for c in cols]}"
             )
-        return cls(_core.PlateMotion.from_samples(ts, np.ascontiguousarray(np.stack(cols, axis=1))))
+        u = np.ascontiguousarray(np.stack(cols, axis=1))
+        return cls(_core.PlateMotion.from_samples(ts, u), ("from_samples", ts, *cols))
 
     @classmethod
     def sequence(cls, motions: Sequence[PlateMotion]) -> PlateMotion:
         """The motions one after another; every one but the last needs a duration."""
         listed = items("motions", motions, PlateMotion, "a upm.PlateMotion", min_len=1)
-        return cls(_core.PlateMotion.sequence([m._inner for m in listed]))
+        return cls(_core.PlateMotion.sequence([m._inner for m in listed]), ("sequence", tuple(listed)))
 
     def for_duration(self, seconds: float) -> PlateMotion:
         """This motion for ``seconds`` [s] only."""
-        return PlateMotion(self._inner.for_duration(real("seconds", seconds)))
+        t = real("seconds", seconds)
+        return PlateMotion(self._inner.for_duration(t), ("for_duration", self, t))
 
     def with_envelope(self, attack: float, sustain: float, decay: float) -> PlateMotion:
         """This motion under a raised-cosine envelope (SPEC §5); lasts ``attack + sustain + decay``."""
-        return PlateMotion(
-            self._inner.with_envelope(real("attack", attack), real("sustain", sustain), real("decay", decay))
-        )
+        times = real("attack", attack), real("sustain", sustain), real("decay", decay)
+        return PlateMotion(self._inner.with_envelope(*times), ("with_envelope", self, *times))
 
     @property
     def duration(self) -> float | None:
@@ -155,6 +154,67 @@ class PlateMotion:
         bound = real("tol", tol, low=0.0)
         return bool(np.all(np.abs(self.displacement()) <= bound))
 
+    # -- value semantics: pickling, equality, a repr that says what it is ---------------------
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        if self._recipe is None:
+            raise ParameterError("this PlateMotion was built from the extension directly and cannot be pickled")
+        return _rebuild, (self._recipe,)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, PlateMotion):
+            return NotImplemented
+        if self._recipe is None or other._recipe is None:
+            return self is other
+        return _key(self._recipe) == _key(other._recipe)
+
+    def __hash__(self) -> int:
+        return hash(_key(self._recipe)) if self._recipe is not None else id(self)
+
     def __repr__(self) -> str:
         d = self.duration
-        return f"PlateMotion(items={len(self._inner)}, duration={'forever' if d is None else f'{d:g} s'})"
+        what = _describe(self._recipe) if self._recipe is not None else f"{len(self._inner)} items"
+        if len(what) > 160:
+            what = what[:157] + "..."
+        return f"PlateMotion({what}; duration={'forever' if d is None else f'{d:g} s'})"
+
+
+def _rebuild(recipe: tuple[Any, ...]) -> PlateMotion:
+    """The motion ``recipe`` describes, built again through the public constructors."""
+    kind, *args = recipe
+    if kind == "raw_translation":  # built straight from coefficients (upm.sweep's fast path)
+        d, cos, sin, f = args
+        inner = _core.PlateMotion.translation(d, _core.WaveformBatch.harmonics(cos, sin, f))
+        return PlateMotion(inner, recipe)
+    if kind in ("for_duration", "with_envelope"):
+        base = _rebuild(args[0]._recipe)
+        return getattr(base, kind)(*args[1:])  # type: ignore[no-any-return]
+    if kind == "sequence":
+        return PlateMotion.sequence([_rebuild(m._recipe) for m in args[0]])
+    return getattr(PlateMotion, kind)(*args)  # type: ignore[no-any-return]
+
+
+def _key(value: Any) -> Any:
+    """A hashable, comparable form of a recipe (arrays by shape and bytes)."""
+    if isinstance(value, PlateMotion):
+        return ("motion", _key(value._recipe)) if value._recipe is not None else ("id", id(value))
+    if isinstance(value, (tuple, list)):
+        return tuple(_key(v) for v in value)
+    if isinstance(value, np.ndarray):
+        return ("array", value.shape, np.ascontiguousarray(value, dtype=np.float64).tobytes())
+    return value
+
+
+def _describe(recipe: tuple[Any, ...]) -> str:
+    kind, *args = recipe
+    if kind in ("for_duration", "with_envelope"):
+        inner = args[0]._recipe
+        base = _describe(inner) if inner is not None else "..."
+        return f"{base}.{kind}({', '.join(f'{a:g}' for a in args[1:])})"
+    if kind == "sequence":
+        return "sequence[" + ", ".join(_describe(m._recipe) if m._recipe else "..." for m in args[0]) + "]"
+    if kind == "from_samples":
+        return f"from_samples({len(args[0])} samples)"
+    if kind == "raw_translation":
+        return f"translation({args[0]}, {args[1].shape[-1]} harmonics at {float(args[3][0]):g} Hz)"
+    shown = ", ".join(repr(a) if not isinstance(a, float) else f"{a:g}" for a in args)
+    return f"{kind}({shown})"

@@ -7,7 +7,8 @@ over parts with the GIL released; ``simulate_batch`` runs many independent world
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -16,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from . import _core
 from ._arrays import as_float, integer, items, real
 from ._errors import ParameterError, ShapeError
+from ._extras import need
 from .motion import PlateMotion
 
 __all__ = ["Disk", "Point", "SimResult", "simulate", "simulate_batch"]
@@ -45,7 +47,7 @@ class Disk(NamedTuple):
     mass: float | None = None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False, repr=False)
 class SimResult:
     """What a simulation recorded (the initial state, every ``record_every``-th step, and always the
     final state).
@@ -69,6 +71,64 @@ class SimResult:
     """Parts whose centre left the square plate, ``(M,)``; they stop being simulated."""
     left_time: NDArray[np.float64]
     """When each part left the plate [s] (NaN: it did not), ``(M,)``."""
+
+    def __repr__(self) -> str:
+        lead = self.positions.shape[:-3]
+        batch = f"worlds={lead[0]}, " if lead else ""
+        span = f"{self.t[0]:g}..{self.t[-1]:g} s" if len(self.t) else "empty"
+        return (
+            f"SimResult({batch}records={len(self.t)} ({span}), parts={self.positions.shape[-2]}, "
+            f"left_plate={int(np.sum(self.left_plate))})"
+        )
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, SimResult):
+            return NotImplemented
+        def same(a: NDArray[Any], b: NDArray[Any]) -> bool:
+            return bool(np.array_equal(a, b, equal_nan=bool(np.issubdtype(a.dtype, np.floating))))
+
+        return all(same(getattr(self, f.name), getattr(other, f.name)) for f in fields(self))
+
+    __hash__ = None  # type: ignore[assignment]  # arrays: mutable contents
+
+    def save(self, path: str | Path) -> Path:
+        """Write every array to ``path`` (``.npz``, compressed); :meth:`load` reads it back."""
+        target = Path(path)
+        target = target if target.suffix == ".npz" else target.with_name(target.name + ".npz")
+        target.parent.mkdir(parents=True, exist_ok=True)
+        np.savez_compressed(target, **{f.name: getattr(self, f.name) for f in fields(self)})
+        return target
+
+    @classmethod
+    def load(cls, path: str | Path) -> SimResult:
+        """A result written by :meth:`save`."""
+        with np.load(Path(path), allow_pickle=False) as data:
+            missing = [f.name for f in fields(cls) if f.name not in data.files]
+            if missing:
+                raise ParameterError(f"{path} is not a saved SimResult: it lacks {missing}")
+            return cls(**{f.name: data[f.name] for f in fields(cls)})
+
+    def to_xarray(self) -> Any:
+        """The result as a labelled :class:`xarray.Dataset` (dimensions ``world`` for a batch,
+        ``time``, ``part``, ``axis``; units in each variable's ``attrs``). Needs the ``sweep`` extra."""
+        xr = need("xarray", "sweep", "SimResult.to_xarray")
+        lead = ("world",) if self.positions.ndim == 4 else ()
+        units = {"positions": "m", "velocities": "m/s", "angles": "rad", "spins": "rad/s", "left_time": "s"}
+        dims = {
+            "positions": (*lead, "time", "part", "axis"),
+            "velocities": (*lead, "time", "part", "axis"),
+            "stuck": (*lead, "time", "part"),
+            "angles": (*lead, "time", "part"),
+            "spins": (*lead, "time", "part"),
+            "left_plate": (*lead, "part"),
+            "left_time": (*lead, "part"),
+        }
+        variables = {
+            name: (dim, getattr(self, name), {"units": units[name]} if name in units else {})
+            for name, dim in dims.items()
+        }
+        coords = {"time": ("time", self.t, {"units": "s"}), "axis": ["x", "y"]}
+        return xr.Dataset(variables, coords=coords)
 
 
 def _masses(parts: Any) -> np.ndarray | None:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
@@ -41,7 +41,7 @@ MAX_CENTERS = 100_000
 OrderRule = str | Callable[[FloatArray, FloatArray, FloatArray], ArrayLike]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class _Plan:
     strengths: FloatArray
     """Strength per centre ``(N,)``: see the subclass."""
@@ -62,8 +62,28 @@ class _Plan:
     centers: FloatArray
     """Centres of rotation ``(N, 2)`` [m]."""
 
+    def __eq__(self, other: object) -> bool:
+        if type(other) is not type(self):
+            return NotImplemented
+        return all(
+            np.array_equal(np.asarray(getattr(self, f.name)), np.asarray(getattr(other, f.name)), equal_nan=True)
+            for f in fields(self)
+        )
 
-@dataclass(frozen=True, slots=True)
+    __hash__ = None  # type: ignore[assignment]  # arrays: mutable contents
+
+    def __repr__(self) -> str:
+        k = np.asarray(self.strengths)
+        if k.ndim == 1:
+            shown = np.array2string(k, precision=4, threshold=8)
+            return (
+                f"{type(self).__name__}(strengths={shown}, parts={len(self.parts)}, rank={self.rank}, "
+                f"condition_number={float(self.condition_number):.3g}, residual={float(self.residual):.3g})"
+            )
+        return f"{type(self).__name__}(batch={k.shape[0]}, centers={k.shape[-1]})"
+
+
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class RotationPlan(_Plan):
     """Rotation strengths ``k_j`` (dimensionless) that give requested average forces (4.9, 4.10).
 
@@ -79,7 +99,7 @@ class RotationPlan(_Plan):
     """Friction scale ``mu m g`` [N] the forces are measured in."""
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class DisplacementPlan(_Plan):
     """Arc lengths ``d_j`` [m] along the tangential flows of the centres that move the parts by the
     requested small steps, to first order (5.3); rotate about each centre in :attr:`order`."""

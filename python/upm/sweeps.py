@@ -117,7 +117,8 @@ def _feed_rate(p: dict[str, FloatArray]) -> Outputs:
         PlateMotion(
             _core.PlateMotion.translation(
                 (1.0, 0.0), _core.WaveformBatch.harmonics(a * c[None], a * s_[None], freq)
-            )
+            ),
+            ("raw_translation", (1.0, 0.0), a * c[None], a * s_[None], freq),
         )
         for a, c, s_ in zip(amplitude, cos, sin, strict=True)
     ]

@@ -35,9 +35,25 @@ class Waveform(ABC):
     def _build(self, shape: tuple[int, ...]) -> _core.WaveformBatch:
         """The Rust batch of these waveforms broadcast to ``shape``, flattened in C order."""
 
+    @abstractmethod
+    def _args(self) -> tuple[FloatArray, ...]:
+        """The constructor's arguments that rebuild this waveform (pickling, equality)."""
+
     @cached_property
     def _batch(self) -> _core.WaveformBatch:
         return self._build(self.shape)
+
+    def __reduce__(self) -> tuple[Any, tuple[FloatArray, ...]]:
+        return type(self), tuple(np.array(a) for a in self._args())
+
+    def __eq__(self, other: object) -> bool:
+        if type(other) is not type(self):
+            return NotImplemented
+        assert isinstance(other, Waveform)
+        return all(np.array_equal(a, b) for a, b in zip(self._args(), other._args(), strict=True))
+
+    def __hash__(self) -> int:
+        return hash((type(self).__name__, *(np.asarray(a).tobytes() for a in self._args())))
 
     def _validate(self) -> None:
         """Build the Rust batch now, so invalid parameters raise in the constructor, not later."""
@@ -139,6 +155,9 @@ class Harmonics(Waveform):
     def _build(self, shape: tuple[int, ...]) -> _core.WaveformBatch:
         return _harmonic_batch(self.cos, self.sin, self.frequency, shape)
 
+    def _args(self) -> tuple[FloatArray, ...]:
+        return self.cos, self.sin, self.frequency
+
     def __repr__(self) -> str:
         if self.shape == ():
             c, s, f = self.cos.tolist(), self.sin.tolist(), float(self.frequency)
@@ -209,6 +228,9 @@ class TwoHarmonic(Waveform):
         cos, sin = self.coefficients()
         return _harmonic_batch(cos, sin, self.frequency, shape)
 
+    def _args(self) -> tuple[FloatArray, ...]:
+        return self.b, self.phi, self.amplitude, self.frequency
+
     def __repr__(self) -> str:
         if self.shape == ():
             return (
@@ -248,6 +270,9 @@ class BangBang(Waveform):
         return _core.WaveformBatch.bang_bang(
             flat(self.z, shape), flat(self.a_max, shape), flat(self._period, shape)
         )
+
+    def _args(self) -> tuple[FloatArray, ...]:
+        return self.z, self.a_max, self._period
 
     def __repr__(self) -> str:
         if self.shape == ():
