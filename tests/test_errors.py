@@ -1,6 +1,8 @@
 """Bad input raises upm.UpmError subclasses naming the parameter; no Rust panic reaches Python."""
 
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -213,3 +215,19 @@ def test_solve_rotations_warns_on_infeasible_forces_and_ill_conditioning():
         upm.solve_rotations([(0.5, 0.0)], [(100.0, 0.0)], CORNERS, mu_m_g=1.0)
     with pytest.warns(upm.RankWarning, match="ill-conditioned"):
         upm.solve_rotations([(0.5, 0.0), (0.5 + 1e-9, 0.0)], [(0.1, 0.1), (-0.1, 0.0)], CORNERS)
+
+
+def test_a_result_too_big_for_memory_is_refused_not_aborted():
+    # Before: "memory allocation of 512 bytes failed" and SIGABRT under an 8 GB limit.
+    script = (
+        "import resource, numpy as np, upm\n"
+        "resource.setrlimit(resource.RLIMIT_AS, (8 << 30, resource.RLIM_INFINITY))\n"
+        "spin = upm.PlateMotion.rotation((0.0, 0.0), upm.Harmonics([2.0, -1.0], frequency=35.0))\n"
+        "try:\n"
+        "    upm.simulate(spin, np.zeros((30_000_000, 2)), duration=0.01, dt=1e-4, mu=0.3)\n"
+        "except upm.ParameterError as error:\n"
+        "    print(error)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert "raise record_every (now 1), simulate fewer parts, or split the batch" in out.stdout

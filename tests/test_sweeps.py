@@ -277,3 +277,38 @@ def test_cli_sweep_list_and_config(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     (tmp_path / "bad.toml").write_text('target = "jet_focus"\n[grid]\nrho = []\n')
     assert cli.main(["sweep", "bad.toml", "--quiet"]) == 2
     assert "empty" in capsys.readouterr().err
+
+
+def test_a_store_knows_which_function_filled_it(tmp_path: Path) -> None:
+    # Before: a store identified a function by name only, so another lambda got the first one's
+    # results silently.
+    store = tmp_path / "f.zarr"
+    grid = {"x": [1.0, 2.0]}
+    first = upm.sweep(lambda x: {"y": x}, grid, store=store, progress=False)
+    with pytest.raises(upm.ParameterError, match="different sweep"):
+        upm.sweep(lambda x: {"y": 10 * x}, grid, store=store, progress=False)
+    scale = 3.0
+    with pytest.raises(upm.ParameterError, match="different sweep"):  # same body, other closure
+        upm.sweep(lambda x: {"y": scale * x}, grid, store=store, progress=False)
+    again = upm.sweep(lambda x: {"y": x}, grid, store=store, progress=False)  # the same code: resumes
+    xr.testing.assert_equal(first, again)
+
+
+def test_a_stored_sweep_keeps_its_variable_order_and_units(tmp_path: Path) -> None:
+    # Before: read back as ['force_at_rest', 'amplitude', 'feed_rate_qs', 'feed_rate'].
+    grid = {"b": [0.25, 0.5], "gamma": [0.8, 5.0]}
+    fresh = upm.sweep("feed_rate", grid, phi=np.pi / 2, steps=64, progress=False)
+    stored = upm.sweep("feed_rate", grid, phi=np.pi / 2, steps=64, store=tmp_path / "s.zarr", progress=False)
+    order = list(SCENARIOS["feed_rate"].outputs)
+    assert list(fresh.data_vars) == order and list(stored.data_vars) == order
+    assert stored["amplitude"].attrs["units"] == "m/s" and stored["feed_rate"].attrs["units"] == "1"
+
+
+def test_log_spaced_axes_are_drawn_on_a_log_scale() -> None:
+    ds = upm.sweep(lambda x, y: {"z": x * y}, {"x": np.geomspace(1e-3, 1.0, 7), "y": [1.0, 2.0, 3.0]},
+                   progress=False)  # fmt: skip
+    fig = plot.sweep(ds, x="x", y="y")
+    ax = fig.axes[0]
+    assert ax.get_xscale() == "log" and ax.get_yscale() == "linear"
+    line = plot.sweep(ds.isel(y=0).drop_vars("y"))
+    assert line.axes[0].get_xscale() == "log"

@@ -80,7 +80,10 @@ def test_a_motion_runs_in_another_process():
 
 def test_plans_results_limits_and_pulses_round_trip(tmp_path):
     plan = upm.solve_rotations(
-        [(0.5, 0), (-0.75, 0.25)], [(0.01, 0.01), (-0.01, 0)], upm.corner_centers((-1, -0.5, 1, 0.5)), mu_m_g=0.1
+        [(0.5, 0), (-0.75, 0.25)],
+        [(0.01, 0.01), (-0.01, 0)],
+        upm.corner_centers((-1, -0.5, 1, 0.5)),
+        mu_m_g=0.1,
     )
     run = upm.simulate(SPIN, np.array([[0.05, 0.0], [0.0, 0.08]]), duration=0.05, dt=1e-4, mu=0.3)
     pulse = Pulse.rotation((0.0, 0.0), H, 0.02, 0.2, 0.02)
@@ -89,7 +92,10 @@ def test_plans_results_limits_and_pulses_round_trip(tmp_path):
         assert back == value, type(value).__name__
         assert len(repr(value)) < 400, (type(value).__name__, len(repr(value)))
     assert plan != upm.solve_rotations(
-        [(0.5, 0), (-0.75, 0.2)], [(0.01, 0.01), (-0.01, 0)], upm.corner_centers((-1, -0.5, 1, 0.5)), mu_m_g=0.1
+        [(0.5, 0), (-0.75, 0.2)],
+        [(0.01, 0.01), (-0.01, 0)],
+        upm.corner_centers((-1, -0.5, 1, 0.5)),
+        mu_m_g=0.1,
     )
     # SimResult: saved and loaded bitwise; labelled with units.
     path = run.save(tmp_path / "run")

@@ -157,7 +157,9 @@ class PlateMotion:
     # -- value semantics: pickling, equality, a repr that says what it is ---------------------
     def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
         if self._recipe is None:
-            raise ParameterError("this PlateMotion was built from the extension directly and cannot be pickled")
+            raise ParameterError(
+                "this PlateMotion was built from the extension directly and cannot be pickled"
+            )
         return _rebuild, (self._recipe,)
 
     def __eq__(self, other: object) -> bool:

@@ -168,6 +168,16 @@ def field(
     return figure
 
 
+def _log_spaced(values: Any) -> bool:
+    """Whether an axis is positive and geometrically spaced over more than a decade (then it is
+    drawn on a log scale)."""
+    v = np.asarray(values, dtype=np.float64) if np.asarray(values).dtype.kind in "fiu" else np.zeros(0)
+    if v.size < 3 or not np.all(v > 0) or v.max() / v.min() < 10:
+        return False
+    ratios = v[1:] / v[:-1]
+    return bool(np.allclose(ratios, ratios[0], rtol=1e-6) and abs(ratios[0] - 1) > 1e-9)
+
+
 def sweep(ds: Any, var: str | None = None, *, x: str | None = None, y: str | None = None) -> Figure:
     """A sweep's result (:func:`upm.sweep`) at a glance: a line plot over one dimension, a heat
     map over two (``y`` down the rows, ``x`` along the columns; by default the first two
@@ -203,7 +213,10 @@ def sweep(ds: Any, var: str | None = None, *, x: str | None = None, y: str | Non
     fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
     if len(keep) == 1:
         d = keep[0]
-        ax.plot(da[d].values if d in da.coords else np.arange(da.sizes[d]), da.values, "o-")
+        xs = da[d].values if d in da.coords else np.arange(da.sizes[d])
+        ax.plot(xs, da.values, "o-")
+        if _log_spaced(xs):
+            ax.set_xscale("log")
         ax.set_xlabel(d)
         ax.set_ylabel(str(da.name))
     else:
@@ -212,6 +225,10 @@ def sweep(ds: Any, var: str | None = None, *, x: str | None = None, y: str | Non
         xs = grid[cols].values if cols in grid.coords else np.arange(grid.sizes[cols])
         ys = grid[rows].values if rows in grid.coords else np.arange(grid.sizes[rows])
         mesh = ax.pcolormesh(xs, ys, grid.values, shading="nearest", cmap="viridis")
+        if _log_spaced(xs):
+            ax.set_xscale("log")
+        if _log_spaced(ys):
+            ax.set_yscale("log")
         fig.colorbar(mesh, ax=ax, label=str(da.attrs.get("description", da.name)))
         ax.set_xlabel(cols)
         ax.set_ylabel(rows)

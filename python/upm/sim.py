@@ -6,6 +6,7 @@ over parts with the GIL released; ``simulate_batch`` runs many independent world
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -84,6 +85,7 @@ class SimResult:
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, SimResult):
             return NotImplemented
+
         def same(a: NDArray[Any], b: NDArray[Any]) -> bool:
             return bool(np.array_equal(a, b, equal_nan=bool(np.issubdtype(a.dtype, np.floating))))
 
@@ -198,6 +200,50 @@ def _per_part(name: str, value: ArrayLike, m: int) -> np.ndarray:
     return np.ascontiguousarray(np.broadcast_to(a, (m,)), dtype=np.float64)
 
 
+#: Bytes a recorded part-state takes in the result: position and velocity (4 float64), stuck
+#: (bool), angle and spin (2 float64).
+RECORD_BYTES = 49
+#: The result's peak memory over its final size while it is assembled (measured 2.5-3.5).
+PEAK_FACTOR = 3.5
+
+
+def available_memory() -> int | None:
+    """Bytes of memory this process can still use: the smaller of the machine's available memory
+    (``MemAvailable``) and the address-space limit (``ulimit -v``); None if unknown."""
+    limits = []
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    limits.append(int(line.split()[1]) * 1024)
+    except (OSError, ValueError):
+        pass
+    try:
+        import resource
+
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+        if soft != resource.RLIM_INFINITY:
+            limits.append(int(soft))
+    except (ImportError, OSError, ValueError):
+        pass
+    return min(limits) if limits else None
+
+
+def _check_memory(worlds: int, parts: int, duration: float, dt: float, every: int) -> None:
+    """`ParameterError` when the recorded result cannot fit in memory, before anything runs (a
+    failed allocation in the extension would abort the process)."""
+    steps = max(1, math.ceil(duration / dt - 1e-9))
+    rows = steps // every + 1 + (steps % every != 0)
+    need = float(worlds) * rows * max(parts, 1) * RECORD_BYTES
+    have = available_memory()
+    if have is not None and need * PEAK_FACTOR > 0.9 * have:
+        raise ParameterError(
+            f"the result would hold {worlds} x {rows} x {parts} part-states ({need / 1e9:.3g} GB, about "
+            f"{need * PEAK_FACTOR / 1e9:.3g} GB while it is assembled) but {have / 1e9:.3g} GB of memory is "
+            f"available: raise record_every (now {every}), simulate fewer parts, or split the batch"
+        )
+
+
 def _run(
     motions: list[PlateMotion],
     parts: Any,
@@ -228,6 +274,7 @@ def _run(
     mu_a = _per_part("mu", mu, m)
     mu_s_a = mu_a if mu_s is None else _per_part("mu_s", mu_s, m)
     every = integer("record_every", record_every, low=1, high=2**62)
+    _check_memory(len(motions), m, span, step, every)
     return _core.simulate(
         [mo._inner for mo in motions],
         pos,

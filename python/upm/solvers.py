@@ -66,7 +66,9 @@ class _Plan:
         if type(other) is not type(self):
             return NotImplemented
         return all(
-            np.array_equal(np.asarray(getattr(self, f.name)), np.asarray(getattr(other, f.name)), equal_nan=True)
+            np.array_equal(
+                np.asarray(getattr(self, f.name)), np.asarray(getattr(other, f.name)), equal_nan=True
+            )
             for f in fields(self)
         )
 

@@ -412,6 +412,53 @@ class _Plan:
         return hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()
 
 
+def _code_identity(target: Callable[..., Any]) -> str:
+    """A short hash of what a function target computes: its bytecode, constants, names, defaults
+    and closure values (not its file or line, so moving it does not invalidate a store; for a
+    callable instance, its class's ``__call__``). Two
+    lambdas with the same name but different bodies differ; so do equal bodies closing over
+    different values."""
+    fn: Any = getattr(target, "__func__", target)
+    code = getattr(fn, "__code__", None)
+    if code is None:  # a callable instance: its class's __call__ (its state is its own business)
+        call = getattr(type(target), "__call__", None)
+        code = getattr(call, "__code__", None)
+        extra = ""
+    else:
+        cells = [c.cell_contents for c in (fn.__closure__ or ()) if _has_contents(c)]
+        extra = repr((fn.__defaults__, fn.__kwdefaults__, cells))
+    digest = hashlib.sha256()
+
+    def feed(c: Any) -> None:
+        digest.update(c.co_code)
+        digest.update(repr(c.co_names).encode())
+        for const in c.co_consts:
+            if hasattr(const, "co_code"):
+                feed(const)  # nested functions and comprehensions
+            else:
+                digest.update(repr(const).encode())
+
+    if code is not None:
+        feed(code)
+    digest.update(extra.encode())
+    return digest.hexdigest()[:16]
+
+
+def _has_contents(cell: Any) -> bool:
+    try:
+        cell.cell_contents
+    except ValueError:  # an empty cell
+        return False
+    return True
+
+
+def _units(description: str) -> str:
+    """The unit in a description's trailing ``[...]``; ``"1"`` (dimensionless) without one."""
+    if description.rstrip().endswith("]") and "[" in description:
+        return description.rstrip()[description.rindex("[") + 1 : -1]
+    return "1"
+
+
 def _chunk_shape(shape: tuple[int, ...], points: int) -> tuple[int, ...]:
     """Whole trailing axes first, until a chunk holds about ``points`` points."""
     out = []
@@ -497,7 +544,7 @@ def _plan(target: str | Callable[..., Any], grid: Mapping[str, Any], fixed: dict
         axes = {k: _check_axis(k, v, None, False) for k, v in grid.items()}
         # the function's name identifies the sweep in a store (an instance: its class's name)
         named = target if hasattr(target, "__qualname__") else type(target)
-        name = f"{named.__module__}.{named.__qualname__}"
+        name = f"{named.__module__}.{named.__qualname__}#{_code_identity(target)}"
         default_chunk = 16
     else:
         raise ParameterError(f"target must be a scenario name or a function; got {target!r}")
@@ -590,6 +637,7 @@ class _Store:
         data["_done"] = ([f"_chunk_{d}" for d in dims], da.zeros(plan.grid_chunks, dtype=bool, chunks=1))
         ds = xr.Dataset(data, coords=dict(plan.axes), attrs=plan.attrs())
         ds.attrs["upm_sweep"] = plan.fingerprint()
+        ds.attrs["upm_variables"] = json.dumps(list(first))  # the target's order, kept on reading
         ds.to_zarr(str(self.path), mode="w", compute=False, consolidated=False)
         zarr = need("zarr", "sweep", "a sweep store")
 
@@ -732,6 +780,8 @@ def sweep(
 
     if sink is not None:
         ds = xr.open_zarr(str(sink.path), consolidated=False).drop_vars("_done").load()
+        order = json.loads(ds.attrs.pop("upm_variables", "[]"))
+        ds = ds[[k for k in order if k in ds] + [k for k in ds.data_vars if k not in order]]
     else:
         dims = list(plan.axes)
         ds = xr.Dataset(
@@ -743,4 +793,5 @@ def sweep(
         for k, unit in scenario.outputs.items():
             if k in ds:
                 ds[k].attrs["description"] = unit
+                ds[k].attrs["units"] = _units(unit)
     return ds
