@@ -167,7 +167,7 @@ class PlateMotion:
             return NotImplemented
         if self._recipe is None or other._recipe is None:
             return self is other
-        return _key(self._recipe) == _key(other._recipe)
+        return bool(_key(self._recipe) == _key(other._recipe))
 
     def __hash__(self) -> int:
         return hash(_key(self._recipe)) if self._recipe is not None else id(self)

@@ -421,8 +421,8 @@ def _code_identity(target: Callable[..., Any]) -> str:
     fn: Any = getattr(target, "__func__", target)
     code = getattr(fn, "__code__", None)
     if code is None:  # a callable instance: its class's __call__ (its state is its own business)
-        call = getattr(type(target), "__call__", None)
-        code = getattr(call, "__code__", None)
+        owner = next((k for k in type(target).__mro__ if "__call__" in vars(k)), None)
+        code = getattr(vars(owner).get("__call__"), "__code__", None) if owner is not None else None
         extra = ""
     else:
         cells = [c.cell_contents for c in (fn.__closure__ or ()) if _has_contents(c)]
@@ -446,7 +446,7 @@ def _code_identity(target: Callable[..., Any]) -> str:
 
 def _has_contents(cell: Any) -> bool:
     try:
-        cell.cell_contents
+        _ = cell.cell_contents
     except ValueError:  # an empty cell
         return False
     return True
