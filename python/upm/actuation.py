@@ -1,4 +1,4 @@
-"""Actuation, calibration and sensing (SPEC §6; thesis 5.2-5.4): from motor amplitudes to
+"""Actuation, calibration and sensing (docs/spec.md §6; thesis 5.2-5.4): from motor amplitudes to
 centres of rotation and back.
 
 Plate frame, origin at the plate's centre [m]. Four voice coils ``X1, X2, Y1, Y2`` push on the
@@ -285,7 +285,7 @@ def synthetic_accelerometers(
 ) -> tuple[FloatArray, FloatArray]:
     """Records ``(T, 2)`` of two 2-axis accelerometers at ``r1`` and ``-r1`` on a plate driven by
     ``motors`` with forces ``cos wt - sin 2wt`` (5.9-5.10), as the hardware of record sampled them
-    (SPEC §6: 5 kHz, 11-bit A/D): the rigid-body acceleration including the centripetal term,
+    (docs/spec.md §6: 5 kHz, 11-bit A/D): the rigid-body acceleration including the centripetal term,
     white noise at ``snr_db`` (relative to the signal's RMS; ``None``: none) from ``seed``, then
     quantised to ``bits`` over ``+-full_scale`` (default: 1.25 x the peak).
     """

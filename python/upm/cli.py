@@ -88,7 +88,7 @@ def figures(out: Path) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     written = []
     # Fig. 4.7 left: 4 rotations about the square's corners (4.2.1); right: 3 rotations, zero force and
-    # curl -0.05 at the part (4.2.3), a clockwise whirlpool. Known answers in SPEC §4.
+    # curl -0.05 at the part (4.2.3), a clockwise whirlpool. Known answers in docs/spec.md §4.
     centers = corner_centers((-1.0, -0.5, 1.0, 0.5))
     parts = np.array([[0.5, 0.0], [-0.75, 0.25]])
     left = solve_rotations(parts, [[0.01, 0.01], [-0.01, 0.0]], centers, mu_m_g=0.1)

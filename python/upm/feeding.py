@@ -2,7 +2,7 @@
 
 All forces are dimensionless, ``force / (mu m g)``. They are computed from the exact roots of
 ``v(t) = v_p`` (one per monotone piece of the waveform), never by sampling, so results are exact
-to about 1e-12 (SPEC §1–3).
+to about 1e-12 (docs/spec.md §1–3).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ def _waveform(waveform: Any) -> Waveform:
 
 
 def feed_rate(waveform: Waveform) -> Any:
-    """Quasi-static feed rate [m/s]: the median of the plate velocity over one period (SPEC §2).
+    """Quasi-static feed rate [m/s]: the median of the plate velocity over one period (docs/spec.md §2).
 
     It is the part velocity at which the average Coulomb force vanishes. Computed exactly by
     bracketing the level crossings of every monotone piece and refining them with a root finder.

@@ -1,4 +1,4 @@
-"""Average force fields on resting or slowly moving parts (SPEC §1, §4, §7; thesis 4.5-4.11, 6.1).
+"""Average force fields on resting or slowly moving parts (docs/spec.md §1, §4, §7; thesis 4.5-4.11, 6.1).
 
 Every field is dimensionless, ``force / (mu m g)``, at points in the plate frame [m]. ``points``
 may have any shape ``(..., 2)``; results keep the leading shape.

@@ -1,4 +1,4 @@
-"""The M-Chip resonator array of thesis chapter 2 (SPEC §9), simulated with the rapier3d physics engine.
+"""The M-Chip resonator array of thesis chapter 2 (docs/spec.md §9), simulated with rapier3d.
 
 A design tool for impact-driven microactuator arrays: an interleaved array of torsional resonators
 (silicon slabs with a ridge at the rear end, on revolute joints with a torsional spring and damper)
@@ -32,7 +32,7 @@ FloatArray = NDArray[np.float64]
 class Design:
     """Geometry and materials (SI units). Defaults: the thesis's 8 x 5 sub-array of 280 x 180 x
     5 µm silicon slabs with a 5 µm ridge, resonating at 5 kHz, and a 1150 x 400 x 50 µm silicon
-    part (54 µg, the thesis's nominal 55 µg); friction 1.0, restitution 0.5 (SPEC §9)."""
+    part (54 µg, the thesis's nominal 55 µg); friction 1.0, restitution 0.5 (docs/spec.md §9)."""
 
     rows: int = 8
     cols: int = 5

@@ -1,4 +1,4 @@
-"""Plate motion programs: the plate's in-plane velocity ``(u1, u2, u3)(t)`` (SPEC §1, thesis 4.2).
+"""Plate motion programs: the plate's in-plane velocity ``(u1, u2, u3)(t)`` (docs/spec.md §1, thesis 4.2).
 
 World frame, metres and seconds. The plate's surface velocity at ``P = (x, y)`` is
 ``v_s(P) = (u1 - u3 y, u2 + u3 x)`` [m/s]; ``u3`` is the angular rate [rad/s]. Plate displacements
@@ -118,7 +118,7 @@ class PlateMotion:
         return PlateMotion(self._inner.for_duration(t), ("for_duration", self, t))
 
     def with_envelope(self, attack: float, sustain: float, decay: float) -> PlateMotion:
-        """This motion under a raised-cosine envelope (SPEC §5); lasts ``attack + sustain + decay``."""
+        """This motion under a raised-cosine envelope (docs/spec.md §5), ``attack + sustain + decay`` long."""
         times = real("attack", attack), real("sustain", sustain), real("decay", decay)
         return PlateMotion(self._inner.with_envelope(*times), ("with_envelope", self, *times))
 

@@ -1,4 +1,4 @@
-"""``SimulatedUPM``: the embedded default device (SPEC §6, thesis 5.2).
+"""``SimulatedUPM``: the embedded default device (docs/spec.md §6, thesis 5.2).
 
 Four motor channels (``X1, X2, Y1, Y2``), each ``amplitude [h1 cos(wt + p1) + h2 cos(2wt + p2) +
 h23 cos(2wt/3 + p23)]`` under a raised-cosine envelope, push the plate (5.8); the plate moves as

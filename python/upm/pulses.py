@@ -1,4 +1,4 @@
-"""Pulses: the unit of work a plate executes (SPEC §5, §6, §7; thesis 5.2.3, 5.2.5, 6.1).
+"""Pulses: the unit of work a plate executes (docs/spec.md §5, §6, §7; thesis 5.2.3, 5.2.5, 6.1).
 
 A :class:`Pulse` is one shaped burst of plate vibration, a rotation about a centre, a translation or a jet,
 under a raised-cosine envelope (attack, sustain, decay) and followed by rest while the parts slide

@@ -1,4 +1,4 @@
-"""Simulating parts on the plate: the exact stick–slip integrator (SPEC §1).
+"""Simulating parts on the plate: the exact stick–slip integrator (docs/spec.md §1).
 
 ``simulate`` runs point and disk parts on a plate driven by a :class:`upm.PlateMotion`, in Rust, parallel
 over parts with the GIL released; ``simulate_batch`` runs many independent worlds at once.
@@ -342,7 +342,7 @@ def simulate(
 ) -> SimResult:
     """Simulate parts sliding (points) or sliding and spinning (disks) on the plate under ``motion``.
 
-    Each step is the exact implicit Coulomb step of SPEC §1: a part sticks when the force needed
+    Each step is the exact implicit Coulomb step of docs/spec.md §1: a part sticks when the force needed
     to keep it with the plate is within ``mu_s m g``, otherwise it slides at ``mu m g``; no
     regularisation, so parts on a still plate stop and never creep. A disk's force and torque are
     integrated over its footprint and its translation and spin stick or slide together.

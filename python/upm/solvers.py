@@ -1,4 +1,4 @@
-"""Parallel-manipulation solvers (SPEC §4, §5; thesis 4.2, 5.1): rotation strengths about fixed
+"""Parallel-manipulation solvers (docs/spec.md §4, §5; thesis 4.2, 5.1): rotation strengths about fixed
 centres that give many parts the forces, curls or small steps you ask for, at once.
 
 Columns of every system are the unit tangential fields ``R90(P - C_j) / |P - C_j|`` of the centres

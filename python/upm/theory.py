@@ -2,7 +2,7 @@
 
 Velocities in m/s, accelerations in m/s^2, periods in s; forces are ``force / (mu m g)``. Every
 function broadcasts its array-like arguments and returns a float for scalar input. The exact
-numerical counterparts are :func:`upm.feed_rate` and :func:`upm.mean_force`; SPEC.md lists the
+numerical counterparts are :func:`upm.feed_rate` and :func:`upm.mean_force`; docs/spec.md lists the
 checked values and errata (E1–E3) these reproduce.
 """
 

@@ -1,4 +1,4 @@
-"""Periodic one-dimensional plate velocities (SPEC §2): the drives of the Coulomb pump.
+"""Periodic one-dimensional plate velocities (docs/spec.md §2): the drives of the Coulomb pump.
 
 Every waveform describes a plate *velocity* ``v(t)`` [m/s] with zero mean over its period. Its
 parameters are array-like and broadcast against each other, so one object can stand for a whole
@@ -241,7 +241,7 @@ class TwoHarmonic(Waveform):
 
 
 class BangBang(Waveform):
-    """Bang-bang acceleration (SPEC §2.1): ``+a_max``, dwell, ``-a_max``; zero-mean velocity.
+    """Bang-bang acceleration (docs/spec.md §2.1): ``+a_max``, dwell, ``-a_max``; zero-mean velocity.
 
     ``a_s = +a_max`` on ``[0, t1)``, ``0`` on ``[t1, t2)``, ``-a_max`` on ``[t2, T)`` with
     ``t1 = (1 - z) T / 2`` and ``t2 = (1 + z) T / 2``.

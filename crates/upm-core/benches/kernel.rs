@@ -1,7 +1,7 @@
 //! The point-part step against the hardware's bound for it, in one run.
 //!
 //! `cargo bench -p upm-core --bench kernel` (the NumPy and MuJoCo peers are `bench/integrator.py`).
-//! Every exact Coulomb step of a point part takes one square root and one division (SPEC §1), so a
+//! Every exact Coulomb step of a point part takes one square root and one division (docs/spec.md §1), so a
 //! four-lane `sqrt` plus a division, timed on independent data of realistic magnitude, bounds the
 //! ns per part-step one core can reach with correctly rounded results. Prints that bound, the
 //! integrator's ns per part-step on one rayon thread (1e5 parts, translating + rotating plate, no

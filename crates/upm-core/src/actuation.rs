@@ -1,4 +1,4 @@
-//! Actuation kinematics, plate dynamics and sensing (SPEC §6; thesis 5.2–5.4).
+//! Actuation kinematics, plate dynamics and sensing (docs/spec.md §6; thesis 5.2–5.4).
 //!
 //! Frames and units: the plate frame, origin at the plate's centre [m]; motor amplitudes are
 //! forces [N] (or any unit the board uses, consistently); angular rates [rad/s].

@@ -1,4 +1,4 @@
-//! Coulomb friction of a flat disk part under uniform pressure (SPEC §1 extended to an area).
+//! Coulomb friction of a flat disk part under uniform pressure (docs/spec.md §1 extended to an area).
 //!
 //! Relative to the plate, a disk of radius `R` moves with a planar twist: the velocity `w` of its
 //! centre and the spin `W`. The relative velocity over the footprint is a rotation at rate `W`

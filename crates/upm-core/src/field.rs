@@ -1,4 +1,4 @@
-//! Average force fields of plate motions on (quasi-)stationary parts (SPEC §1, §4, §7).
+//! Average force fields of plate motions on (quasi-)stationary parts (docs/spec.md §1, §4, §7).
 //!
 //! Every field here is dimensionless, `force / (mu m g)`, at points `P` in the plate frame [m]:
 //! the time average of the unit vector `(v_s(P, t) - v_p) / |v_s(P, t) - v_p|` (4.5, 6.2).
@@ -45,7 +45,7 @@ pub fn rotation_curl(p: [f64; 2], c: [f64; 2]) -> f64 {
 }
 
 /// Average force / (mu m g) of the jet (6.4) focused at `center`, feeding along `direction`,
-/// with radius `rho` [m], on a resting part at `p` (SPEC §7), to absolute accuracy `tol`.
+/// with radius `rho` [m], on a resting part at `p` (docs/spec.md §7), to absolute accuracy `tol`.
 pub fn jet_field(
     p: [f64; 2],
     center: [f64; 2],

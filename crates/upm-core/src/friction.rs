@@ -1,4 +1,4 @@
-//! Coulomb sliding friction averaged over a periodic plate motion (SPEC §1–3).
+//! Coulomb sliding friction averaged over a periodic plate motion (docs/spec.md §1–3).
 //!
 //! Forces are dimensionless: `force / (mu m g)`. A part moving at constant velocity `v_p` on a
 //! plate whose surface velocity is `v(t)` receives the instantaneous force `mu m g sgn(v - v_p)`
@@ -28,7 +28,7 @@ pub fn mean_forces(wave: &Waveform, part_velocities: &[f64]) -> Result<Vec<f64>>
 }
 
 /// The quasi-static feed rate [m/s]: the part velocity at which the average force vanishes,
-/// which is the median of `v(t)` over one period (SPEC §2). Exact to a few ulps of `max |v|`.
+/// which is the median of `v(t)` over one period (docs/spec.md §2). Exact to a few ulps of `max |v|`.
 pub fn feed_rate(wave: &Waveform) -> Result<f64> {
     Ok(wave.pieces()?.median())
 }

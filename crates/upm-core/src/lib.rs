@@ -4,7 +4,7 @@
 //! Manipulator* (PhD thesis, UC Berkeley, 2000). Pure Rust, no Python: the `upm-py` crate binds it.
 //!
 //! SI units throughout (m, s, rad); forces are averages over one period divided by `mu m g`
-//! unless a name says otherwise. Equation numbers `(x.y)` refer to the thesis; `SPEC §n` to the
+//! unless a name says otherwise. Equation numbers `(x.y)` refer to the thesis; `docs/spec.md §n` to the
 //! project's clean restatement of it.
 //!
 //! * [`actuation`]: motors, wrench and centre of rotation; plate dynamics; harmonic fits and

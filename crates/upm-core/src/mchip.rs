@@ -1,4 +1,4 @@
-//! The M-Chip resonator array of thesis chapter 2 (SPEC §9), simulated with the rapier3d physics
+//! The M-Chip resonator array of thesis chapter 2 (docs/spec.md §9), simulated with the rapier3d physics
 //! engine (f64): a design tool for impact-driven microactuator arrays.
 //!
 //! Model: an `rows x cols` interleaved array of resonators (odd rows shifted by half a column).

@@ -1,4 +1,4 @@
-//! Plate motion programs: the plate's in-plane velocity `(u1, u2, u3)(t)` (SPEC §1, 4.2).
+//! Plate motion programs: the plate's in-plane velocity `(u1, u2, u3)(t)` (docs/spec.md §1, 4.2).
 //!
 //! Frames and units: the fixed (world) frame, metres and seconds. The plate's surface velocity at a
 //! point `P = (x, y)` is `v_s(P) = (u1 - u3 y, u2 + u3 x)` [m/s]; `u3` is the angular rate [rad/s].

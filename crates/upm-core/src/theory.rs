@@ -1,7 +1,7 @@
 //! Closed forms of the Coulomb pump (thesis ch. 3) and of two-sinusoid feeding (section 6.4).
 //!
 //! Velocities in m/s, accelerations in m/s^2, periods in s; forces are `force / (mu m g)`.
-//! Each function states the equation it implements; SPEC.md lists the checked values and the
+//! Each function states the equation it implements; docs/spec.md lists the checked values and the
 //! errata (E1–E3) that the tests document. Where the thesis gives no closed form (`gamma`, E2) the
 //! value is computed exactly from the waveform's extrema.
 
@@ -209,7 +209,7 @@ mod tests {
 
     #[test]
     fn theorem1_peaks() {
-        // SPEC §3 known answers: peak 1/(n2^2 - n1^2).
+        // docs/spec.md §3 known answers: peak 1/(n2^2 - n1^2).
         for (n1, n2, want) in [
             (1, 2, 1.0 / 3.0),
             (2, 3, 0.2),

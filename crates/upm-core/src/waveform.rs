@@ -16,7 +16,7 @@ use crate::roots::{self, Isolation};
 const H_MIN: f64 = 1e-11;
 
 /// A finite harmonic series `v(t) = sum_k cos[k-1] cos(k w t) + sin[k-1] sin(k w t)`,
-/// `w = 2 pi frequency` (SPEC §2.2, §3). It has zero mean over a period.
+/// `w = 2 pi frequency` (docs/spec.md §2.2, §3). It has zero mean over a period.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Harmonics {
     frequency: f64,
@@ -142,7 +142,7 @@ pub(crate) fn velocity_scale(a_max: f64, period: f64) -> Result<f64> {
     Ok(scale)
 }
 
-/// Bang-bang acceleration (SPEC §2.1, 3.6–3.8): `+a_max` on `[0, t1)`, `0` on `[t1, t2)`,
+/// Bang-bang acceleration (docs/spec.md §2.1, 3.6–3.8): `+a_max` on `[0, t1)`, `0` on `[t1, t2)`,
 /// `-a_max` on `[t2, T)`, `t1 = (1 - z) T / 2`, `t2 = (1 + z) T / 2`, zero-mean velocity.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BangBang {
@@ -500,7 +500,7 @@ mod tests {
 
     #[test]
     fn pieces_cover_a_period_and_find_the_range() {
-        // sin t + cos(2t)/2 ranges over [-1.5, 0.75] (SPEC §2.2).
+        // sin t + cos(2t)/2 ranges over [-1.5, 0.75] (docs/spec.md §2.2).
         let w: Waveform = Harmonics::new(vec![0.0, 0.5], vec![1.0], 1.0)
             .unwrap()
             .into();

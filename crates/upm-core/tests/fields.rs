@@ -1,4 +1,4 @@
-//! Known answers of SPEC §7 (jets) and agreement of the general average with the closed forms.
+//! Known answers of docs/spec.md §7 (jets) and agreement of the general average with the closed forms.
 
 use std::f64::consts::PI;
 
@@ -8,7 +8,7 @@ use upm_core::{friction, Harmonics, Waveform};
 
 #[test]
 fn jet_known_answers() {
-    // SPEC §7: d = (0, 1), rho = 1, C = 0; force / (mu m g), four decimals.
+    // docs/spec.md §7: d = (0, 1), rho = 1, C = 0; force / (mu m g), four decimals.
     let cases = [
         ([0.0, 0.0], [0.0, 0.3333]),
         ([0.25, 0.0], [0.0, 0.1869]),

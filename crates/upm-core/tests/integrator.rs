@@ -1,4 +1,4 @@
-//! The point-part integrator against references independent of it: SPEC §1, §2, §5, §7.
+//! The point-part integrator against references independent of it: docs/spec.md §1, §2, §5, §7.
 
 use std::f64::consts::{FRAC_PI_2, TAU};
 
@@ -39,7 +39,7 @@ fn last(tr: &Trajectory, m: usize) -> &[[f64; 2]] {
     &tr.velocities[tr.velocities.len() - m..]
 }
 
-/// `cos wt - cos(2wt)/2` scaled by `a`: the time-asymmetric drive of SPEC §5.
+/// `cos wt - cos(2wt)/2` scaled by `a`: the time-asymmetric drive of docs/spec.md §5.
 fn asymmetric(a: f64, frequency: f64) -> Waveform {
     Harmonics::new(vec![a, -0.5 * a], vec![], frequency)
         .unwrap()
@@ -48,7 +48,7 @@ fn asymmetric(a: f64, frequency: f64) -> Waveform {
 
 #[test]
 fn a_sliding_part_on_a_still_plate_stops_after_v2_over_2_mu_g_and_never_creeps() {
-    // SPEC §1/§5: deceleration mu g while sliding, then rest for good, at any dt.
+    // docs/spec.md §1/§5: deceleration mu g while sliding, then rest for good, at any dt.
     let (v0, mu) = (0.3, 0.25);
     let want = v0 * v0 / (2.0 * mu * G);
     let still = PlateMotion::rest(10.0).unwrap();
@@ -100,7 +100,7 @@ fn static_friction_holds_a_part_that_kinetic_friction_would_not() {
 
 #[test]
 fn rotation_drive_pushes_every_resting_part_with_0_2386_mu_g_tangentially() {
-    // SPEC §5: w_s ∝ cos wt - cos(2wt)/2 about C gives f0 = 0.2386 mu m g, independent of radius.
+    // docs/spec.md §5: w_s ∝ cos wt - cos(2wt)/2 about C gives f0 = 0.2386 mu m g, independent of radius.
     let (f, mu) = (35.0, 0.005);
     let center = [0.01, -0.02];
     let motion = PlateMotion::rotation(center, asymmetric(20.0, f)).unwrap();
@@ -124,7 +124,7 @@ fn rotation_drive_pushes_every_resting_part_with_0_2386_mu_g_tangentially() {
 
 #[test]
 fn a_jet_pushes_parts_as_its_average_field_says() {
-    // SPEC §7 (checked; d = (0, 1), rho = 1, C = 0): force / (mu m g) at P.
+    // docs/spec.md §7 (checked; d = (0, 1), rho = 1, C = 0): force / (mu m g) at P.
     let field = [
         ([0.0, 0.0], [0.0, 0.3333]),
         ([0.25, 0.0], [0.0, 0.1869]),
@@ -160,7 +160,7 @@ fn a_jet_pushes_parts_as_its_average_field_says() {
 
 #[test]
 fn large_gamma_feeding_approaches_the_median() {
-    // SPEC §2: Gamma = A w / (mu g) -> infinity gives the quasi-static feed rate, v_eq = 0.5 A.
+    // docs/spec.md §2: Gamma = A w / (mu g) -> infinity gives the quasi-static feed rate, v_eq = 0.5 A.
     let (a, f, mu) = (0.02, 35.0, 0.01);
     let gamma = a * TAU * f / (mu * G);
     assert!(gamma > 40.0);
@@ -343,7 +343,7 @@ fn a_sliding_spinning_disk_stops_both_at_once_with_the_farkas_ratio() {
 #[test]
 fn a_disk_on_a_plate_rotating_about_its_centre_spins_up() {
     // Pure spin: torque (2/3) mu m g R, I = m R^2 / 2, so R dW/dt = (4/3) mu g sgn(W_plate - W).
-    // Under w_s ~ cos t - cos(2t)/2 the mean sign is 0.2386 (SPEC §3), while the disk is slow.
+    // Under w_s ~ cos t - cos(2t)/2 the mean sign is 0.2386 (docs/spec.md §3), while the disk is slow.
     let (r, mu, f) = (0.01, 0.001, 35.0);
     let motion = PlateMotion::rotation([0.0, 0.0], asymmetric(20.0, f)).unwrap();
     let period = 1.0 / f;

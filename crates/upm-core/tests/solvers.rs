@@ -1,4 +1,4 @@
-//! Known answers of SPEC §4 and independent slow references for the solvers.
+//! Known answers of docs/spec.md §4 and independent slow references for the solvers.
 
 use upm_core::solve::{self, Curls, Options};
 
@@ -36,7 +36,7 @@ fn gauss(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
     x
 }
 
-/// Rows of (4.10) written out directly from the SPEC formula.
+/// Rows of (4.10) written out directly from the docs/spec.md formula.
 fn rows(parts: &[[f64; 2]], centers: &[[f64; 2]]) -> Vec<Vec<f64>> {
     let r = |p: [f64; 2], c: [f64; 2]| ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2)).sqrt();
     let mut out = Vec::new();
@@ -51,7 +51,7 @@ fn rows(parts: &[[f64; 2]], centers: &[[f64; 2]]) -> Vec<Vec<f64>> {
 
 #[test]
 fn section_4_2_1_square_system() {
-    // SPEC §4 known answer 4.2.1.
+    // docs/spec.md §4 known answer 4.2.1.
     let forces = [[0.01, 0.01], [-0.01, 0.0]];
     let plan = solve::solve_rotations(
         &PARTS,

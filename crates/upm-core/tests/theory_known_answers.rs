@@ -1,5 +1,5 @@
-//! Known answers of SPEC.md §2–3 (each line cited), Theorem 1 against the exact root-based
-//! average, and Lemmas 1–2 as property tests. References are SPEC.md's checked numbers or an
+//! Known answers of docs/spec.md §2–3 (each line cited), Theorem 1 against the exact root-based
+//! average, and Lemmas 1–2 as property tests. References are docs/spec.md's checked numbers or an
 //! independent computation written here, never the code under test.
 
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_3, FRAC_PI_4, PI, TAU};
@@ -32,7 +32,7 @@ fn sampled_mean_sign(v: impl Fn(f64) -> f64, n: usize) -> f64 {
 
 #[test]
 fn spec_2_1_bang_bang_known_answers() {
-    // SPEC §2.1 (checked; a_max = T = 1): z -> v_eq; z = 0.3 -> f/(mu m g) 0.09 at rest.
+    // docs/spec.md §2.1 (checked; a_max = T = 1): z -> v_eq; z = 0.3 -> f/(mu m g) 0.09 at rest.
     for (z, v_eq) in [
         (0.1, 0.0025),
         (0.3, 0.0225),
@@ -77,7 +77,7 @@ fn spec_2_1_bang_bang_force_line_matches_the_exact_average() {
 
 #[test]
 fn spec_2_2_two_harmonic_feed_rates() {
-    // SPEC §2.2 (checked). Erratum E1: Fig. 3.7's caption lists (1/2, 1/3, 1/4) for
+    // docs/spec.md §2.2 (checked). Erratum E1: Fig. 3.7's caption lists (1/2, 1/3, 1/4) for
     // (1/2, pi/2), (1, pi/2), (1/2, pi/4); (3.16)/(3.17) and simulation give (0.5, 0.25, 0.354).
     let cases = [
         (0.5, FRAC_PI_2, 0.5),
@@ -100,7 +100,7 @@ fn spec_2_2_two_harmonic_feed_rates() {
 
 #[test]
 fn spec_2_2_two_harmonic_forces_at_rest() {
-    // SPEC §2.2 (checked): force at rest for (b, phi) = (0.5, pi/2) 0.2386, (1, pi/2) 0.3333,
+    // docs/spec.md §2.2 (checked): force at rest for (b, phi) = (0.5, pi/2) 0.2386, (1, pi/2) 0.3333,
     // (0.5, pi/4) 0.2237, (0.25, pi/2) 0.1443.
     for (b, phi, want) in [
         (0.5, FRAC_PI_2, 0.2386),
@@ -115,14 +115,14 @@ fn spec_2_2_two_harmonic_forces_at_rest() {
 
 #[test]
 fn spec_2_2_eq_3_15_closed_form() {
-    // SPEC §2.2: eq. (3.15) b = 0.25 -> 0.1443, b = 0.9 -> 0.3201, b = 1.5 -> 0.0813.
+    // docs/spec.md §2.2: eq. (3.15) b = 0.25 -> 0.1443, b = 0.9 -> 0.3201, b = 1.5 -> 0.0813.
     // Erratum E3: "f ~ b/3 for |b| < 1" is loose: b = 0.5 gives 0.2386, not 0.167.
     for (b, want) in [(0.25, 0.1443), (0.9, 0.3201), (1.5, 0.0813), (0.5, 0.2386)] {
         let closed = two_harmonic_force_at_rest(b).unwrap();
         let exact = mean_force(&sin_plus_cos2(b), 0.0).unwrap();
         assert!(
             (exact - want).abs() < 5e-5,
-            "b = {b}: exact {exact} vs SPEC {want}"
+            "b = {b}: exact {exact} vs docs/spec.md {want}"
         );
         assert!(
             (closed - exact).abs() < 1e-12,
@@ -154,7 +154,7 @@ fn eq_3_15_is_odd_in_b_and_right_on_every_branch() {
 
 #[test]
 fn spec_2_2_gamma_and_normalised_drive() {
-    // SPEC §2.2: gamma(1/2) = 1.7602, gamma(1) = 2.7358 (E2: computed, not the printed form);
+    // docs/spec.md §2.2: gamma(1/2) = 1.7602, gamma(1) = 2.7358 (E2: computed, not the printed form);
     // at b = 1/2: v_min = -3 a T/(4 pi gamma), v_max = 3 a T/(8 pi gamma), v_eq = a T/(4 pi gamma),
     // eta1 = 0.0452, eta2 = 1/3.
     assert!((gamma(0.5).unwrap() - 1.7602).abs() < 5e-5);
@@ -191,7 +191,7 @@ fn spec_2_2_gamma_and_normalised_drive() {
 
 #[test]
 fn spec_3_theorem1_against_exact_average_for_every_coprime_pair_up_to_7() {
-    // SPEC §3: f = Tri(n1 n2 psi)/(n2^2 - n1^2) (checked to 1e-5); both odd -> 0 (Lemma 1).
+    // docs/spec.md §3: f = Tri(n1 n2 psi)/(n2^2 - n1^2) (checked to 1e-5); both odd -> 0 (Lemma 1).
     let mut pairs = 0;
     for n2 in 2..=7i64 {
         for n1 in 1..n2 {
@@ -245,7 +245,7 @@ fn spec_3_peaks_periods_and_corollaries() {
         })
         .fold(f64::NEG_INFINITY, f64::max);
     assert!((best - 1.0 / 3.0).abs() < 1e-12);
-    // SPEC §3: cos t - cos(2t)/2 -> 0.2386 (the "0.24 mu m g" of 5.1.2 and 6.4).
+    // docs/spec.md §3: cos t - cos(2t)/2 -> 0.2386 (the "0.24 mu m g" of 5.1.2 and 6.4).
     assert!((two_sinusoid_force(1, 2, 0.0, 0.5).unwrap() - 0.2386).abs() < 5e-5);
 }
 

@@ -1,4 +1,4 @@
-"""The board link (SPEC §6, thesis 5.2.2): ``protocol`` (bytes <-> messages, no I/O), the host
+"""The board link (docs/spec.md §6, thesis 5.2.2): ``protocol`` (bytes <-> messages, no I/O), the host
 driver ``Board`` (pyserial) and the ``emulator`` that speaks the protocol over a pseudo-terminal
 or TCP and drives the simulated plate. ``docs/protocol.md`` is the firmware author's reference.
 

@@ -61,7 +61,7 @@ def jet_pulses(
     For every part whose step exceeds ``min_step`` [m], in index order (or ``order``): a jet at the
     part, along its step, under a raised-cosine envelope whose sustain is solved (by simulating the part) so
     the part moves by ``|step|``, then rest while it stops. No matrix inversion; the other parts
-    feel the jet's small far field only (SPEC §7).
+    feel the jet's small far field only (docs/spec.md §7).
 
     Parameters
     ----------

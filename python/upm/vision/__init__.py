@@ -1,4 +1,4 @@
-"""Vision for the closed loop (SPEC §8, thesis 5.2.4): find the plate, find and label the parts,
+"""Vision for the closed loop (docs/spec.md §8, thesis 5.2.4): find the plate, find and label the parts,
 track them; :mod:`upm.vision.synthetic` renders test frames with exact ground truth.
 
 Needs OpenCV: ``pip install upm[vision]`` (``opencv-python-headless``).

@@ -1,4 +1,4 @@
-"""Parts on the plate: matched-filter detection, subpixel centres, colour labels (SPEC §8).
+"""Parts on the plate: matched-filter detection, subpixel centres, colour labels (docs/spec.md §8).
 
 The plate is first rectified (``cv2.warpPerspective``) to a top view in which every part of
 radius ``r`` is a disk of known pixel radius, whatever the camera's perspective. The plate's own
@@ -374,7 +374,7 @@ def find_parts(
     min_contrast: float = 30.0,
     max_parts: int | None = None,
 ) -> Parts:
-    """Find the parts on the plate (SPEC §8).
+    """Find the parts on the plate (docs/spec.md §8).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""The plate in the camera image: edges, Hough lines, four sides, corners, homography (SPEC §8).
+"""The plate in the camera image: edges, Hough lines, four sides, corners, homography (docs/spec.md §8).
 
 Frames: camera pixels have x to the right, y down and pixel centres at integer coordinates; the
 plate frame has its origin at the plate's centre, metres, x along the plate side that appears
@@ -248,7 +248,7 @@ def _fit_line(points: FloatArray) -> tuple[FloatArray, FloatArray]:
 
 
 def find_table(frame: ArrayLike, plate_size: float | tuple[float, float] = PLATE_SIZE) -> Table:
-    """Find the plate in a camera frame (SPEC §8).
+    """Find the plate in a camera frame (docs/spec.md §8).
 
     Canny edges, Hough votes ``(rho, theta)``, the four strongest distinct lines, consecutive
     intersections; then each side is refitted by total least squares to subpixel edge points

@@ -1,4 +1,4 @@
-"""Tracking parts from frame to frame with persistent IDs (SPEC §8, thesis 5.2.4).
+"""Tracking parts from frame to frame with persistent IDs (docs/spec.md §8, thesis 5.2.4).
 
 Each frame, every tracked part is looked for only in a small window around its predicted
 position (last position plus last step), cut from the camera frame straight into the plate's

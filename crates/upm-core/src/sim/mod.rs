@@ -1,4 +1,4 @@
-//! The sliding-friction integrator for point and disk parts (SPEC §1).
+//! The sliding-friction integrator for point and disk parts (docs/spec.md §1).
 //!
 //! Units: metres, seconds; world frame (see [`crate::motion`]). Each step applies the exact,
 //! unconditionally stable implicit Coulomb step to the part's velocity relative to the plate
