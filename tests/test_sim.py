@@ -237,3 +237,19 @@ def test_points_and_disks_together_keep_their_order():
 def test_a_disk_needs_a_positive_radius():
     with pytest.raises(upm.ParameterError, match="radius must be > 0 for a Disk"):
         upm.simulate(upm.PlateMotion.rest(1.0), [upm.Disk((0, 0), 0.0)], duration=0.1, dt=1e-4, mu=0.3)
+
+
+def test_friction_per_world_equals_separate_runs():
+    # Before: simulate_batch took one friction for every world, so a friction sweep could not batch.
+    spin = upm.PlateMotion.rotation((0.0, 0.0), upm.Harmonics([2.0, -1.0], frequency=35.0))
+    parts = np.array([[0.05, 0.0], [0.0, 0.08]])
+    mus = np.array([[0.2], [0.4], [0.2]])
+    opts = {"duration": 0.1, "dt": 1e-4, "record_every": 50}
+    batch = upm.simulate_batch([spin, spin, spin], parts, mu=mus, mu_s=mus + 0.1, **opts)
+    for w, mu in enumerate(mus[:, 0]):
+        alone = upm.simulate(spin, parts, mu=mu, mu_s=mu + 0.1, threads=1, **opts)
+        np.testing.assert_array_equal(batch.positions[w], alone.positions)
+        np.testing.assert_array_equal(batch.stuck[w], alone.stuck)
+    assert not np.array_equal(batch.positions[0], batch.positions[1])
+    with pytest.raises(upm.ShapeError, match=r"mu per world must have shape \(3, 2\) or \(3, 1\)"):
+        upm.simulate_batch([spin, spin, spin], parts, mu=np.full((2, 2), 0.3), **opts)

@@ -339,6 +339,7 @@ def simulate(
     walls: ArrayLike | str | None = None,
     walls_move_with_plate: bool = False,
     contact_iterations: int = 4,
+    threads: int | None = None,
 ) -> SimResult:
     """Simulate parts sliding (points) or sliding and spinning (disks) on the plate under ``motion``.
 
@@ -368,8 +369,9 @@ def simulate(
         rows, whatever the number of steps.
     contacts : bool
         Resolve disk–disk and disk–wall contacts with the rapier2d physics engine after every
-        friction step (``docs/simulation.md``, "Contacts"). Disks must not overlap at the start;
-        points have no extent and take no part. With ``False`` parts pass through each other.
+        friction step (``docs/simulation.md``, "Contacts"). Every part must be a `upm.Disk` (a
+        point has no extent to collide or meet a wall) and disks must not overlap at the start.
+        With ``False`` parts pass through each other.
     restitution : float
         Coefficient of restitution of every contact, in ``[0, 1]``.
     part_friction : float
@@ -381,6 +383,8 @@ def simulate(
         Walls fixed to the plate (they vibrate with it) instead of to the frame.
     contact_iterations : int
         rapier solver iterations per step.
+    threads : int, optional
+        Run on a pool of this many threads (default: one per core, or ``RAYON_NUM_THREADS``).
 
     Returns
     -------
@@ -389,7 +393,7 @@ def simulate(
     contact = _contact(parts, plate_size, contacts, restitution, part_friction, walls, walls_move_with_plate,
                        contact_iterations)  # fmt: skip
     t, pos, vel, stuck, angles, spins, left = _run(
-        [motion], parts, duration, dt, mu, mu_s, g, plate_size, record_every, contacts=contact
+        [motion], parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact
     )
     return SimResult(t, pos[0], vel[0], stuck[0], angles[0], spins[0], ~np.isnan(left[0]), left[0])
 
@@ -418,14 +422,58 @@ def simulate_batch(
     Every array of the result but ``t`` gains a leading axis ``B``. Results are bitwise identical
     to ``B`` separate calls and to any thread count. ``threads``: run on a pool of that many
     threads (default: rayon's global pool, one thread per core); :func:`upm.sweep` runs each
-    chunk on one and parallelises over chunks. The contact arguments are :func:`simulate`'s.
+    chunk on one and parallelises over chunks (``RAYON_NUM_THREADS`` sets the global pool's
+    size). The contact arguments are :func:`simulate`'s.
+
+    ``mu`` and ``mu_s`` may differ from world to world (a friction sweep): shape ``(B, M)``, or
+    ``(B, 1)`` for one value per world. Worlds of equal friction run together.
     """
     ms = items("motions", motions, PlateMotion, "a upm.PlateMotion")
     if not ms:
         raise ParameterError("motions must contain at least one upm.PlateMotion")
     contact = _contact(parts, plate_size, contacts, restitution, part_friction, walls, walls_move_with_plate,
                        contact_iterations)  # fmt: skip
-    t, pos, vel, stuck, angles, spins, left = _run(
-        ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact
-    )
+    friction = _per_world(ms, parts, mu, mu_s)
+    if friction is None:
+        t, pos, vel, stuck, angles, spins, left = _run(
+            ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact
+        )
+        return SimResult(t, pos, vel, stuck, angles, spins, ~np.isnan(left), left)
+    # Friction per world: one run per distinct friction, each world's result in its place.
+    mu_b, mu_s_b = friction
+    rows = np.concatenate([mu_b, mu_s_b], axis=1)
+    _, group = np.unique(rows, axis=0, return_inverse=True)
+    out: list[Any] = []
+    for g_index in range(int(group.max()) + 1):
+        worlds = np.flatnonzero(group.reshape(-1) == g_index)
+        first = int(worlds[0])
+        part = _run([ms[w] for w in worlds], parts, duration, dt, mu_b[first], mu_s_b[first], g, plate_size,
+                    record_every, threads, contact)  # fmt: skip
+        if not out:
+            out = [part[0], *(np.empty((len(ms), *a.shape[1:]), a.dtype) for a in part[1:])]
+        for full, piece in zip(out[1:], part[1:], strict=True):
+            full[worlds] = piece
+    t, pos, vel, stuck, angles, spins, left = out
     return SimResult(t, pos, vel, stuck, angles, spins, ~np.isnan(left), left)
+
+
+def _per_world(
+    motions: list[PlateMotion], parts: Any, mu: ArrayLike, mu_s: ArrayLike | None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+    """``(mu, mu_s)`` as ``(B, M)`` when either is given per world (shape ``(B, M)`` or
+    ``(B, 1)``); None when both are shared by every world."""
+    mu_a = as_float("mu", mu)
+    mu_s_a = None if mu_s is None else as_float("mu_s", mu_s)
+    if mu_a.ndim < 2 and (mu_s_a is None or mu_s_a.ndim < 2):
+        return None
+    b, m = len(motions), _parts(parts)[0].shape[0]
+
+    def worlds(name: str, a: NDArray[np.float64]) -> NDArray[np.float64]:
+        if a.ndim < 2:
+            return np.broadcast_to(_per_part(name, a, m), (b, m))
+        if a.ndim != 2 or a.shape[0] != b or a.shape[1] not in (1, m):
+            raise ShapeError(f"{name} per world must have shape ({b}, {m}) or ({b}, 1); got {a.shape}")
+        return np.broadcast_to(a, (b, m))
+
+    kinetic = worlds("mu", mu_a)
+    return kinetic, kinetic if mu_s_a is None else worlds("mu_s", mu_s_a)
