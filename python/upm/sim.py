@@ -238,7 +238,8 @@ def _check_memory(worlds: int, parts: int, duration: float, dt: float, every: in
     have = available_memory()
     if have is not None and need * PEAK_FACTOR > 0.9 * have:
         raise ParameterError(
-            f"the result would hold {worlds} x {rows} x {parts} part-states ({need / 1e9:.3g} GB, about "
+            f"record_every is too small for this machine's memory: the result would hold "
+            f"{worlds} x {rows} x {parts} part-states ({need / 1e9:.3g} GB, about "
             f"{need * PEAK_FACTOR / 1e9:.3g} GB while it is assembled) but {have / 1e9:.3g} GB of memory is "
             f"available: raise record_every (now {every}), simulate fewer parts, or split the batch"
         )

@@ -23,6 +23,7 @@
 #![deny(missing_docs)]
 
 pub mod actuation;
+pub mod buffer;
 pub mod centroid;
 pub mod disk;
 pub mod error;

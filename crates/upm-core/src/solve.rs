@@ -989,9 +989,15 @@ mod tests {
     #[test]
     fn no_parts_need_no_rotation() {
         let centers = [[-1.0, -0.5], [1.0, -0.5], [1.0, 0.5], [-1.0, 0.5]];
-        let plan =
-            solve_rotations(&[], &[], &centers, Curls::default(), 1.0, &Options::default())
-                .unwrap();
+        let plan = solve_rotations(
+            &[],
+            &[],
+            &centers,
+            Curls::default(),
+            1.0,
+            &Options::default(),
+        )
+        .unwrap();
         assert_eq!(plan.strengths, vec![0.0; 4]);
         assert_eq!(plan.rank, 0);
     }

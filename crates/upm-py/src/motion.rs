@@ -5,7 +5,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use upm_core::motion::PlateMotion as CoreMotion;
 use upm_core::sim::{self, Config, Parts, Trajectory};
-use upm_core::{Error, Waveform};
+use upm_core::{buffer, Error, Waveform};
 
 use crate::errors::{core, detached, on_threads, shape_error, Failure};
 use crate::{pairs, WaveformBatch};
@@ -153,20 +153,33 @@ fn to_arrays<'py>(
     let b = runs.len();
     let rows = runs.first().map_or(0, |r| r.t.len());
     let t = PyArray1::from_vec(py, runs.first().map(|r| r.t.clone()).unwrap_or_default());
-    let mut pos: Vec<f64> = Vec::with_capacity(b * rows * m * 2);
-    let mut vel: Vec<f64> = Vec::with_capacity(b * rows * m * 2);
-    let mut stuck = Vec::with_capacity(b * rows * m);
-    let mut angles = Vec::with_capacity(b * rows * m);
-    let mut spins = Vec::with_capacity(b * rows * m);
-    let mut left = Vec::with_capacity(b * m);
-    for r in runs {
-        pos.extend(r.positions.iter().flatten());
-        vel.extend(r.velocities.iter().flatten());
-        stuck.extend(r.stuck);
-        angles.extend(r.angles);
-        spins.extend(r.spins);
-        left.extend(r.left_plate.iter().map(|l| l.unwrap_or(f64::NAN)));
-    }
+    let (pos, vel, stuck, angles, spins, left) = if b == 1 {
+        // One world: its buffers become the NumPy arrays as they are, no copy.
+        let r = runs.into_iter().next().expect("one run");
+        let left = r.left_plate.iter().map(|l| l.unwrap_or(f64::NAN)).collect();
+        let (pos, vel) = (r.positions.into_flattened(), r.velocities.into_flattened());
+        (pos, vel, r.stuck, r.angles, r.spins, left)
+    } else {
+        let cells = b * rows * m;
+        let err = |e| crate::errors::to_py(py, e);
+        let (mut pos, mut vel): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
+        let (mut stuck, mut angles, mut spins) = (Vec::new(), Vec::new(), Vec::new());
+        buffer::reserve(&mut pos, 2 * cells, "the positions").map_err(err)?;
+        buffer::reserve(&mut vel, 2 * cells, "the velocities").map_err(err)?;
+        buffer::reserve(&mut stuck, cells, "the stuck flags").map_err(err)?;
+        buffer::reserve(&mut angles, cells, "the angles").map_err(err)?;
+        buffer::reserve(&mut spins, cells, "the spins").map_err(err)?;
+        let mut left = Vec::with_capacity(b * m);
+        for r in runs {
+            pos.extend(r.positions.iter().flatten());
+            vel.extend(r.velocities.iter().flatten());
+            stuck.extend(r.stuck);
+            angles.extend(r.angles);
+            spins.extend(r.spins);
+            left.extend(r.left_plate.iter().map(|l| l.unwrap_or(f64::NAN)));
+        }
+        (pos, vel, stuck, angles, spins, left)
+    };
     let pos = PyArray1::from_vec(py, pos).reshape([b, rows, m, 2])?;
     let vel = PyArray1::from_vec(py, vel).reshape([b, rows, m, 2])?;
     let stuck = PyArray1::from_vec(py, stuck).reshape([b, rows, m])?;

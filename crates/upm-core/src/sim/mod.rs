@@ -30,6 +30,7 @@ mod kernel;
 
 use rayon::prelude::*;
 
+use crate::buffer;
 use crate::error::{positive, Error, Result};
 use crate::motion::PlateMotion;
 pub use contact::Contacts;
@@ -452,6 +453,25 @@ impl World<'_> {
             || self.disks.first().map_or(0, |d| d.record.len()),
             |c| c.record.len(),
         );
+        if self.disks.is_empty() {
+            // Points only, in their original order (chunks of consecutive parts): append each
+            // row as it is, with no zero fill and no index lookup.
+            for r in 0..n {
+                for c in &self.chunks {
+                    let row = &c.record[r];
+                    self.out.positions.extend_from_slice(&row.pos);
+                    self.out.velocities.extend_from_slice(&row.vel);
+                    self.out.stuck.extend_from_slice(&row.stuck);
+                }
+                let len = self.out.positions.len();
+                self.out.angles.resize(len, 0.0);
+                self.out.spins.resize(len, 0.0);
+            }
+            for c in &mut self.chunks {
+                c.record.clear();
+            }
+            return;
+        }
         for r in 0..n {
             let base = self.out.positions.len();
             self.out.positions.resize(base + m, [0.0; 2]);
@@ -608,34 +628,46 @@ where
                 .collect()
         }
     };
-    let mut worlds: Vec<World> = motions
-        .iter()
-        .map(|motion| {
-            let u0 = motion.velocity(0.0);
-            let disks: Vec<DiskState> = disk_index
-                .iter()
-                .map(|&i| DiskState::new(parts, i, cfg, u0))
-                .collect();
-            World {
-                motion,
-                chunks: chunks(&point_parts, cfg, u0),
-                points: &points,
-                contact: contacts.map(|c| contact::ContactWorld::new(&disks, &disk_mass, c, cfg)),
-                disks,
-                disk_index: &disk_index,
-                out: Trajectory {
-                    t: Vec::with_capacity(rows),
-                    positions: Vec::with_capacity(rows * m),
-                    velocities: Vec::with_capacity(rows * m),
-                    stuck: Vec::with_capacity(rows * m),
-                    angles: Vec::with_capacity(rows * m),
-                    spins: Vec::with_capacity(rows * m),
-                    left_plate: Vec::new(),
-                },
-                table: Vec::with_capacity(BLOCK_STEPS),
-            }
-        })
-        .collect();
+    let cells = rows.checked_mul(m).ok_or_else(|| {
+        Error::parameter(
+            "record_every",
+            "is too small: the number of records overflows",
+        )
+    })?;
+    let mut worlds: Vec<World> = Vec::with_capacity(motions.len());
+    for motion in motions {
+        let u0 = motion.velocity(0.0);
+        let disks: Vec<DiskState> = disk_index
+            .iter()
+            .map(|&i| DiskState::new(parts, i, cfg, u0))
+            .collect();
+        // Reserved fallibly (an error, not an abort, when it cannot fit), on huge pages.
+        let mut out = Trajectory {
+            t: Vec::new(),
+            positions: Vec::new(),
+            velocities: Vec::new(),
+            stuck: Vec::new(),
+            angles: Vec::new(),
+            spins: Vec::new(),
+            left_plate: Vec::new(),
+        };
+        buffer::reserve(&mut out.t, rows, "the recorded times")?;
+        buffer::reserve(&mut out.positions, cells, "the positions")?;
+        buffer::reserve(&mut out.velocities, cells, "the velocities")?;
+        buffer::reserve(&mut out.stuck, cells, "the stuck flags")?;
+        buffer::reserve(&mut out.angles, cells, "the angles")?;
+        buffer::reserve(&mut out.spins, cells, "the spins")?;
+        worlds.push(World {
+            motion,
+            chunks: chunks(&point_parts, cfg, u0),
+            points: &points,
+            contact: contacts.map(|c| contact::ContactWorld::new(&disks, &disk_mass, c, cfg)),
+            disks,
+            disk_index: &disk_index,
+            out,
+            table: Vec::with_capacity(BLOCK_STEPS),
+        });
+    }
     for w in &mut worlds {
         w.out.t.push(0.0);
         for c in &mut w.chunks {
