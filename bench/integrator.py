@@ -115,15 +115,11 @@ def recording(motion: upm.PlateMotion, dt: float, rng: np.random.Generator, quic
         write = min(write, time.perf_counter() - start)
         del arrays
     full, sparse, peer = best[1] * ns, best[steps] * ns, write * ns
-    print(
-        f"\nrecording every step at {n:,} parts x {steps} steps ({(steps + 1) * n * 49 / 1e9:.2f} GB of results):"
-    )
-    print(
-        f"  upm record_every=1 {full:.1f} ns/part-step; sparse {sparse:.2f}; numpy writing the same arrays {peer:.1f}"
-    )
-    print(
-        f"  recording overhead {full - sparse:.1f} ns/part-step = {(full - sparse) / peer:.2f}x writing the numbers"
-    )
+    size = (steps + 1) * n * 49 / 1e9
+    print(f"\nrecording every step, {n:,} parts x {steps} steps ({size:.2f} GB of results), ns/part-step:")
+    print(f"  upm record_every=1 {full:.1f}; sparse {sparse:.2f}; numpy writing the same arrays {peer:.1f}")
+    overhead = full - sparse
+    print(f"  recording costs {overhead:.1f} = {overhead / peer:.2f}x writing the numbers")
 
 
 def main() -> None:
