@@ -65,8 +65,12 @@ bench: $(VENV)/.built ## side-by-side benchmarks (ours vs the peer, ratios print
 	$(PY) bench/contacts.py
 
 .PHONY: wheel
-wheel: $(VENV)/.deps ## build the abi3 wheel into dist/
-	$(VENV)/bin/maturin build --release --out dist
+wheel: $(VENV)/.deps ## the abi3 wheel (manylinux_2_17, stripped, linked with zig) and the sdist into dist/, then checked
+	$(PY) -m pip install --quiet 'ziglang==0.14.1'
+	rm -rf dist
+	$(VENV)/bin/maturin build --release --zig --compatibility manylinux_2_17 --strip --out dist
+	$(VENV)/bin/maturin sdist --out dist
+	$(PY) .ci/check_wheel.py dist
 
 .PHONY: clean
 clean: ## remove build products and the venv

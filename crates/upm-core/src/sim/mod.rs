@@ -37,8 +37,20 @@ pub use contact::Contacts;
 
 /// Parts per chunk (a multiple of any SIMD width).
 pub const CHUNK_PARTS: usize = 64;
-/// Steps of plate velocity tabulated at a time.
+/// Steps of plate velocity tabulated at a time, at most.
 const BLOCK_STEPS: usize = 4096;
+/// Work of one block, in point-steps and disk-steps: about 0.1 s on one core, so that the
+/// caller's check between blocks (Ctrl-C) comes often enough whatever the number of parts.
+const BLOCK_POINT_STEPS: usize = 50_000_000;
+const BLOCK_DISK_STEPS: usize = 200_000;
+
+/// Steps per block for `worlds` worlds of `points` points and `disks` disks (1..=BLOCK_STEPS).
+/// The block length changes only when the caller checks for signals, never the results.
+fn block_steps(worlds: usize, points: usize, disks: usize) -> usize {
+    let by_points = BLOCK_POINT_STEPS / (worlds * points).max(1);
+    let by_disks = BLOCK_DISK_STEPS / (worlds * disks).max(1);
+    by_points.min(by_disks).clamp(1, BLOCK_STEPS)
+}
 /// Largest number of recorded values (rows x parts) a simulation may allocate.
 const MAX_RECORDED: usize = 1 << 30;
 
@@ -634,6 +646,7 @@ where
             "is too small: the number of records overflows",
         )
     })?;
+    let block = block_steps(motions.len(), points.len(), disk_index.len());
     let mut worlds: Vec<World> = Vec::with_capacity(motions.len());
     for motion in motions {
         let u0 = motion.velocity(0.0);
@@ -665,7 +678,7 @@ where
             disks,
             disk_index: &disk_index,
             out,
-            table: Vec::with_capacity(BLOCK_STEPS),
+            table: Vec::with_capacity(block),
         });
     }
     for w in &mut worlds {
@@ -680,7 +693,7 @@ where
     }
     let mut first = 0;
     while first < steps {
-        let end = (first + BLOCK_STEPS).min(steps);
+        let end = (first + block).min(steps);
         worlds.par_iter_mut().for_each(|w| {
             w.table.clear();
             // Sampled a hair before each step's end: a program boundary that falls on a step end
