@@ -120,3 +120,24 @@ def test_ctrl_c_stops_many_disks_on_a_rotating_plate_within_a_block():
     cpu = time.process_time()
     assert _calls_completed_before_ctrl_c(run) == 0
     assert time.process_time() - cpu < 2.5
+
+
+def test_threads_option_everywhere_gives_identical_results():
+    # Before: only simulate_batch took threads= (RAYON_NUM_THREADS was the undocumented way).
+    drive = upm.TwoHarmonic(np.linspace(0.1, 1.0, 300), np.pi / 2)
+    spin = upm.PlateMotion.rotation((0.0, 0.0), upm.Harmonics([2.0, -1.0], frequency=35.0))
+    points = np.random.default_rng(2).uniform(-0.1, 0.1, (200, 2))
+    calls = {
+        "feed_rate": lambda t: upm.feed_rate(drive, threads=t),
+        "mean_force": lambda t: upm.mean_force(drive, 0.1, threads=t),
+        "force_table": lambda t: upm.force_table(2, 5, np.linspace(0, np.pi, 500), threads=t),
+        "jet_field": lambda t: upm.jet_field(points, (0.0, 0.0), (0.0, 1.0), 0.05, threads=t),
+        "average_field": lambda t: upm.average_field(spin, points[:50], threads=t),
+        "simulate": lambda t: upm.simulate(spin, points, duration=0.05, dt=1e-4, mu=0.3, threads=t).positions,
+    }
+    for name, call in calls.items():
+        one, two, default = call(1), call(2), call(None)
+        np.testing.assert_array_equal(one, two, err_msg=name)
+        np.testing.assert_array_equal(one, default, err_msg=name)
+        with pytest.raises(upm.ParameterError, match=r"threads must be an integer in \[1, 4096\]"):
+            call(0)

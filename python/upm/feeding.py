@@ -28,7 +28,12 @@ def _waveform(waveform: Any) -> Waveform:
     return waveform
 
 
-def feed_rate(waveform: Waveform) -> Any:
+def threads_of(threads: int | None) -> int | None:
+    """``threads=`` checked: None (rayon's global pool) or 1..4096."""
+    return None if threads is None else integer("threads", threads, low=1, high=4096)
+
+
+def feed_rate(waveform: Waveform, *, threads: int | None = None) -> Any:
     """Quasi-static feed rate [m/s]: the median of the plate velocity over one period (docs/spec.md §2).
 
     It is the part velocity at which the average Coulomb force vanishes. Computed exactly by
@@ -38,6 +43,8 @@ def feed_rate(waveform: Waveform) -> Any:
     ----------
     waveform : Waveform
         A single waveform or a broadcast array of them.
+    threads : int, optional
+        Run on a pool of this many threads (default: one per core, or ``RAYON_NUM_THREADS``).
 
     Returns
     -------
@@ -50,10 +57,10 @@ def feed_rate(waveform: Waveform) -> Any:
     0.0625
     """
     w = _waveform(waveform)
-    return shaped(w._batch.feed_rate(), w.shape)
+    return shaped(w._batch.feed_rate(threads=threads_of(threads)), w.shape)
 
 
-def mean_force(waveform: Waveform, part_velocity: ArrayLike = 0.0) -> Any:
+def mean_force(waveform: Waveform, part_velocity: ArrayLike = 0.0, *, threads: int | None = None) -> Any:
     """Average Coulomb force / (mu m g) on a part sliding at ``part_velocity`` (3.4, 6.7).
 
     ``mean over one period of sgn(v(t) - part_velocity)``: +1 below the plate's lowest velocity,
@@ -65,6 +72,8 @@ def mean_force(waveform: Waveform, part_velocity: ArrayLike = 0.0) -> Any:
         A single waveform or a broadcast array of them.
     part_velocity : array_like, optional
         Part velocity [m/s]; broadcasts against ``waveform.shape``.
+    threads : int, optional
+        Run on a pool of this many threads (default: one per core, or ``RAYON_NUM_THREADS``).
 
     Returns
     -------
@@ -72,7 +81,7 @@ def mean_force(waveform: Waveform, part_velocity: ArrayLike = 0.0) -> Any:
     """
     w = _waveform(waveform)
     batch, table, shape = w._rows("part_velocity", as_float("part_velocity", part_velocity))
-    return shaped(batch.mean_force(table), shape)
+    return shaped(batch.mean_force(table, threads=threads_of(threads)), shape)
 
 
 #: The largest harmonic number of :func:`force_table`: its cost grows as ``n2**2`` per element
@@ -109,7 +118,7 @@ def theorem1_force(n1: int, n2: int, psi: ArrayLike) -> Any:
     return shaped(_core.theorem1_force(a, b, flat(p, p.shape)), p.shape)
 
 
-def force_table(n1: int, n2: int, psi: ArrayLike, b: ArrayLike = 1.0) -> Any:
+def force_table(n1: int, n2: int, psi: ArrayLike, b: ArrayLike = 1.0, *, threads: int | None = None) -> Any:
     """Exact force / (mu m g) at rest under ``cos(n1 t) - b cos(n2 (t - psi))`` (6.12).
 
     The numerical counterpart of :func:`theorem1_force` (equal to it when ``b = 1``), computed
@@ -125,6 +134,8 @@ def force_table(n1: int, n2: int, psi: ArrayLike, b: ArrayLike = 1.0) -> Any:
         Phase [rad].
     b : array_like, optional
         Relative amplitude of harmonic ``n2``; broadcasts with ``psi``.
+    threads : int, optional
+        Run on a pool of this many threads (default: one per core, or ``RAYON_NUM_THREADS``).
 
     Returns
     -------
@@ -133,4 +144,5 @@ def force_table(n1: int, n2: int, psi: ArrayLike, b: ArrayLike = 1.0) -> Any:
     a, c = _pair(n1, n2, FORCE_TABLE_MAX_N2)
     p, amp = as_float("psi", psi), as_float("b", b)
     shape = broadcast_shape(psi=p, b=amp)
-    return shaped(_core.force_table(a, c, flat(p, shape), flat(amp, shape)), shape)
+    out = _core.force_table(a, c, flat(p, shape), flat(amp, shape), threads=threads_of(threads))
+    return shaped(out, shape)

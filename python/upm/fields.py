@@ -14,6 +14,7 @@ from numpy.typing import ArrayLike, NDArray
 from . import _core
 from ._arrays import as_float, point, real
 from ._errors import ParameterError, ShapeError
+from .feeding import threads_of
 from .motion import PlateMotion
 
 __all__ = ["average_field", "jet_field", "rotation_curl", "rotation_field"]
@@ -52,21 +53,27 @@ def rotation_curl(points: ArrayLike, center: ArrayLike) -> Any:
 
 
 def jet_field(
-    points: ArrayLike, center: ArrayLike, direction: ArrayLike, rho: float, *, tol: float = _TOL
+    points: ArrayLike,
+    center: ArrayLike,
+    direction: ArrayLike,
+    rho: float,
+    *,
+    tol: float = _TOL,
+    threads: int | None = None,
 ) -> NDArray[np.float64]:
     """Average force / (mu m g) of the jet (6.4) focused at ``center`` feeding along ``direction``.
 
     Exact to ``tol``: the period ``6 pi`` is split at the roots of the relative velocity's
     components (isolated rigorously) and each piece is integrated adaptively. ``(1/3)`` along
     ``direction`` at the focus (Corollary 1); vanishes far away; ``rho`` [m] sets the size.
-    Only the direction of ``direction`` matters.
+    Only the direction of ``direction`` matters. ``threads``: a pool of that many threads
+    (default: one per core).
 
     Returns an array of shape ``(..., 2)`` like ``points``.
     """
     p, lead = _points("points", points)
-    out = _core.jet_field(
-        p, point("center", center), point("direction", direction), real("rho", rho), _tol(tol)
-    )
+    c, d = point("center", center), point("direction", direction)
+    out = _core.jet_field(p, c, d, real("rho", rho), _tol(tol), threads=threads_of(threads))
     return np.asarray(out).reshape(*lead, 2)
 
 
@@ -76,6 +83,7 @@ def average_field(
     part_velocity: ArrayLike | None = None,
     *,
     tol: float = _TOL,
+    threads: int | None = None,
 ) -> NDArray[np.float64]:
     """Average friction force / (mu m g) that ``motion`` exerts at ``points`` (4.5, 6.2).
 
@@ -90,6 +98,8 @@ def average_field(
         Part positions [m].
     part_velocity : array_like, shape (2,) or (..., 2), optional
         Velocity of the parts [m/s] (default at rest); the force then depends on it (3.4).
+    threads : int, optional
+        Run on a pool of this many threads (default: one per core, or ``RAYON_NUM_THREADS``).
 
     Returns
     -------
@@ -108,5 +118,5 @@ def average_field(
             raise ShapeError(
                 f"part_velocity must broadcast to the points' shape {(*lead, 2)}; got {va.shape}"
             ) from error
-    out = _core.average_field(motion._inner, p, v, _tol(tol))
+    out = _core.average_field(motion._inner, p, v, _tol(tol), threads=threads_of(threads))
     return np.asarray(out).reshape(*lead, 2)

@@ -160,8 +160,19 @@ where
     T: Send,
     F: Fn(usize) -> upm_core::Result<T> + Sync + Send,
 {
+    batch_on(py, n, None, f)
+}
+
+/// [`batch`] on a pool of `threads` threads (`None`: rayon's global pool).
+pub fn batch_on<T, F>(py: Python<'_>, n: usize, threads: Option<usize>, f: F) -> PyResult<Vec<T>>
+where
+    T: Send,
+    F: Fn(usize) -> upm_core::Result<T> + Sync + Send,
+{
     detached(py, || {
-        upm_core::parallel::try_map_chunked(n, f, interrupted)
+        on_threads(threads, |between| {
+            upm_core::parallel::try_map_chunked(n, &f, between)
+        })
     })
 }
 

@@ -16,7 +16,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use upm_core::{friction, theory, BangBang, Harmonics, Waveform};
 
-use errors::{batch, core, shape_error};
+use errors::{batch, batch_on, core, shape_error};
 
 /// A batch of validated periodic plate velocities (one per row), built once and reused.
 #[pyclass(frozen, module = "upm._core")]
@@ -178,18 +178,25 @@ impl WaveformBatch {
     }
 
     /// Exact feed rates [m/s] (medians of the velocity), `(B,)`.
-    fn feed_rate<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let out = batch(py, self.waves.len(), |i| {
+    #[pyo3(signature = (threads=None))]
+    fn feed_rate<'py>(
+        &self,
+        py: Python<'py>,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let out = batch_on(py, self.waves.len(), threads, |i| {
             friction::feed_rate(&self.waves[i])
         })?;
         Ok(PyArray1::from_vec(py, out))
     }
 
     /// Exact average force / (mu m g) at part velocities `(B, L)` [m/s] -> `(B, L)`.
+    #[pyo3(signature = (part_velocity, threads=None))]
     fn mean_force<'py>(
         &self,
         py: Python<'py>,
         part_velocity: PyReadonlyArray2<'py, f64>,
+        threads: Option<usize>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let v = part_velocity.as_array();
         let (rows, cols) = (v.shape()[0], v.shape()[1]);
@@ -202,7 +209,7 @@ impl WaveformBatch {
             ],
         )?;
         let v: Vec<f64> = v.iter().copied().collect();
-        let out = batch(py, rows, |i| {
+        let out = batch_on(py, rows, threads, |i| {
             friction::mean_forces(&self.waves[i], &v[i * cols..(i + 1) * cols])
         })?;
         to_2d(py, out.concat(), rows, cols)
@@ -229,10 +236,24 @@ fn elementwise<'py, const N: usize, const M: usize, F>(
 where
     F: Fn([f64; N]) -> upm_core::Result<[f64; M]> + Sync + Send,
 {
+    elementwise_on(py, what, inputs, None, f)
+}
+
+/// [`elementwise`] on a pool of `threads` threads.
+fn elementwise_on<'py, const N: usize, const M: usize, F>(
+    py: Python<'py>,
+    what: &str,
+    inputs: [(&str, PyReadonlyArray1<'py, f64>); N],
+    threads: Option<usize>,
+    f: F,
+) -> PyResult<Bound<'py, PyAny>>
+where
+    F: Fn([f64; N]) -> upm_core::Result<[f64; M]> + Sync + Send,
+{
     let lens: Vec<(&str, usize)> = inputs.iter().map(|(name, a)| (*name, a.len())).collect();
     let n = same_len(py, what, &lens)?;
     let cols: Vec<Vec<f64>> = inputs.iter().map(|(_, a)| column(a)).collect();
-    let out = batch(py, n, |i| f(std::array::from_fn(|k| cols[k][i])))?;
+    let out = batch_on(py, n, threads, |i| f(std::array::from_fn(|k| cols[k][i])))?;
     let arrays: Vec<Bound<'py, PyArray1<f64>>> = (0..M)
         .map(|m| PyArray1::from_vec(py, out.iter().map(|r| r[m]).collect()))
         .collect();
@@ -245,17 +266,23 @@ where
 
 /// Exact average force / (mu m g) at rest under `cos(n1 t) - b cos(n2 (t - psi))`.
 #[pyfunction]
+#[pyo3(signature = (n1, n2, psi, b, threads=None))]
 fn force_table<'py>(
     py: Python<'py>,
     n1: i64,
     n2: i64,
     psi: PyReadonlyArray1<'py, f64>,
     b: PyReadonlyArray1<'py, f64>,
+    threads: Option<usize>,
 ) -> PyResult<Bound<'py, PyAny>> {
     core(py, friction::check_pair(n1, n2))?;
-    elementwise(py, "force_table", [("psi", psi), ("b", b)], |[p, b]| {
-        Ok([friction::two_sinusoid_force(n1, n2, p, b)?])
-    })
+    elementwise_on(
+        py,
+        "force_table",
+        [("psi", psi), ("b", b)],
+        threads,
+        |[p, b]| Ok([friction::two_sinusoid_force(n1, n2, p, b)?]),
+    )
 }
 
 /// Theorem 1 closed form, `Tri(n1 n2 psi) / (n2^2 - n1^2)` (0 when both are odd, Lemma 1).

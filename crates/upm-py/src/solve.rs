@@ -6,7 +6,7 @@ use pyo3::types::PyTuple;
 use upm_core::solve::{self as core_solve, Curls, Options, Plan};
 use upm_core::{field, Error};
 
-use crate::errors::{batch, detached, shape_error, Failure};
+use crate::errors::{batch, batch_on, detached, shape_error, Failure};
 use crate::motion::PlateMotion;
 use crate::pairs;
 
@@ -277,6 +277,7 @@ pub fn rotation_curl<'py>(
 
 /// `(K, 2)` exact jet field, in parallel.
 #[pyfunction]
+#[pyo3(signature = (points, center, direction, rho, tol, threads=None))]
 pub fn jet_field<'py>(
     py: Python<'py>,
     points: PyReadonlyArray2<'py, f64>,
@@ -284,9 +285,10 @@ pub fn jet_field<'py>(
     direction: [f64; 2],
     rho: f64,
     tol: f64,
+    threads: Option<usize>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let p = pairs(py, "points", &points)?;
-    let out = batch(py, p.len(), |i| {
+    let out = batch_on(py, p.len(), threads, |i| {
         field::jet_field(p[i], center, direction, rho, tol)
     })?;
     field_out(py, out)
@@ -294,12 +296,14 @@ pub fn jet_field<'py>(
 
 /// `(K, 2)` average field of `motion` at `points` for parts moving at `part_velocity (K, 2)`.
 #[pyfunction]
+#[pyo3(signature = (motion, points, part_velocity, tol, threads=None))]
 pub fn average_field<'py>(
     py: Python<'py>,
     motion: PyRef<'py, PlateMotion>,
     points: PyReadonlyArray2<'py, f64>,
     part_velocity: PyReadonlyArray2<'py, f64>,
     tol: f64,
+    threads: Option<usize>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let p = pairs(py, "points", &points)?;
     let v = pairs(py, "part_velocity", &part_velocity)?;
@@ -314,6 +318,8 @@ pub fn average_field<'py>(
         ));
     }
     let m = motion.inner.clone();
-    let out = batch(py, p.len(), |i| field::average_field(&m, p[i], v[i], tol))?;
+    let out = batch_on(py, p.len(), threads, |i| {
+        field::average_field(&m, p[i], v[i], tol)
+    })?;
     field_out(py, out)
 }
