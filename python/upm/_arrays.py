@@ -52,10 +52,7 @@ def real(
         high is None or (x < high if high_open else x <= high)
     )
     if not ok:
-        left, right = "(" if low_open else "[", ")" if high_open else "]"
-        lo = "-inf" if low is None else f"{low:g}"
-        hi = "inf" if high is None else f"{high:g}"
-        raise ParameterError(f"{name} must lie in {left}{lo}, {hi}{right}; got {x:g}")
+        raise ParameterError(f"{name} must lie in {_interval(low, high, low_open, high_open)}; got {x:g}")
     return x
 
 
@@ -75,6 +72,11 @@ def integer(name: str, value: Any, *, low: int | None = None, high: int | None =
             allowed = f"in [{low}, {high}]"
         raise ParameterError(f"{name} must be an integer {allowed}; got {show(n)}")
     return n
+
+
+def threads(value: Any) -> int | None:
+    """A ``threads=`` option: None (rayon's global pool, one thread per core) or 1..4096."""
+    return None if value is None else integer("threads", value, low=1, high=4096)
 
 
 def instance(name: str, value: Any, kind: type[T], what: str) -> T:
@@ -171,10 +173,14 @@ def check_range(
         ok &= (array < high) if high_open else (array <= high)
     if not np.all(ok):
         bad = tuple(int(i) for i in np.argwhere(~ok)[0])
-        left = "(" if low_open else "["
-        right = ")" if high_open else "]"
-        interval = (
-            f"{left}{'-inf' if low is None else f'{low:g}'}, {'inf' if high is None else f'{high:g}'}{right}"
-        )
         where = f" at index {bad}" if array.ndim else ""
+        interval = _interval(low, high, low_open, high_open)
         raise ParameterError(f"{name} must lie in {interval}; got {array[bad]}{where}")
+
+
+def _interval(low: float | None, high: float | None, low_open: bool, high_open: bool) -> str:
+    """``[low, high)`` and the like, ``-inf``/``inf`` for a missing bound."""
+    left, right = "(" if low_open else "[", ")" if high_open else "]"
+    lo = "-inf" if low is None else f"{low:g}"
+    hi = "inf" if high is None else f"{high:g}"
+    return f"{left}{lo}, {hi}{right}"

@@ -13,6 +13,7 @@ from numpy.typing import ArrayLike
 
 from . import _core
 from ._arrays import as_float, broadcast_shape, flat, integer, shaped
+from ._arrays import threads as pool
 from ._errors import ParameterError
 from .waveforms import Waveform
 
@@ -26,11 +27,6 @@ def _waveform(waveform: Any) -> Waveform:
             f"got {type(waveform).__name__}"
         )
     return waveform
-
-
-def threads_of(threads: int | None) -> int | None:
-    """``threads=`` checked: None (rayon's global pool) or 1..4096."""
-    return None if threads is None else integer("threads", threads, low=1, high=4096)
 
 
 def feed_rate(waveform: Waveform, *, threads: int | None = None) -> Any:
@@ -57,7 +53,7 @@ def feed_rate(waveform: Waveform, *, threads: int | None = None) -> Any:
     0.0625
     """
     w = _waveform(waveform)
-    return shaped(w._batch.feed_rate(threads=threads_of(threads)), w.shape)
+    return shaped(w._batch.feed_rate(threads=pool(threads)), w.shape)
 
 
 def mean_force(waveform: Waveform, part_velocity: ArrayLike = 0.0, *, threads: int | None = None) -> Any:
@@ -81,7 +77,7 @@ def mean_force(waveform: Waveform, part_velocity: ArrayLike = 0.0, *, threads: i
     """
     w = _waveform(waveform)
     batch, table, shape = w._rows("part_velocity", as_float("part_velocity", part_velocity))
-    return shaped(batch.mean_force(table, threads=threads_of(threads)), shape)
+    return shaped(batch.mean_force(table, threads=pool(threads)), shape)
 
 
 #: The largest harmonic number of :func:`force_table`: its cost grows as ``n2**2`` per element
@@ -144,5 +140,5 @@ def force_table(n1: int, n2: int, psi: ArrayLike, b: ArrayLike = 1.0, *, threads
     a, c = _pair(n1, n2, FORCE_TABLE_MAX_N2)
     p, amp = as_float("psi", psi), as_float("b", b)
     shape = broadcast_shape(psi=p, b=amp)
-    out = _core.force_table(a, c, flat(p, shape), flat(amp, shape), threads=threads_of(threads))
+    out = _core.force_table(a, c, flat(p, shape), flat(amp, shape), threads=pool(threads))
     return shaped(out, shape)

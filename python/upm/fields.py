@@ -13,8 +13,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import _core
 from ._arrays import as_float, point, real
+from ._arrays import threads as pool
 from ._errors import ParameterError, ShapeError
-from .feeding import threads_of
 from .motion import PlateMotion
 
 __all__ = ["average_field", "jet_field", "rotation_curl", "rotation_field"]
@@ -73,7 +73,7 @@ def jet_field(
     """
     p, lead = _points("points", points)
     c, d = point("center", center), point("direction", direction)
-    out = _core.jet_field(p, c, d, real("rho", rho), _tol(tol), threads=threads_of(threads))
+    out = _core.jet_field(p, c, d, real("rho", rho), _tol(tol), threads=pool(threads))
     return np.asarray(out).reshape(*lead, 2)
 
 
@@ -118,5 +118,5 @@ def average_field(
             raise ShapeError(
                 f"part_velocity must broadcast to the points' shape {(*lead, 2)}; got {va.shape}"
             ) from error
-    out = _core.average_field(motion._inner, p, v, _tol(tol), threads=threads_of(threads))
+    out = _core.average_field(motion._inner, p, v, _tol(tol), threads=pool(threads))
     return np.asarray(out).reshape(*lead, 2)

@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import _core
 from ._arrays import as_float, integer, items, real
+from ._arrays import threads as pool
 from ._errors import ParameterError, ShapeError
 from ._extras import need
 from .motion import PlateMotion
@@ -290,7 +291,7 @@ def _run(
         g=real("g", g, low=0.0, low_open=True),
         plate_size=None if plate_size is None else real("plate_size", plate_size, low=0.0, low_open=True),
         record_every=every,
-        threads=None if threads is None else integer("threads", threads, low=1, high=4096),
+        threads=pool(threads),
         **(contacts or {}),
     )
 

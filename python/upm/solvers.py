@@ -258,15 +258,16 @@ def solve_rotations(
     f = _pairs("forces", forces)
     c = _pairs("centers", centers)
     q, k = _curls(curls, curl_points, p)
+    scale = _mu_m_g(mu_m_g)
     s, o, pred, pc, res, cost, sv, rank, cond = _core.solve(
-        p, f, c, q, k, _mu_m_g(mu_m_g), *_options(rcond, damping, max_strength)
+        p, f, c, q, k, scale, *_options(rcond, damping, max_strength)
     )
     r0 = int(rank[0])
     _warn_rank(r0, 2 * p.shape[0] + k.size)
-    _warn_plan(f, _mu_m_g(mu_m_g), float(cond[0]), s[0])
+    _warn_plan(f, scale, float(cond[0]), s[0])
     return RotationPlan(
         s[0], _order(o[0], s[0], p, c, order), float(res[0]), float(cost[0]), sv[0], r0,
-        float(cond[0]), p, c, pred[0], pc[0], float(mu_m_g),
+        float(cond[0]), p, c, pred[0], pc[0], scale,
     )  # fmt: skip
 
 

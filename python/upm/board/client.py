@@ -136,8 +136,9 @@ class Board:
             if seq is None:
                 self._seq = (self._seq + 1) & 0xFFFF
                 seq = self._seq
+            frame = p.encode(message, seq)  # a message the wire cannot carry: ProtocolError, unsent
             try:
-                self._port.write(p.encode(message, seq))
+                self._port.write(frame)
             except Exception as error:
                 raise BoardError(f"writing to {self.url!r} failed: {error}") from error
         return seq
@@ -221,15 +222,11 @@ class Board:
 
     def set_envelope(self, attack: float, sustain: float, decay: float) -> None:
         """Raised-cosine envelope of the next pulses [s]; each finite and >= 0, checked before sending."""
-        message = p.SetEnvelope(attack, sustain, decay)
-        message.check()
-        self._command(message)
+        self._command(p.SetEnvelope(attack, sustain, decay))  # encode checks it before sending
 
     def set_watchdog(self, milliseconds: int) -> None:
         """The board's watchdog period [ms], 1..60000, checked before sending."""
-        message = p.SetWatchdog(milliseconds)
-        message.check()
-        self._command(message)
+        self._command(p.SetWatchdog(milliseconds))  # encode checks it before sending
 
     def pulse(self, pulse_id: int = 0, *, wait: bool = True, timeout: float | None = None) -> int | None:
         """Play one envelope; with ``wait``, block until it ends and return the sample counter at
