@@ -60,7 +60,7 @@ bench: $(VENV)/.built ## side-by-side benchmarks (ours vs the peer, ratios print
 	$(PY) bench/solvers.py
 	$(PY) bench/vision.py
 	$(PY) bench/sweeps.py
-	$(PY) -m pip install --quiet 'mujoco>=3.1'
+	$(PY) -m pip install --quiet 'mujoco>=3.1' 'numba>=0.60'
 	$(PY) bench/integrator.py --mujoco
 	$(PY) bench/contacts.py
 

@@ -1,24 +1,32 @@
-"""Benchmark: the point-part integrator, upm versus a vectorised NumPy reference (and MuJoCo).
+"""Benchmark: the point-part integrator, upm versus hand-written Numba loops, a vectorised NumPy
+reference (and MuJoCo).
 
 Run with ``make bench`` or ``python bench/integrator.py [--quick] [--mujoco]``. All sides run in
-this one process. The NumPy reference implements the same exact implicit Coulomb step (SPEC §1)
-with the same stick rule, vectorised over parts; the script checks it reproduces upm's final state
-before it prints ns per part-step and the ratio. Plate: translating (two-harmonic) and rotating
-(about a centre off the origin) at 35 Hz.
+this one process on the same data. The peers implement the same exact implicit Coulomb step
+(docs/spec.md §1) with the same stick rule: NumPy vectorised over parts, and Numba
+(``bench/numba_peer.py``, ``pip install 'upm[bench]'``) as a serial loop on one thread and as
+blocks of parts in ``prange`` on every core. The script checks that each reproduces upm's final
+state before it prints ns per part-step and the ratios, with the CPU model and the build of upm's
+step chosen on it. Plate: translating (two-harmonic) and rotating (about a centre off the origin)
+at 35 Hz.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-import subprocess
-import sys
 import time
 
 import numpy as np
 
 import upm
-from mujoco_plate import drive, plate_world
+
+try:
+    import numba
+
+    import numba_peer
+except ImportError:  # the Numba peer is optional: pip install 'upm[bench]'
+    numba = numba_peer = None
 
 F, G, MU, MU_S = 35.0, 9.81, 0.3, 0.4
 HALF = 0.0005  # half-size of MuJoCo's point-like box parts [m]
@@ -67,22 +75,12 @@ def mujoco_peer(motion: upm.PlateMotion, pos: np.ndarray, steps: int, dt: float)
         for x, y in pos
     )
     # Let the parts settle onto the still plate first.
+    from mujoco_plate import drive, plate_world
+
     model, data = plate_world(spheres, half=0.3, dt=dt, mu=MU, g=G, settle=200)
     elapsed = drive(model, data, motion.velocity(np.arange(1, steps + 1) * dt))
     xy = data.qpos[3:].reshape(-1, 7)[:, :2].copy()
     return elapsed, xy
-
-
-def ours_only(n: int, steps: int) -> float:
-    """Best-of-three ns per part-step of upm alone (used to measure thread scaling)."""
-    motion, dt = program(), 1 / F / 400
-    pos = np.random.default_rng(3).uniform(-0.1, 0.1, (n, 2))
-    best = np.inf
-    for _ in range(3):
-        start = time.perf_counter()
-        upm.simulate(motion, pos, duration=steps * dt, dt=dt, mu=MU, mu_s=MU_S, record_every=steps)
-        best = min(best, time.perf_counter() - start)
-    return best * 1e9 / (n * steps)
 
 
 def recording(motion: upm.PlateMotion, dt: float, rng: np.random.Generator, quick: bool) -> None:
@@ -122,63 +120,104 @@ def recording(motion: upm.PlateMotion, dt: float, rng: np.random.Generator, quic
     print(f"  recording costs {overhead:.1f} = {overhead / peer:.2f}x writing the numbers")
 
 
+def best_of(f, runs: int = 3) -> float:
+    """Best of ``runs`` wall-clock seconds of ``f()`` (this machine is shared)."""
+    best = np.inf
+    for _ in range(runs):
+        start = time.perf_counter()
+        f()
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def numba_times(
+    motion: upm.PlateMotion, pos: np.ndarray, steps: int, dt: float, cores: int, ours: np.ndarray
+) -> tuple[float, float]:
+    """ns per part-step of the Numba peer: serial on one thread and blocked on ``cores``, on the
+    plate velocity table upm uses; each checked against upm's final positions ``ours``."""
+    u = motion.velocity((np.arange(1, steps + 1) - 1e-6) * dt)
+    slide, hold = MU * G * dt, MU_S * G * dt
+    out = []
+    for loop in (numba_peer.serial, numba_peer.blocked):
+        numba_peer.run(loop, u[:2], pos[:64], slide, hold, dt)  # compile outside the timing
+        numba.set_num_threads(1 if loop is numba_peer.serial else cores)
+        out.append(
+            best_of(lambda loop=loop: numba_peer.run(loop, u, pos, slide, hold, dt))
+            * 1e9
+            / (len(pos) * steps)
+        )
+        diff = np.abs(numba_peer.run(loop, u, pos, slide, hold, dt) - ours).max()
+        assert diff < 1e-12, f"the Numba peer must reproduce upm's trajectory; differs by {diff:.1e}"
+    return out[0], out[1]
+
+
+def per_call(motion: upm.PlateMotion, dt: float) -> None:
+    """The fixed cost of a call: 2-step calls on 1e6 parts at rest, per part, on one thread and on
+    every core, beside NumPy allocating and writing the same result arrays (the floor of any
+    call that returns them in fresh memory)."""
+    n = 1_000_000
+    pos = np.random.default_rng(4).uniform(-0.1, 0.1, (n, 2))
+    kw = dict(duration=2 * dt, dt=dt, mu=MU, mu_s=MU_S, record_every=2)
+    ours = {
+        th: best_of(lambda th=th: upm.simulate(motion, pos, threads=th, **kw), 5) * 1e9 / n for th in (1, 2)
+    }
+
+    def write() -> None:
+        for a in (np.empty((2, n, 2)), np.empty((2, n, 2)), np.empty((2, n), bool)):
+            a.fill(1)
+
+    floor = best_of(write, 5) * 1e9 / n
+    print(f"\na 2-step call on {n:,} parts: {ours[1]:.1f} ns per part on 1 thread, {ours[2]:.1f} on 2")
+    print(f"  numpy writing the same positions, velocities and stuck flags: {floor:.1f} ns per part")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="smaller problems")
     parser.add_argument("--mujoco", action="store_true", help="also run the MuJoCo peer (pip install mujoco)")
-    parser.add_argument("--ours-only", nargs=2, type=int, metavar=("PARTS", "STEPS"), help=argparse.SUPPRESS)
     args = parser.parse_args()
-    if args.ours_only:
-        print(ours_only(*args.ours_only))
-        return
     motion = program()
     dt = 1 / F / 400
     rng = np.random.default_rng(3)
-    print(f"machine: {os.cpu_count()} cores; RAYON_NUM_THREADS={os.environ.get('RAYON_NUM_THREADS', 'all')}")
-    head = f"{'parts':>9} {'steps':>7} {'upm ns/part-step':>17} {'numpy ns/part-step':>19} {'ratio':>7}"
-    print(head + "  max |diff|")
-    sizes = [(1_000, 20_000), (100_000, 1000), (1_000_000, 200)]
+    info = upm.build_info()
+    cores = os.cpu_count() or 1
+    builds = ", ".join(info["available"])
+    print(f"machine: {info['cpu']}, {cores} cores; upm's step: {info['simd']} (of {builds})")
+    sizes = [(1_000, 20_000), (10_000, 2_000), (100_000, 1000), (1_000_000, 200)]
     if args.quick:
         sizes = [(1_000, 2000), (100_000, 100)]
     numpy_ns: dict[int, float] = {}
+    rows = []
     for n, steps in sizes:
         pos = rng.uniform(-0.1, 0.1, (n, 2))
         kw = dict(duration=steps * dt, dt=dt, mu=MU, mu_s=MU_S, record_every=steps)
-        t_ours = np.inf
-        for _ in range(3):  # best of three: this machine is shared
-            start = time.perf_counter()
-            run = upm.simulate(motion, pos, **kw)
-            t_ours = min(t_ours, time.perf_counter() - start)
+        ns = 1e9 / (n * steps)
+        ours = {}
+        for th in (1, cores):
+            ours[th] = best_of(lambda th=th, pos=pos, kw=kw: upm.simulate(motion, pos, threads=th, **kw)) * ns
+        run = upm.simulate(motion, pos, **kw)
         start = time.perf_counter()
         x, y, _, _ = numpy_reference(motion, pos, steps, dt)
-        t_np = time.perf_counter() - start
+        numpy_ns[n] = (time.perf_counter() - start) * ns
         diff = np.abs(run.positions[-1] - np.stack([x, y], 1)).max()
-        ns = 1e9 / (n * steps)
-        numpy_ns[n] = t_np * ns
-        print(
-            f"{n:>9,} {steps:>7} {t_ours * ns:>17.2f} {t_np * ns:>19.2f} {t_np / t_ours:>6.1f}x  {diff:.1e}"
-        )
         assert diff < 1e-12, "the reference must reproduce upm's trajectory for the ratio to mean anything"
+        peer = numba_times(motion, pos, steps, dt, cores, run.positions[-1]) if numba else None
+        rows.append((n, steps, ours, peer, numpy_ns[n], diff))
+    print("\nns per part-step (best of 3); ratio = peer / upm")
+    many_t = f"{cores}t"
+    head = f"{'parts':>9} {'steps':>6} | {'upm 1t':>7} {'numba':>7} {'ratio':>6} | {'upm ' + many_t:>7}"
+    print(f"{head} {'numba ' + many_t:>9} {'ratio':>6} {'vs 1t':>6} | {'numpy':>7} {'ratio':>6}  max|diff|")
+    for n, steps, ours, peer, t_np, diff in rows:
+        one, many = ours[1], ours[cores]
+        s1, sb = peer if peer else (np.nan, np.nan)
+        serial = f"{one:>7.2f} {s1:>7.2f} {s1 / one:>5.2f}x"
+        threaded = f"{many:>7.2f} {sb:>9.2f} {sb / many:>5.2f}x {one / many:>5.2f}x"
+        print(f"{n:>9,} {steps:>6} | {serial} | {threaded} | {t_np:>7.2f} {t_np / one:>5.1f}x  {diff:.1e}")
+    if not numba:
+        print("(no Numba peer: pip install 'upm[bench]')")
+    per_call(motion, dt)
 
     recording(motion, dt, rng, quick=args.quick)
-
-    n, steps = (100_000, 1000) if not args.quick else (100_000, 100)
-    per_thread = {}
-    for threads in ("1", str(os.cpu_count())):
-        env = dict(os.environ, RAYON_NUM_THREADS=threads)
-        out = subprocess.run(
-            [sys.executable, __file__, "--ours-only", str(n), str(steps)],
-            env=env,
-            capture_output=True,
-            text=True,
-        )
-        per_thread[threads] = float(out.stdout.strip())
-    one, many = per_thread["1"], per_thread[str(os.cpu_count())]
-    cores = os.cpu_count()
-    print(f"\nthread scaling at {n:,} parts: 1 thread {one:.2f} ns/part-step, {cores} threads {many:.2f}")
-    print(f"  speed-up {one / many:.2f}x")
-    if n in numpy_ns:
-        print(f"  per core (1 thread) against numpy at {n:,} parts: {numpy_ns[n] / one:.1f}x")
 
     if args.mujoco:
         print("\nMuJoCo peer (same plate motion, 1 mm boxes as point-like parts), ns per part-step:")

@@ -10,6 +10,7 @@ equation numbers pointing into the thesis, is in ``docs/theory.md``.
 from __future__ import annotations
 
 from . import actuation, mchip, theory
+from ._build import build_info
 from ._core import __version__
 from ._errors import (
     BoardError,
@@ -83,6 +84,7 @@ __all__ = [
     "__version__",
     "actuation",
     "average_field",
+    "build_info",
     "corner_centers",
     "feed_rate",
     "flow_error",

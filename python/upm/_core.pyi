@@ -106,12 +106,12 @@ class PlateMotion:
 def simulate(
     motions: list[PlateMotion],
     positions: _F,
-    velocities: _F,
+    velocities: _F | None,
     mu: _F,
     mu_s: _F,
-    radius: _F,
-    angle: _F,
-    spin: _F,
+    radius: _F | None,
+    angle: _F | None,
+    spin: _F | None,
     *,
     dt: float,
     duration: float,
@@ -127,6 +127,7 @@ def simulate(
     mass: _F | None = None,
     contact_iterations: int = 4,
 ) -> tuple[_F, _F, _F, NDArray[np.bool_], _F, _F, _F]: ...
+def simd_info() -> tuple[str, list[str]]: ...
 
 _I = NDArray[np.int64]
 _Solved = tuple[_F, _I, _F, _F, _F, _F, _F, _I, _F]

@@ -1,11 +1,11 @@
-//! The point-part step against the hardware's bound for it, in one run.
+//! The point-part step of every build this CPU has, against the exact step's hardware bound.
 //!
-//! `cargo bench -p upm-core --bench kernel` (the NumPy and MuJoCo peers are `bench/integrator.py`).
-//! Every exact Coulomb step of a point part takes one square root and one division (docs/spec.md §1), so a
-//! four-lane `sqrt` plus a division, timed on independent data of realistic magnitude, bounds the
-//! ns per part-step one core can reach with correctly rounded results. Prints that bound, the
-//! integrator's ns per part-step on one rayon thread (1e5 parts, translating + rotating plate, no
-//! recording but the last step), and their ratio.
+//! `cargo bench -p upm-core --bench kernel` (the NumPy, Numba and MuJoCo peers are
+//! `bench/integrator.py`). Prints the integrator's ns per part-step on one rayon thread for each
+//! build (`portable`, `avx2`, `avx512`: each in a child process with `UPM_SIMD` set), 1e3 to 1e6
+//! parts on a translating + rotating plate, recording only the last step. Beside them: a
+//! four-lane `sqrt` plus a division on independent data of realistic magnitude, the bound of a
+//! step written with a correctly rounded root and division (the vector builds use neither).
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -58,29 +58,12 @@ fn divider_bound(q: &[f64]) -> f64 {
     t / (2000 * q.len()) as f64
 }
 
-fn main() {
+/// ns per part-step of the integrator on one rayon thread, `n` parts at rest on `motion`.
+fn integrator(motion: &PlateMotion, n: usize, steps: usize, dt: f64) -> f64 {
     let one = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
         .unwrap();
-    let f = 35.0;
-    let trans = PlateMotion::translation(
-        [0.6, 0.8],
-        Waveform::Harmonics(Harmonics::two_harmonic(0.5, 1.57, 0.05, f).unwrap()),
-    )
-    .unwrap();
-    let rot = PlateMotion::rotation(
-        [0.03, -0.02],
-        Waveform::Harmonics(Harmonics::new(vec![0.0], vec![0.5, -0.25], f).unwrap()),
-    )
-    .unwrap();
-    let motion = PlateMotion::sequence(vec![
-        trans.for_duration(2.0 / f).unwrap(),
-        rot.for_duration(2.0 / f).unwrap(),
-    ])
-    .unwrap();
-    let (n, steps) = (100_000, 1000);
-    let dt = 1.0 / f / 400.0;
     let position: Vec<[f64; 2]> = (0..n)
         .map(|i| {
             let a = i as f64 * 0.618_033_988_75;
@@ -98,18 +81,69 @@ fn main() {
         plate_size: None,
         record_every: steps,
     };
-    let t_sim = one.install(|| best_of(3, || simulate(&motion, &parts, &cfg).unwrap()));
-    let per_step = t_sim / (n * steps) as f64;
+    let t = one.install(|| best_of(3, || simulate(motion, &parts, &cfg).unwrap()));
+    t * 1e9 / (n * steps) as f64
+}
+
+fn main() {
+    let f = 35.0;
+    let trans = PlateMotion::translation(
+        [0.6, 0.8],
+        Waveform::Harmonics(Harmonics::two_harmonic(0.5, 1.57, 0.05, f).unwrap()),
+    )
+    .unwrap();
+    let rot = PlateMotion::rotation(
+        [0.03, -0.02],
+        Waveform::Harmonics(Harmonics::new(vec![0.0], vec![0.5, -0.25], f).unwrap()),
+    )
+    .unwrap();
+    let motion = PlateMotion::sequence(vec![
+        trans.for_duration(2.0 / f).unwrap(),
+        rot.for_duration(2.0 / f).unwrap(),
+    ])
+    .unwrap();
+    let dt = 1.0 / f / 400.0;
+    let sizes = [(1_000, 20_000), (10_000, 2_000), (100_000, 400), (1_000_000, 100)];
+    if std::env::args().any(|a| a == "--per-call") {
+        // For profiling the fixed cost: 2-step calls on 1e6 parts.
+        for _ in 0..10 {
+            println!("{:.1} ns per part", integrator(&motion, 1_000_000, 2, dt) * 2.0);
+        }
+        return;
+    }
+    if std::env::args().any(|a| a == "--one-build") {
+        // A child run: this process's build (UPM_SIMD) at every size.
+        let row: Vec<String> = sizes
+            .iter()
+            .map(|&(n, steps)| format!("{:8.2}", integrator(&motion, n, steps, dt)))
+            .collect();
+        println!("{}", row.join(""));
+        return;
+    }
     // |w|^2 of sliding parts: 1e-8 .. 1e-4 (m/s)^2, mantissas spread.
     let q: Vec<f64> = (0..256)
         .map(|i| 1e-8 * 10f64.powf(4.0 * ((i * 7919) % 256) as f64 / 256.0))
         .collect();
-    let bound = divider_bound(&q);
-    println!("point-part step, 1 thread, {n} parts x {steps} steps:");
-    println!("  integrator          {:6.2} ns/part-step", per_step * 1e9);
+    let bound = divider_bound(&q) * 1e9;
     println!(
-        "  sqrt + division     {:6.2} ns/element (bound)",
-        bound * 1e9
+        "point-part step, ns per part-step on 1 thread (chosen build: {}):",
+        upm_core::sim::simd().name()
     );
-    println!("  integrator / bound  {:6.2}x", per_step / bound);
+    let head: Vec<String> = sizes.iter().map(|&(n, _)| format!("{n:>8}")).collect();
+    println!("  {:<22}{}", "build \\ parts", head.join(""));
+    let exe = std::env::current_exe().unwrap();
+    for build in upm_core::sim::Simd::available() {
+        let out = std::process::Command::new(&exe)
+            .arg("--one-build")
+            .env("UPM_SIMD", build.name())
+            .output()
+            .unwrap();
+        let row = String::from_utf8_lossy(&out.stdout);
+        println!("  {:<22}{}", build.name(), row.trim_end());
+    }
+    println!("  sqrt + division alone {bound:6.2} ns/element (the exact step's bound)");
+    // The fixed cost of a call: a 2-step call on 1e6 parts, per part (compute is ~2 part-steps).
+    let n = 1_000_000;
+    let per_call = integrator(&motion, n, 2, dt) * 2.0;
+    println!("  a 2-step call on {n} parts: {per_call:.1} ns per part (chosen build)");
 }

@@ -113,6 +113,16 @@ where
     T: Send,
     F: FnOnce(&(dyn Fn(usize) -> Result<(), Failure> + Sync)) -> Result<T, Failure> + Send,
 {
+    // rayon's global pool does not survive fork(): its threads exist only in the parent, so a
+    // forked child (multiprocessing's default start method) that used it would wait forever.
+    // Such a child runs on a pool of its own, of the same size.
+    static GLOBAL_POOL_PID: std::sync::OnceLock<u32> = std::sync::OnceLock::new();
+    let threads = match threads {
+        None if *GLOBAL_POOL_PID.get_or_init(std::process::id) != std::process::id() => {
+            Some(rayon::current_num_threads())
+        }
+        t => t,
+    };
     let Some(n) = threads else {
         return work(&interrupted);
     };

@@ -62,6 +62,26 @@ pub(crate) fn pairs(
     Ok(a.rows().into_iter().map(|r| [r[0], r[1]]).collect())
 }
 
+/// An `(N, 2)` array as pairs, borrowed when it is C-contiguous (copied otherwise).
+pub(crate) fn pair_view<'a>(
+    py: Python<'_>,
+    name: &str,
+    a: &'a PyReadonlyArray2<'_, f64>,
+) -> PyResult<std::borrow::Cow<'a, [[f64; 2]]>> {
+    match a.as_slice() {
+        Ok(flat) if a.shape()[1] == 2 => Ok(std::borrow::Cow::Borrowed(flat.as_chunks::<2>().0)),
+        _ => pairs(py, name, a).map(std::borrow::Cow::Owned),
+    }
+}
+
+/// A 1-D array, borrowed when it is contiguous (copied otherwise).
+pub(crate) fn view<'a>(a: &'a PyReadonlyArray1<'_, f64>) -> std::borrow::Cow<'a, [f64]> {
+    match a.as_slice() {
+        Ok(s) => std::borrow::Cow::Borrowed(s),
+        Err(_) => std::borrow::Cow::Owned(a.as_array().to_vec()),
+    }
+}
+
 pub(crate) fn to_2d<'py>(
     py: Python<'py>,
     flat: Vec<f64>,
@@ -367,12 +387,24 @@ fn _panic_for_test(py: Python<'_>) -> PyResult<()> {
     })
 }
 
+/// How this build runs here: the point-part step's build chosen at run time (`UPM_SIMD`
+/// overrides it) and the builds this CPU has.
+#[pyfunction]
+fn simd_info() -> (String, Vec<String>) {
+    let names = |b: upm_core::sim::Simd| b.name().to_string();
+    (
+        names(upm_core::sim::simd()),
+        upm_core::sim::Simd::available().into_iter().map(names).collect(),
+    )
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<WaveformBatch>()?;
     m.add_class::<motion::PlateMotion>()?;
     m.add_function(wrap_pyfunction!(motion::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(simd_info, m)?)?;
     m.add_function(wrap_pyfunction!(mchip::mchip_simulate, m)?)?;
     m.add_function(wrap_pyfunction!(vision::coverage_centroids, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::motors_for, m)?)?;

@@ -4,11 +4,11 @@ use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use upm_core::motion::PlateMotion as CoreMotion;
-use upm_core::sim::{self, Config, Parts, Trajectory};
-use upm_core::{buffer, Error, Waveform};
+use upm_core::sim::{self, Config, PartsView, Trajectory};
+use upm_core::{Error, Waveform};
 
 use crate::errors::{core, detached, on_threads, shape_error, Failure};
-use crate::{pairs, WaveformBatch};
+use crate::{pair_view, view, WaveformBatch};
 
 /// A plate motion program (see `upm.PlateMotion`).
 #[pyclass(frozen, module = "upm._core")]
@@ -144,47 +144,22 @@ impl PlateMotion {
     }
 }
 
-/// Flattened `(t, positions, velocities, stuck, left_time)` of several trajectories of equal size.
+/// The stacked trajectory of `b` worlds as NumPy arrays: its buffers become the arrays as they
+/// are, no copy: `(t, positions, velocities, stuck, angles, spins, left_time)`.
 fn to_arrays<'py>(
     py: Python<'py>,
-    runs: Vec<Trajectory>,
+    run: Trajectory,
+    b: usize,
     m: usize,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let b = runs.len();
-    let rows = runs.first().map_or(0, |r| r.t.len());
-    let t = PyArray1::from_vec(py, runs.first().map(|r| r.t.clone()).unwrap_or_default());
-    let (pos, vel, stuck, angles, spins, left) = if b == 1 {
-        // One world: its buffers become the NumPy arrays as they are, no copy.
-        let r = runs.into_iter().next().expect("one run");
-        let left = r.left_plate.iter().map(|l| l.unwrap_or(f64::NAN)).collect();
-        let (pos, vel) = (r.positions.into_flattened(), r.velocities.into_flattened());
-        (pos, vel, r.stuck, r.angles, r.spins, left)
-    } else {
-        let cells = b * rows * m;
-        let err = |e| crate::errors::to_py(py, e);
-        let (mut pos, mut vel): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
-        let (mut stuck, mut angles, mut spins) = (Vec::new(), Vec::new(), Vec::new());
-        buffer::reserve(&mut pos, 2 * cells, "the positions").map_err(err)?;
-        buffer::reserve(&mut vel, 2 * cells, "the velocities").map_err(err)?;
-        buffer::reserve(&mut stuck, cells, "the stuck flags").map_err(err)?;
-        buffer::reserve(&mut angles, cells, "the angles").map_err(err)?;
-        buffer::reserve(&mut spins, cells, "the spins").map_err(err)?;
-        let mut left = Vec::with_capacity(b * m);
-        for r in runs {
-            pos.extend(r.positions.iter().flatten());
-            vel.extend(r.velocities.iter().flatten());
-            stuck.extend(r.stuck);
-            angles.extend(r.angles);
-            spins.extend(r.spins);
-            left.extend(r.left_plate.iter().map(|l| l.unwrap_or(f64::NAN)));
-        }
-        (pos, vel, stuck, angles, spins, left)
-    };
-    let pos = PyArray1::from_vec(py, pos).reshape([b, rows, m, 2])?;
-    let vel = PyArray1::from_vec(py, vel).reshape([b, rows, m, 2])?;
-    let stuck = PyArray1::from_vec(py, stuck).reshape([b, rows, m])?;
-    let angles = PyArray1::from_vec(py, angles).reshape([b, rows, m])?;
-    let spins = PyArray1::from_vec(py, spins).reshape([b, rows, m])?;
+    let rows = run.t.len();
+    let left: Vec<f64> = run.left_plate.iter().map(|l| l.unwrap_or(f64::NAN)).collect();
+    let t = PyArray1::from_vec(py, run.t);
+    let pos = PyArray1::from_vec(py, run.positions.into_flattened()).reshape([b, rows, m, 2])?;
+    let vel = PyArray1::from_vec(py, run.velocities.into_flattened()).reshape([b, rows, m, 2])?;
+    let stuck = PyArray1::from_vec(py, run.stuck).reshape([b, rows, m])?;
+    let angles = PyArray1::from_vec(py, run.angles).reshape([b, rows, m])?;
+    let spins = PyArray1::from_vec(py, run.spins).reshape([b, rows, m])?;
     let left = PyArray1::from_vec(py, left).reshape([b, m])?;
     PyTuple::new(
         py,
@@ -208,12 +183,12 @@ pub fn simulate<'py>(
     py: Python<'py>,
     motions: Vec<PyRef<'py, PlateMotion>>,
     positions: PyReadonlyArray2<'py, f64>,
-    velocities: PyReadonlyArray2<'py, f64>,
+    velocities: Option<PyReadonlyArray2<'py, f64>>,
     mu: PyReadonlyArray1<'py, f64>,
     mu_s: PyReadonlyArray1<'py, f64>,
-    radius: PyReadonlyArray1<'py, f64>,
-    angle: PyReadonlyArray1<'py, f64>,
-    spin: PyReadonlyArray1<'py, f64>,
+    radius: Option<PyReadonlyArray1<'py, f64>>,
+    angle: Option<PyReadonlyArray1<'py, f64>>,
+    spin: Option<PyReadonlyArray1<'py, f64>>,
     dt: f64,
     duration: f64,
     g: f64,
@@ -228,16 +203,28 @@ pub fn simulate<'py>(
     mass: Option<PyReadonlyArray1<'py, f64>>,
     contact_iterations: usize,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let parts = Parts {
-        position: pairs(py, "positions", &positions)?,
-        velocity: pairs(py, "velocities", &velocities)?,
-        mu: mu.as_array().to_vec(),
-        mu_s: mu_s.as_array().to_vec(),
-        radius: radius.as_array().to_vec(),
-        angle: angle.as_array().to_vec(),
-        spin: spin.as_array().to_vec(),
+    // The caller's arrays as they are: no copy of a contiguous array.
+    let position = pair_view(py, "positions", &positions)?;
+    let velocity = velocities
+        .as_ref()
+        .map(|v| pair_view(py, "velocities", v))
+        .transpose()?;
+    let (mu, mu_s) = (view(&mu), view(&mu_s));
+    let (radius, angle, spin) = (
+        radius.as_ref().map(view),
+        angle.as_ref().map(view),
+        spin.as_ref().map(view),
+    );
+    let parts = PartsView {
+        position: &position,
+        velocity: velocity.as_deref(),
+        mu: &mu,
+        mu_s: &mu_s,
+        radius: radius.as_deref(),
+        angle: angle.as_deref(),
+        spin: spin.as_deref(),
     };
-    let m = parts.position.len();
+    let m = parts.len();
     let cfg = Config {
         dt,
         duration,
@@ -280,11 +267,11 @@ pub fn simulate<'py>(
     } else {
         None
     };
-    let runs = detached(py, || {
+    let run = detached(py, || {
         // Every world advances one block at a time; Ctrl-C is honoured between blocks.
         on_threads(threads, |between| {
-            sim::simulate_worlds_with(&motions, &parts, &cfg, contacts.as_ref(), between)
+            sim::simulate_stacked(&motions, &parts, &cfg, contacts.as_ref(), between)
         })
     })?;
-    to_arrays(py, runs, m)
+    to_arrays(py, run, motions.len(), m)
 }

@@ -38,7 +38,7 @@
 
 use rapier2d_f64::prelude::*;
 
-use super::{Config, DiskState};
+use super::{Config, DiskState, Rec};
 use crate::error::{Error, Result};
 
 /// Contact settings of a simulation.
@@ -346,7 +346,7 @@ impl ContactWorld {
         table: &[[f64; 3]],
         first: usize,
         cfg: &Config,
-        steps: usize,
+        rec: &Rec,
     ) {
         let s = self.scale;
         let dt = cfg.dt;
@@ -365,7 +365,7 @@ impl ContactWorld {
                         self.world.remove_body(h);
                         *body = None;
                     }
-                    d.record_step(step, cfg, steps);
+                    d.record_step(Some(step), rec);
                 }
                 continue;
             }
@@ -410,7 +410,7 @@ impl ContactWorld {
                 }
             }
             for d in disks.iter_mut() {
-                d.record_step(first + k, cfg, steps);
+                d.record_step(Some(first + k), rec);
             }
         }
     }

@@ -1,0 +1,220 @@
+//! The parts a simulation starts from: owned ([`Parts`]) or borrowed ([`PartsView`], the
+//! binding's zero-copy view of the caller's NumPy arrays, where friction may be one value for
+//! every part and velocities, radii, angles and spins may be absent).
+
+use crate::error::{positive, Error, Result};
+
+/// Parts (points and disks): initial state and friction coefficients, one entry per part.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Parts {
+    /// Positions [m].
+    pub position: Vec<[f64; 2]>,
+    /// Velocities [m/s].
+    pub velocity: Vec<[f64; 2]>,
+    /// Sliding friction coefficient.
+    pub mu: Vec<f64>,
+    /// Static friction coefficient, `>= mu`.
+    pub mu_s: Vec<f64>,
+    /// Disk radius [m]; 0 for a point part.
+    pub radius: Vec<f64>,
+    /// Orientation [rad] (disks; points keep 0).
+    pub angle: Vec<f64>,
+    /// Angular velocity [rad/s] (disks; points keep 0).
+    pub spin: Vec<f64>,
+}
+
+impl Parts {
+    /// Point parts at `position` with `velocity`, friction `mu` and `mu_s`.
+    pub fn points(
+        position: Vec<[f64; 2]>,
+        velocity: Vec<[f64; 2]>,
+        mu: Vec<f64>,
+        mu_s: Vec<f64>,
+    ) -> Self {
+        let m = position.len();
+        Parts {
+            position,
+            velocity,
+            mu,
+            mu_s,
+            radius: vec![0.0; m],
+            angle: vec![0.0; m],
+            spin: vec![0.0; m],
+        }
+    }
+
+    /// A borrowed view of every array.
+    pub fn view(&self) -> PartsView<'_> {
+        PartsView {
+            position: &self.position,
+            velocity: Some(&self.velocity),
+            mu: &self.mu,
+            mu_s: &self.mu_s,
+            radius: Some(&self.radius),
+            angle: Some(&self.angle),
+            spin: Some(&self.spin),
+        }
+    }
+
+    /// Checks lengths, finiteness, `mu_s >= mu > 0` and `radius >= 0`.
+    pub fn check(&self) -> Result<()> {
+        self.view().check()
+    }
+}
+
+/// Borrowed parts: `mu` and `mu_s` hold one value per part or one for all; an absent velocity is
+/// zero (at rest), an absent radius zero (point parts), an absent angle or spin zero.
+#[derive(Debug, Clone, Copy)]
+pub struct PartsView<'a> {
+    /// Positions [m].
+    pub position: &'a [[f64; 2]],
+    /// Velocities [m/s].
+    pub velocity: Option<&'a [[f64; 2]]>,
+    /// Sliding friction coefficient, per part or one value.
+    pub mu: &'a [f64],
+    /// Static friction coefficient, `>= mu`, per part or one value.
+    pub mu_s: &'a [f64],
+    /// Disk radius [m]; 0 for a point part.
+    pub radius: Option<&'a [f64]>,
+    /// Orientation [rad].
+    pub angle: Option<&'a [f64]>,
+    /// Angular velocity [rad/s].
+    pub spin: Option<&'a [f64]>,
+}
+
+/// Entry `i` of a per-part array, or its one value.
+#[inline]
+fn one_or(a: &[f64], i: usize) -> f64 {
+    if a.len() == 1 {
+        a[0]
+    } else {
+        a[i]
+    }
+}
+
+impl PartsView<'_> {
+    /// The number of parts.
+    pub fn len(&self) -> usize {
+        self.position.len()
+    }
+
+    /// Whether there are no parts.
+    pub fn is_empty(&self) -> bool {
+        self.position.is_empty()
+    }
+
+    /// Part `i`'s velocity.
+    #[inline]
+    pub fn velocity(&self, i: usize) -> [f64; 2] {
+        self.velocity.map_or([0.0; 2], |v| v[i])
+    }
+
+    /// Part `i`'s sliding friction coefficient.
+    #[inline]
+    pub fn mu(&self, i: usize) -> f64 {
+        one_or(self.mu, i)
+    }
+
+    /// Part `i`'s static friction coefficient.
+    #[inline]
+    pub fn mu_s(&self, i: usize) -> f64 {
+        one_or(self.mu_s, i)
+    }
+
+    /// Part `i`'s radius (0: a point).
+    #[inline]
+    pub fn radius(&self, i: usize) -> f64 {
+        self.radius.map_or(0.0, |r| r[i])
+    }
+
+    /// Part `i`'s orientation.
+    #[inline]
+    pub fn angle(&self, i: usize) -> f64 {
+        self.angle.map_or(0.0, |a| a[i])
+    }
+
+    /// Part `i`'s angular velocity.
+    #[inline]
+    pub fn spin(&self, i: usize) -> f64 {
+        self.spin.map_or(0.0, |s| s[i])
+    }
+
+    /// Checks lengths, finiteness, `mu_s >= mu > 0` and `radius >= 0`: one pass over every array
+    /// first, and the part-by-part search for the first offender only when it fails.
+    pub fn check(&self) -> Result<()> {
+        let m = self.len();
+        let per_part = |a: &[f64]| a.len() == m || a.len() == 1;
+        let opt = |a: Option<&[f64]>| a.is_none_or(|a| a.len() == m);
+        if !(per_part(self.mu)
+            && per_part(self.mu_s)
+            && self.velocity.is_none_or(|v| v.len() == m)
+            && opt(self.radius)
+            && opt(self.angle)
+            && opt(self.spin))
+        {
+            let len = |a: Option<&[f64]>| a.map_or(m, <[f64]>::len);
+            return Err(Error::Shape(format!(
+                "parts: {m} positions but {:?} velocities, mu, mu_s, radius, angle, spin; all must be equal \
+                 (mu and mu_s may also hold one value)",
+                [
+                    self.velocity.map_or(m, <[[f64; 2]]>::len),
+                    self.mu.len(),
+                    self.mu_s.len(),
+                    len(self.radius),
+                    len(self.angle),
+                    len(self.spin),
+                ]
+            )));
+        }
+        let finite = |a: &[f64]| a.iter().fold(true, |ok, v| ok & v.is_finite());
+        let pairs = |a: &[[f64; 2]]| a.iter().fold(true, |ok, v| ok & v[0].is_finite() & v[1].is_finite());
+        let friction = (0..self.mu.len().max(self.mu_s.len())).fold(true, |ok, i| {
+            let (mu, mu_s) = (self.mu(i), self.mu_s(i));
+            ok & (mu > 0.0) & mu.is_finite() & mu_s.is_finite() & (mu_s >= mu)
+        });
+        let fine = pairs(self.position)
+            && self.velocity.is_none_or(pairs)
+            && friction
+            && self.radius.is_none_or(|r| r.iter().fold(true, |ok, &v| ok & (v >= 0.0) & v.is_finite()))
+            && self.angle.is_none_or(finite)
+            && self.spin.is_none_or(finite);
+        if fine {
+            return Ok(());
+        }
+        self.first_offender()
+    }
+
+    /// The error of the first part that fails [`PartsView::check`].
+    fn first_offender(&self) -> Result<()> {
+        for i in 0..self.len() {
+            let at = |e: Error| e.with_context(&format!("part {i}"));
+            for (name, v) in [("position", self.position[i]), ("velocity", self.velocity(i))] {
+                if !(v[0].is_finite() && v[1].is_finite()) {
+                    return Err(at(Error::parameter(
+                        name,
+                        format!("must be finite; got ({}, {})", v[0], v[1]),
+                    )));
+                }
+            }
+            positive("mu", self.mu(i)).map_err(at)?;
+            let r = self.radius(i);
+            if !(r.is_finite() && r >= 0.0) {
+                return Err(at(Error::parameter(
+                    "radius",
+                    format!("must be finite and >= 0; got {r}"),
+                )));
+            }
+            for (name, v) in [("angle", self.angle(i)), ("spin", self.spin(i))] {
+                crate::error::finite(name, v).map_err(at)?;
+            }
+            let (mu, mu_s) = (self.mu(i), self.mu_s(i));
+            if !(mu_s.is_finite() && mu_s >= mu) {
+                return Err(at(Error::parameter(
+                    "mu_s",
+                    format!("must be finite and >= mu = {mu}; got {mu_s}"),
+                )));
+            }
+        }
+        Ok(())
+    }
+}

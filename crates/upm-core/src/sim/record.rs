@@ -1,0 +1,168 @@
+//! The recorded trajectory, written once, in place: every recorded state goes straight from the
+//! integrator into the buffers that become the result (and, through the binding, the NumPy
+//! arrays), with no per-row staging and no copy.
+//!
+//! Positions, velocities and stuck flags are reserved uninitialised and written exactly once per
+//! `(row, part)`; angles and spins are allocated zeroed (pages the kernel maps lazily), so a world
+//! of point parts never touches them.
+
+use crate::buffer;
+use crate::error::Result;
+
+use super::Trajectory;
+
+/// Whether step `s` (1-based) is recorded: every `every`-th step, and always the last one.
+#[inline]
+pub(super) fn recorded(s: usize, steps: usize, every: usize) -> bool {
+    s.is_multiple_of(every) || s == steps
+}
+
+/// Rows recorded for `steps` steps: the initial state, every `every`-th step and the last step.
+pub(super) fn recorded_rows(steps: usize, every: usize) -> usize {
+    steps / every + 1 + usize::from(!steps.is_multiple_of(every))
+}
+
+/// The result buffers of every world of a run while it runs, stacked: world `b`'s rows follow
+/// world `b - 1`'s, so a batch is one set of arrays `(worlds, rows, parts)`.
+pub(super) struct Recorder {
+    out: Trajectory,
+    m: usize,
+    rows: usize,
+    worlds: usize,
+}
+
+/// Where and when a world records: shared by every thread of the world (raw pointers into the
+/// [`Recorder`]'s buffers; each `(row, part)` is written by one thread, once).
+#[derive(Clone, Copy)]
+pub(super) struct Rec {
+    pos: *mut [f64; 2],
+    vel: *mut [f64; 2],
+    stuck: *mut bool,
+    angle: *mut f64,
+    spin: *mut f64,
+    m: usize,
+    rows: usize,
+    steps: usize,
+    every: usize,
+}
+
+// SAFETY: the pointers address the Recorder's buffers, which outlive every use of a Rec (the
+// world's run); threads write disjoint (row, part) cells.
+unsafe impl Send for Rec {}
+unsafe impl Sync for Rec {}
+
+impl Recorder {
+    /// Buffers for `worlds` worlds of `rows` rows of `m` parts (reserved fallibly: an error, not
+    /// an abort).
+    pub(super) fn new(worlds: usize, rows: usize, m: usize) -> Result<Self> {
+        let cells = worlds
+            .checked_mul(rows)
+            .and_then(|r| r.checked_mul(m))
+            .ok_or_else(|| {
+                crate::Error::parameter("record_every", "is too small: the number of records overflows")
+            })?;
+        let mut out = Trajectory {
+            t: Vec::new(),
+            positions: Vec::new(),
+            velocities: Vec::new(),
+            stuck: Vec::new(),
+            angles: buffer::zeroed(cells, "the angles")?,
+            spins: buffer::zeroed(cells, "the spins")?,
+            left_plate: Vec::new(),
+        };
+        buffer::reserve(&mut out.t, rows, "the recorded times")?;
+        buffer::reserve(&mut out.positions, cells, "the positions")?;
+        buffer::reserve(&mut out.velocities, cells, "the velocities")?;
+        buffer::reserve(&mut out.stuck, cells, "the stuck flags")?;
+        Ok(Recorder { out, m, rows, worlds })
+    }
+
+    /// The writer of world `world` for a run of `steps` steps recording every `every`-th.
+    pub(super) fn rec(&mut self, world: usize, steps: usize, every: usize) -> Rec {
+        assert!(world < self.worlds, "world {world} of {}", self.worlds);
+        let base = world * self.rows * self.m;
+        // SAFETY: base is within the reserved capacity (world < worlds).
+        let at = |p: *mut f64| unsafe { p.add(base) };
+        Rec {
+            pos: unsafe { self.out.positions.as_mut_ptr().add(base) },
+            vel: unsafe { self.out.velocities.as_mut_ptr().add(base) },
+            stuck: unsafe { self.out.stuck.as_mut_ptr().add(base) },
+            angle: at(self.out.angles.as_mut_ptr()),
+            spin: at(self.out.spins.as_mut_ptr()),
+            m: self.m,
+            rows: self.rows,
+            steps,
+            every,
+        }
+    }
+
+    /// The stacked trajectory (`left_plate` is `(worlds, parts)`), once every `(row, part)` of
+    /// every world has been written through its [`Rec`].
+    ///
+    /// # Safety
+    /// Every cell of every row of every world must have been written.
+    pub(super) unsafe fn finish(mut self, left_plate: Vec<Option<f64>>) -> Trajectory {
+        let cells = self.worlds * self.rows * self.m;
+        self.out.positions.set_len(cells);
+        self.out.velocities.set_len(cells);
+        self.out.stuck.set_len(cells);
+        self.out.left_plate = left_plate;
+        self.out
+    }
+
+    /// Records the times of rows: `s dt` for every recorded step `s` (1-based) in `from..=to`.
+    pub(super) fn times(&mut self, from: usize, to: usize, steps: usize, every: usize, dt: f64) {
+        self.out.t.extend(
+            (from..=to)
+                .filter(|&s| recorded(s, steps, every))
+                .map(|s| s as f64 * dt),
+        );
+    }
+}
+
+impl Rec {
+    /// The row step `s` (1-based; 0 is the initial state) is recorded in, if it is recorded.
+    #[inline]
+    pub(super) fn row(&self, s: usize) -> Option<usize> {
+        if s == 0 {
+            Some(0)
+        } else if s == self.steps {
+            Some(self.rows - 1)
+        } else if s.is_multiple_of(self.every) {
+            Some(s / self.every)
+        } else {
+            None
+        }
+    }
+
+    /// The next recorded step after `s` (1-based).
+    pub(super) fn next_after(&self, s: usize) -> usize {
+        ((s / self.every + 1) * self.every).min(self.steps)
+    }
+
+    /// Writes a point's (or a disk's translational) state.
+    ///
+    /// # Safety
+    /// `row < rows`, `part < m`, and no other thread writes this cell.
+    #[inline]
+    pub(super) unsafe fn point(&self, row: usize, part: usize, p: [f64; 2], v: [f64; 2], stuck: bool) {
+        debug_assert!(row < self.rows && part < self.m);
+        let i = row * self.m + part;
+        self.pos.add(i).write(p);
+        self.vel.add(i).write(v);
+        self.stuck.add(i).write(stuck);
+    }
+
+    /// Writes a disk's state.
+    ///
+    /// # Safety
+    /// As [`Rec::point`].
+    #[inline]
+    pub(super) unsafe fn disk(&self, row: usize, part: usize, state: ([f64; 2], [f64; 2], f64, f64, bool)) {
+        let (p, v, angle, spin, stuck) = state;
+        self.point(row, part, p, v, stuck);
+        let i = row * self.m + part;
+        self.angle.add(i).write(angle);
+        self.spin.add(i).write(spin);
+    }
+}
