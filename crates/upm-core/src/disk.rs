@@ -11,7 +11,9 @@
 //!
 //! `f` and `t` are integrals over the polar angle around the rotation point, smooth in that angle,
 //! computed with Gauss–Legendre quadrature; the tables used by the integrator are built once from
-//! them and interpolated (the errors are measured in the tests).
+//! them and interpolated (the errors are measured in the tests): one over `phi` for the stick
+//! test, one over `z = tan(phi) / (1 + tan(phi))`, a ratio of the state's magnitudes, for the
+//! sliding solve (Halley's method, no `atan2`).
 //!
 //! The implicit step minimises `m |w' - w*|^2 / 2 + I (W' - W*)^2 / 2 + dt D(w', W')`, with `D`
 //! the (convex, positively homogeneous) dissipation: the disk sticks when the wrench needed to stop
@@ -130,6 +132,90 @@ pub fn limit_curve(phi: f64) -> (f64, f64) {
     (cr(p0.0, p1.0, p2.0, p3.0), cr(p0.1, p1.1, p2.1, p3.1))
 }
 
+/// Entries of the `(f, t)` table over `z = tan(phi) / (1 + tan(phi))` in `[0, 1]`.
+const ZTABLE: usize = 16385;
+
+/// `(f, t)` tabulated over `z`, a rational function of the disk's `(|w|, R |W|)`: `z = b / (a + b)`
+/// (no `atan2` to find the entry). `phi = atan2(z, 1 - z)`, so `dphi/dz` lies in `[1, 2]`.
+fn ztable() -> &'static [(f64, f64)] {
+    static T: OnceLock<Vec<(f64, f64)>> = OnceLock::new();
+    T.get_or_init(|| {
+        (0..ZTABLE)
+            .map(|i| {
+                let z = i as f64 / (ZTABLE - 1) as f64;
+                force_torque(z.atan2(1.0 - z))
+            })
+            .collect()
+    })
+}
+
+/// `(f, t, df/dz, dt/dz)` at `z = b / (a + b)` in `[0, 1]` (cubic Catmull–Rom on [`ztable`]).
+pub fn limit_curve_z(z: f64) -> (f64, f64, f64, f64) {
+    let [[f, df, _], [t, dt, _]] = curve_z(ztable(), z);
+    (f, t, df, dt)
+}
+
+/// [`limit_curve_z`] on the table `tab`, with the second derivatives:
+/// `[(f, f', f''), (t, t', t'')]` in `z`.
+#[inline(always)]
+fn curve_z(tab: &[(f64, f64)], z: f64) -> [[f64; 3]; 2] {
+    let scale = (ZTABLE - 1) as f64;
+    let u = z.clamp(0.0, 1.0) * scale;
+    let i = (u as usize).min(ZTABLE - 2);
+    let s = u - i as f64;
+    let at = |k: usize| tab[k.min(ZTABLE - 1)];
+    let (p0, p1, p2, p3) = (at(i.saturating_sub(1)), at(i), at(i + 1), at(i + 2));
+    let cr = |a: f64, b: f64, c: f64, d: f64| {
+        let (c1, c2, c3) = (
+            0.5 * (c - a),
+            a - 2.5 * b + 2.0 * c - 0.5 * d,
+            1.5 * (b - c) + 0.5 * (d - a),
+        );
+        [
+            b + s * (c1 + s * (c2 + s * c3)),
+            (c1 + s * (2.0 * c2 + 3.0 * s * c3)) * scale,
+            (2.0 * c2 + 6.0 * s * c3) * scale * scale,
+        ]
+    };
+    [cr(p0.0, p1.0, p2.0, p3.0), cr(p0.1, p1.1, p2.1, p3.1)]
+}
+
+/// The sliding magnitudes `(|w'|, R |W'|)` from `(a0, b0)` (both > 0) by Halley's method on
+/// `z = b / (a + b)` of the result: `r(z) = (1 - z) b(z) - z a(z) = 0` with
+/// `a(z) = a0 - c f(z)`, `b(z) = b0 - 2 c t(z)`, decreasing in `z` while the disk slides, from
+/// `z = b0 / (a0 + b0)` (off by `O(c / (a0 + b0))`; the cubic convergence then needs one to three
+/// look-ups). `None` when it does not settle in a few steps (a disk about to stop), for the
+/// caller's slower, safe solve.
+fn slide_newton(a0: f64, b0: f64, c: f64) -> Option<(f64, f64)> {
+    let tab = ztable();
+    let mut z = b0 / (a0 + b0);
+    for _ in 0..8 {
+        let [[f, df, ddf], [t, dt, ddt]] = curve_z(tab, z);
+        let (a, b) = (a0 - c * f, b0 - 2.0 * c * t);
+        let r = (1.0 - z) * b - z * a;
+        let dr = -b - a - 2.0 * c * (1.0 - z) * dt + c * z * df;
+        let ddr = 4.0 * c * dt + 2.0 * c * df - 2.0 * c * (1.0 - z) * ddt + c * z * ddf;
+        if dr.is_nan() || dr >= 0.0 {
+            return None;
+        }
+        let newton = r / dr;
+        let step = newton / (1.0 - 0.5 * newton * ddr / dr);
+        z -= step;
+        if !(0.0..=1.0).contains(&z) {
+            return None;
+        }
+        // Cubic convergence: once the step is below 1e-6 the next is below rounding, and the curve
+        // at the new z is its second-order Taylor polynomial (the neglected term: c step^3 f3/6).
+        if step.abs() <= 1e-6 {
+            let h = 0.5 * step * step;
+            let a = a0 - c * (f - df * step + ddf * h);
+            let b = b0 - 2.0 * c * (t - dt * step + ddt * h);
+            return (a > 0.0 && b > 0.0).then_some((a, b));
+        }
+    }
+    None
+}
+
 /// Result of one implicit step of a disk.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Step {
@@ -151,7 +237,7 @@ pub fn implicit_step(
     hold: f64,
     was_stuck: bool,
 ) -> Step {
-    let a0 = w_free[0].hypot(w_free[1]);
+    let a0 = (w_free[0] * w_free[0] + w_free[1] * w_free[1]).sqrt();
     let b0 = s_free.abs();
     let stuck = Step {
         w: [0.0; 2],
@@ -187,8 +273,9 @@ pub fn implicit_step(
     }
     // Sliding: |w'| = |w_free| - slide f(phi'), |s'| = |s_free| - 2 slide t(phi'), with phi' the
     // angle of the result itself. Pure sliding and pure spinning are closed forms (f(0) = 1,
-    // t(pi/2) = 2/3); otherwise iterate phi <- atan2(b(phi), a(phi)), a contraction unless the
-    // disk is about to stop, with Brent's method on the monotone residual as the fallback.
+    // t(pi/2) = 2/3); otherwise Newton's method on z = b / (a + b) (`slide_newton`: no atan2,
+    // three or four table look-ups). Where it does not settle (a disk about to stop), iterate
+    // phi <- atan2(b(phi), a(phi)), with Brent's method on the monotone residual as the fallback.
     let ab = |p: f64| {
         let (f, t) = limit_curve(p);
         (a0 - slide * f, b0 - 2.0 * slide * t)
@@ -197,6 +284,8 @@ pub fn implicit_step(
         (a0 - slide, 0.0)
     } else if a0 == 0.0 {
         (0.0, b0 - 4.0 / 3.0 * slide)
+    } else if let Some(ab) = slide_newton(a0, b0, slide) {
+        ab
     } else {
         let mut phi = b0.atan2(a0);
         let mut converged = false;
@@ -313,19 +402,74 @@ mod tests {
 
     #[test]
     fn the_step_solves_its_own_optimality_condition() {
-        // w' = w* - c f(phi') w'/|w'|, s' = s* - 2 c t(phi') sgn(s'), phi' = atan2(|s'|, |w'|).
+        // w' = w* - c f(z') w'/|w'|, s' = s* - 2 c t(z') sgn(s'), z' = |s'| / (|w'| + |s'|), with
+        // the step's own curve, and within the tables' error of the quadrature's.
         for (w, s) in [
             ([0.05, -0.02], 0.04),
             ([0.01, 0.0], -0.09),
             ([-0.2, 0.1], 0.001),
+            ([0.003, 0.004], 0.006),
         ] {
             let c = 0.004;
             let st = implicit_step(w, s, c, c, false);
             let (a, b) = (st.w[0].hypot(st.w[1]), st.s.abs());
-            let (f, t) = limit_curve(b.atan2(a));
+            let (f, t, ..) = limit_curve_z(b / (a + b));
             let a0 = w[0].hypot(w[1]);
-            assert!((a - (a0 - c * f)).abs() < 1e-12, "{w:?} {s}");
-            assert!((b - (s.abs() - 2.0 * c * t)).abs() < 1e-12, "{w:?} {s}");
+            assert!((a - (a0 - c * f)).abs() < 1e-13, "{w:?} {s}");
+            assert!((b - (s.abs() - 2.0 * c * t)).abs() < 1e-13, "{w:?} {s}");
+            let (fq, tq) = force_torque(b.atan2(a));
+            assert!((a - (a0 - c * fq)).abs() < 1e-10 * c, "{w:?} {s}");
+            assert!((b - (s.abs() - 2.0 * c * tq)).abs() < 1e-10 * c, "{w:?} {s}");
         }
+    }
+
+    #[test]
+    fn the_z_table_matches_the_quadrature_and_its_derivatives() {
+        let (mut err, mut derr): (f64, f64) = (0.0, 0.0);
+        for k in 0..1999 {
+            let z = (k as f64 + 0.41) / 1999.0;
+            let (f, t, df, dt) = limit_curve_z(z);
+            let (fq, tq) = force_torque(z.atan2(1.0 - z));
+            err = err.max((f - fq).abs()).max((t - tq).abs());
+            // Central differences of the quadrature (error ~1e-7 here).
+            let h = 1e-5;
+            let (f1, t1) = force_torque((z + h).atan2(1.0 - z - h));
+            let (f0, t0) = force_torque((z - h).atan2(1.0 - z + h));
+            let (dfq, dtq) = ((f1 - f0) / (2.0 * h), (t1 - t0) / (2.0 * h));
+            derr = derr.max((df - dfq).abs()).max((dt - dtq).abs());
+        }
+        assert!(err < 2e-9, "table error {err:e}");
+        assert!(derr < 1e-3, "derivative error {derr:e}");
+    }
+
+    #[test]
+    fn newton_agrees_with_the_angle_iteration() {
+        // The slow, safe solve (Brent's method in phi on the phi table): the same magnitudes to
+        // the two tables' difference, over sliding states from fast to nearly stopping.
+        let c = 0.002;
+        let (mut worst, mut solved): (f64, usize) = (0.0, 0);
+        for i in 0..400 {
+            let a0 = c * 10f64.powf(-0.2 + 3.0 * ((i * 37) % 400) as f64 / 400.0);
+            let b0 = c * 10f64.powf(-0.2 + 3.0 * ((i * 91) % 400) as f64 / 400.0);
+            let Some((a, b)) = slide_newton(a0, b0, c) else {
+                continue;
+            };
+            solved += 1;
+            let phi = crate::roots::brent(
+                |p| {
+                    let (f, t) = limit_curve(p);
+                    p - (b0 - 2.0 * c * t).atan2(a0 - c * f)
+                },
+                0.0,
+                FRAC_PI_2,
+                1e-15,
+            );
+            let (f, t) = limit_curve(phi);
+            let d = (a - (a0 - c * f)).abs().max((b - (b0 - 2.0 * c * t)).abs());
+            worst = worst.max(d);
+        }
+        assert!(worst < 1e-10 * c, "worst difference {worst:e}");
+        // Newton settles but for disks about to stop (a0 or b0 within a few c of zero).
+        assert!(solved >= 300, "Newton settled in {solved} of 400 states");
     }
 }

@@ -260,13 +260,24 @@ impl DiskState {
         self.leaves(s, cfg)
     }
 
-    /// Advances through one block with the disk's implicit step ([`crate::disk::implicit_step`]).
-    fn run(&mut self, table: &[[f64; 3]], first: usize, cfg: &Config, rec: &Rec) {
+}
+
+/// Disks per group of [`run_disks`].
+const DISK_GROUP: usize = 32;
+
+/// Advances `disks` (no contacts) through one block with the disk's implicit step
+/// ([`crate::disk::implicit_step`]), in groups on rayon threads. Within a group the steps are the
+/// outer loop: consecutive iterations are different disks, independent, so the out-of-order core
+/// overlaps their long dependency chains (one disk's steps are a single chain).
+fn run_disks(disks: &mut [DiskState], table: &[[f64; 3]], first: usize, cfg: &Config, rec: &Rec) {
+    disks.par_chunks_mut(DISK_GROUP).for_each(|group| {
         for (k, &u) in table.iter().enumerate() {
-            self.step(u, first + k, cfg);
-            self.record_step(Some(first + k), rec);
+            for d in group.iter_mut() {
+                d.step(u, first + k, cfg);
+                d.record_step(Some(first + k), rec);
+            }
         }
-    }
+    });
 }
 
 /// The parts of one world and what has been recorded of it.
@@ -448,9 +459,7 @@ where
                 || points.run(table, first, cfg, rec, index),
                 || match contact {
                     Some(c) => c.run(disks, table, first, cfg, rec),
-                    None => disks
-                        .par_iter_mut()
-                        .for_each(|d| d.run(table, first, cfg, rec)),
+                    None => run_disks(disks, table, first, cfg, rec),
                 },
             );
         });
