@@ -103,11 +103,19 @@ fn main() {
     ])
     .unwrap();
     let dt = 1.0 / f / 400.0;
-    let sizes = [(1_000, 20_000), (10_000, 2_000), (100_000, 400), (1_000_000, 100)];
+    let sizes = [
+        (1_000, 20_000),
+        (10_000, 2_000),
+        (100_000, 400),
+        (1_000_000, 100),
+    ];
     if std::env::args().any(|a| a == "--per-call") {
         // For profiling the fixed cost: 2-step calls on 1e6 parts.
         for _ in 0..10 {
-            println!("{:.1} ns per part", integrator(&motion, 1_000_000, 2, dt) * 2.0);
+            println!(
+                "{:.1} ns per part",
+                integrator(&motion, 1_000_000, 2, dt) * 2.0
+            );
         }
         return;
     }
@@ -160,7 +168,10 @@ fn disks(trans: &PlateMotion, rot: &PlateMotion, dt: f64) {
     let position: Vec<[f64; 2]> = (0..n)
         .map(|i| {
             let a = i as f64 * 0.618_033_988_75;
-            [0.1 * (a.fract() * 2.0 - 1.0), 0.1 * ((a * 7.0).fract() * 2.0 - 1.0)]
+            [
+                0.1 * (a.fract() * 2.0 - 1.0),
+                0.1 * ((a * 7.0).fract() * 2.0 - 1.0),
+            ]
         })
         .collect();
     let mut parts = Parts::points(position, vec![[0.0; 2]; n], vec![0.3; n], vec![0.3; n]);

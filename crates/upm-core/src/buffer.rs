@@ -94,7 +94,9 @@ pub fn recycle(mut v: Vec<f64>) {
     let mut spare = spares().lock().unwrap_or_else(|e| e.into_inner());
     spare.push(v);
     if spare.len() > SPARES {
-        let smallest = (0..spare.len()).min_by_key(|&i| spare[i].capacity()).unwrap_or(0);
+        let smallest = (0..spare.len())
+            .min_by_key(|&i| spare[i].capacity())
+            .unwrap_or(0);
         spare.swap_remove(smallest);
     }
 }

@@ -419,7 +419,10 @@ mod tests {
             assert!((b - (s.abs() - 2.0 * c * t)).abs() < 1e-13, "{w:?} {s}");
             let (fq, tq) = force_torque(b.atan2(a));
             assert!((a - (a0 - c * fq)).abs() < 1e-10 * c, "{w:?} {s}");
-            assert!((b - (s.abs() - 2.0 * c * tq)).abs() < 1e-10 * c, "{w:?} {s}");
+            assert!(
+                (b - (s.abs() - 2.0 * c * tq)).abs() < 1e-10 * c,
+                "{w:?} {s}"
+            );
         }
     }
 

@@ -34,9 +34,13 @@ fn run(
     cfg: &Config,
     contacts: Option<&Contacts>,
 ) -> Result<Trajectory, Error> {
-    let mut r = simulate_worlds_with(std::slice::from_ref(motion), &parts.view(), cfg, contacts, |_| {
-        Ok::<(), Error>(())
-    })?;
+    let mut r = simulate_worlds_with(
+        std::slice::from_ref(motion),
+        &parts.view(),
+        cfg,
+        contacts,
+        |_| Ok::<(), Error>(()),
+    )?;
     Ok(r.remove(0))
 }
 
@@ -166,9 +170,13 @@ fn contacts_are_identical_run_to_run_and_for_any_thread_count() {
             .build()
             .unwrap()
             .install(|| {
-                simulate_worlds_with(&motions, &parts.view(), &c, Some(&Contacts::default()), |_| {
-                    Ok::<(), Error>(())
-                })
+                simulate_worlds_with(
+                    &motions,
+                    &parts.view(),
+                    &c,
+                    Some(&Contacts::default()),
+                    |_| Ok::<(), Error>(()),
+                )
                 .unwrap()
             })
     };

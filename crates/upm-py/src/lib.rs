@@ -394,7 +394,10 @@ fn simd_info() -> (String, Vec<String>) {
     let names = |b: upm_core::sim::Simd| b.name().to_string();
     (
         names(upm_core::sim::simd()),
-        upm_core::sim::Simd::available().into_iter().map(names).collect(),
+        upm_core::sim::Simd::available()
+            .into_iter()
+            .map(names)
+            .collect(),
     )
 }
 

@@ -153,7 +153,11 @@ fn to_arrays<'py>(
     m: usize,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let rows = run.t.len();
-    let left: Vec<f64> = run.left_plate.iter().map(|l| l.unwrap_or(f64::NAN)).collect();
+    let left: Vec<f64> = run
+        .left_plate
+        .iter()
+        .map(|l| l.unwrap_or(f64::NAN))
+        .collect();
     let t = PyArray1::from_vec(py, run.t);
     let pos = PyArray1::from_vec(py, run.positions.into_flattened()).reshape([b, rows, m, 2])?;
     let vel = PyArray1::from_vec(py, run.velocities.into_flattened()).reshape([b, rows, m, 2])?;

@@ -15,12 +15,13 @@
 //! depends on the step grid.
 //!
 //! Disk parts ([`Parts::radius`] > 0) take the coupled translation–spin step of [`crate::disk`]
-//! instead, one disk at a time (in parallel over disks).
+//! instead, in groups of disks on rayon threads (the steps outside, so independent disks overlap).
 //!
 //! Layout for speed: point parts are processed in chunks of [`CHUNK_PARTS`] with structure-of-arrays
-//! state and the time loop inside, so the state stays in cache; [`kernel`] is the per-step update
-//! (portable, and an explicit AVX2 build chosen at run time). The plate velocity is tabulated once
-//! per block of steps and shared by all chunks. Chunks run on rayon threads; each part is
+//! state and the time loop inside ([`points`]); [`kernel`] is the update through a segment of
+//! steps (AVX-512, AVX2 and portable builds, chosen at run time), tiles of parts in registers.
+//! The plate velocity is tabulated once per block of steps and shared by all chunks; recorded
+//! states go straight into the result ([`record`]). Chunks run on rayon threads; each part is
 //! independent, so results are bitwise identical for any thread count. Disks may collide with
 //! each other and with walls: [`contact`] (rapier2d) runs after each friction step when contacts
 //! are asked for.
@@ -259,7 +260,6 @@ impl DiskState {
         self.advance(v, spin, stuck, cfg.dt);
         self.leaves(s, cfg)
     }
-
 }
 
 /// Disks per group of [`run_disks`].

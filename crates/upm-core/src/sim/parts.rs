@@ -167,7 +167,10 @@ impl PartsView<'_> {
             )));
         }
         let finite = |a: &[f64]| a.iter().fold(true, |ok, v| ok & v.is_finite());
-        let pairs = |a: &[[f64; 2]]| a.iter().fold(true, |ok, v| ok & v[0].is_finite() & v[1].is_finite());
+        let pairs = |a: &[[f64; 2]]| {
+            a.iter()
+                .fold(true, |ok, v| ok & v[0].is_finite() & v[1].is_finite())
+        };
         let friction = (0..self.mu.len().max(self.mu_s.len())).fold(true, |ok, i| {
             let (mu, mu_s) = (self.mu(i), self.mu_s(i));
             ok & (mu > 0.0) & mu.is_finite() & mu_s.is_finite() & (mu_s >= mu)
@@ -175,7 +178,10 @@ impl PartsView<'_> {
         let fine = pairs(self.position)
             && self.velocity.is_none_or(pairs)
             && friction
-            && self.radius.is_none_or(|r| r.iter().fold(true, |ok, &v| ok & (v >= 0.0) & v.is_finite()))
+            && self.radius.is_none_or(|r| {
+                r.iter()
+                    .fold(true, |ok, &v| ok & (v >= 0.0) & v.is_finite())
+            })
             && self.angle.is_none_or(finite)
             && self.spin.is_none_or(finite);
         if fine {
@@ -188,7 +194,10 @@ impl PartsView<'_> {
     fn first_offender(&self) -> Result<()> {
         for i in 0..self.len() {
             let at = |e: Error| e.with_context(&format!("part {i}"));
-            for (name, v) in [("position", self.position[i]), ("velocity", self.velocity(i))] {
+            for (name, v) in [
+                ("position", self.position[i]),
+                ("velocity", self.velocity(i)),
+            ] {
                 if !(v[0].is_finite() && v[1].is_finite()) {
                     return Err(at(Error::parameter(
                         name,

@@ -33,7 +33,12 @@ type Chunk<'a> = (usize, Lanes<'a>);
 impl Points {
     /// The parts `index` of `parts` (all of them with `None`), under the plate velocity `u0` at
     /// the start.
-    pub(super) fn new(parts: &PartsView, index: Option<&[usize]>, cfg: &Config, u0: [f64; 3]) -> Self {
+    pub(super) fn new(
+        parts: &PartsView,
+        index: Option<&[usize]>,
+        cfg: &Config,
+        u0: [f64; 3],
+    ) -> Self {
         let n = index.map_or(parts.len(), <[usize]>::len);
         let at = |j: usize| index.map_or(j, |ix| ix[j]);
         let half = half_side(cfg);
@@ -76,17 +81,17 @@ impl Points {
         }
         // A part that starts moving with the plate surface starts stuck.
         let [u1, u2, u3] = u0;
-        p.stuck.extend(
-            p.x.iter()
-                .zip(&p.y)
-                .zip(p.vx.iter().zip(&p.vy))
-                .map(|((&x, &y), (&vx, &vy))| {
+        p.stuck
+            .extend(p.x.iter().zip(&p.y).zip(p.vx.iter().zip(&p.vy)).map(
+                |((&x, &y), (&vx, &vy))| {
                     f64::from(u8::from((vx == u1 - u3 * y) & (vy == u2 + u3 * x)))
-                }),
-        );
+                },
+            ));
         if half.is_finite() {
-            p.active.extend((0..n).map(|j| f64::from(u8::from(!off_plate(p.x[j], p.y[j], half)))));
-            p.left.extend(p.active.iter().map(|&a| if a > 0.0 { NEVER } else { 0.0 }));
+            p.active
+                .extend((0..n).map(|j| f64::from(u8::from(!off_plate(p.x[j], p.y[j], half)))));
+            p.left
+                .extend(p.active.iter().map(|&a| if a > 0.0 { NEVER } else { 0.0 }));
         } else {
             p.active.resize(n, 1.0);
             p.left.resize(n, NEVER);
@@ -104,8 +109,17 @@ impl Points {
     /// The chunks, each borrowing its share of every array.
     fn chunks(&mut self) -> Vec<Chunk<'_>> {
         let mut out = Vec::with_capacity(self.x.len().div_ceil(CHUNK_PARTS));
-        let (mut x, mut y, mut vx, mut vy) = (&mut self.x[..], &mut self.y[..], &mut self.vx[..], &mut self.vy[..]);
-        let (mut stuck, mut active, mut left) = (&mut self.stuck[..], &mut self.active[..], &mut self.left[..]);
+        let (mut x, mut y, mut vx, mut vy) = (
+            &mut self.x[..],
+            &mut self.y[..],
+            &mut self.vx[..],
+            &mut self.vy[..],
+        );
+        let (mut stuck, mut active, mut left) = (
+            &mut self.stuck[..],
+            &mut self.active[..],
+            &mut self.left[..],
+        );
         let (mut slide, mut hold) = (&self.slide[..], &self.hold[..]);
         let mut start = 0;
         while !x.is_empty() {
@@ -153,7 +167,14 @@ impl Points {
     /// Advances every point through one block: `table[k]` is the plate velocity at the end of
     /// step `first + k` (0-based). The kernel runs each chunk through the block in segments that
     /// end at recorded steps, and the chunk records itself there.
-    pub(super) fn run(&mut self, table: &[[f64; 3]], first: usize, cfg: &Config, rec: &Rec, index: Option<&[usize]>) {
+    pub(super) fn run(
+        &mut self,
+        table: &[[f64; 3]],
+        first: usize,
+        cfg: &Config,
+        rec: &Rec,
+        index: Option<&[usize]>,
+    ) {
         let half = half_side(cfg);
         self.chunks().into_par_iter().for_each(|(start, mut l)| {
             let mut done = 0;
@@ -170,7 +191,9 @@ impl Points {
 
     /// The time each point left the plate, in the points' order.
     pub(super) fn left(&self, dt: f64) -> impl Iterator<Item = Option<f64>> + '_ {
-        self.left.iter().map(move |&l| (l != NEVER).then_some(l * dt))
+        self.left
+            .iter()
+            .map(move |&l| (l != NEVER).then_some(l * dt))
     }
 }
 
@@ -198,7 +221,13 @@ fn write(l: &Lanes, start: usize, row: usize, rec: &Rec, index: Option<&[usize]>
         let part = index.map_or(start + q, |ix| ix[start + q]);
         // SAFETY: row < rows (from Rec::row), part < m, and each part belongs to one chunk.
         unsafe {
-            rec.point(row, part, [l.x[q], l.y[q]], [l.vx[q], l.vy[q]], l.stuck[q] > 0.0);
+            rec.point(
+                row,
+                part,
+                [l.x[q], l.y[q]],
+                [l.vx[q], l.vy[q]],
+                l.stuck[q] > 0.0,
+            );
         }
     }
 }

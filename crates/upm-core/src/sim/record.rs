@@ -59,7 +59,10 @@ impl Recorder {
             .checked_mul(rows)
             .and_then(|r| r.checked_mul(m))
             .ok_or_else(|| {
-                crate::Error::parameter("record_every", "is too small: the number of records overflows")
+                crate::Error::parameter(
+                    "record_every",
+                    "is too small: the number of records overflows",
+                )
             })?;
         let mut out = Trajectory {
             t: Vec::new(),
@@ -74,7 +77,12 @@ impl Recorder {
         buffer::reserve(&mut out.positions, cells, "the positions")?;
         buffer::reserve(&mut out.velocities, cells, "the velocities")?;
         buffer::reserve(&mut out.stuck, cells, "the stuck flags")?;
-        Ok(Recorder { out, m, rows, worlds })
+        Ok(Recorder {
+            out,
+            m,
+            rows,
+            worlds,
+        })
     }
 
     /// The writer of world `world` for a run of `steps` steps recording every `every`-th.
@@ -145,7 +153,14 @@ impl Rec {
     /// # Safety
     /// `row < rows`, `part < m`, and no other thread writes this cell.
     #[inline]
-    pub(super) unsafe fn point(&self, row: usize, part: usize, p: [f64; 2], v: [f64; 2], stuck: bool) {
+    pub(super) unsafe fn point(
+        &self,
+        row: usize,
+        part: usize,
+        p: [f64; 2],
+        v: [f64; 2],
+        stuck: bool,
+    ) {
         debug_assert!(row < self.rows && part < self.m);
         let i = row * self.m + part;
         self.pos.add(i).write(p);
@@ -158,7 +173,12 @@ impl Rec {
     /// # Safety
     /// As [`Rec::point`].
     #[inline]
-    pub(super) unsafe fn disk(&self, row: usize, part: usize, state: ([f64; 2], [f64; 2], f64, f64, bool)) {
+    pub(super) unsafe fn disk(
+        &self,
+        row: usize,
+        part: usize,
+        state: ([f64; 2], [f64; 2], f64, f64, bool),
+    ) {
         let (p, v, angle, spin, stuck) = state;
         self.point(row, part, p, v, stuck);
         let i = row * self.m + part;

@@ -168,7 +168,11 @@ unsafe fn tile<const EDGE: bool>(
         _mm256_maskstore_pd(s.y.as_mut_ptr().add(at(j)), k, y[j]);
         _mm256_maskstore_pd(s.vx.as_mut_ptr().add(at(j)), k, vx[j]);
         _mm256_maskstore_pd(s.vy.as_mut_ptr().add(at(j)), k, vy[j]);
-        _mm256_maskstore_pd(s.stuck.as_mut_ptr().add(at(j)), k, _mm256_and_pd(stuck[j], one));
+        _mm256_maskstore_pd(
+            s.stuck.as_mut_ptr().add(at(j)),
+            k,
+            _mm256_and_pd(stuck[j], one),
+        );
         if EDGE {
             let a = _mm256_and_pd(act[j], one);
             _mm256_maskstore_pd(s.active.as_mut_ptr().add(at(j)), k, a);

@@ -225,8 +225,7 @@ mod tests {
             let r = noise(seed, 5 * n);
             let x: Vec<f64> = r[..n].iter().map(|a| 0.1 * a).collect();
             let y: Vec<f64> = r[n..2 * n].iter().map(|a| 0.1 * a).collect();
-            let scale =
-                |k: usize| slide * 10f64.powf(spread * (r[4 * n + k] + 1.0) / 2.0 - 0.5);
+            let scale = |k: usize| slide * 10f64.powf(spread * (r[4 * n + k] + 1.0) / 2.0 - 0.5);
             let vx: Vec<f64> = (0..n).map(|k| r[2 * n + k] * scale(k)).collect();
             let vy: Vec<f64> = (0..n).map(|k| r[3 * n + k] * scale(k)).collect();
             let stuck = (0..n).map(|k| f64::from(u8::from(k % 3 == 0))).collect();
@@ -355,7 +354,10 @@ mod tests {
             let thr = if stuck > 0.0 { hold } else { slide };
             let near = (wn - slide).abs() <= 1e-12 * slide || (wn - thr).abs() <= 1e-12 * thr;
             if p.v[4][i] != b.v[4][i] {
-                assert!(near, "part {i}: stick decisions differ at |w| {wn:e}, thresholds {slide:e} {hold:e}");
+                assert!(
+                    near,
+                    "part {i}: stick decisions differ at |w| {wn:e}, thresholds {slide:e} {hold:e}"
+                );
                 continue;
             }
             for k in 0..6 {
@@ -384,7 +386,10 @@ mod tests {
             assert_eq!(p.left, b.left, "{simd:?}");
             for (k, ((vp, vb), vc)) in p.v.iter().zip(&b.v).zip(&c.v).enumerate() {
                 for (i, ((e, g), h)) in vp.iter().zip(vb).zip(vc).enumerate() {
-                    assert!((e - g).abs() <= 1e-12, "{simd:?} array {k} part {i}: {g} vs {e}");
+                    assert!(
+                        (e - g).abs() <= 1e-12,
+                        "{simd:?} array {k} part {i}: {g} vs {e}"
+                    );
                     assert_eq!(g.to_bits(), h.to_bits(), "{simd:?} array {k} part {i}");
                 }
             }
