@@ -31,6 +31,7 @@ __all__ = [
     "priorities",
     "rotation_curl",
     "rotation_field",
+    "simd_info",
     "simulate",
     "solve",
     "solve_batch",
