@@ -58,13 +58,17 @@ fn divider_bound(q: &[f64]) -> f64 {
     t / (2000 * q.len()) as f64
 }
 
-/// ns per part-step of the integrator on one rayon thread, `n` parts at rest on `motion`.
-fn integrator(motion: &PlateMotion, n: usize, steps: usize, dt: f64) -> f64 {
-    let one = rayon::ThreadPoolBuilder::new()
+/// A pool of one rayon thread.
+fn one_thread() -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
-        .unwrap();
-    let position: Vec<[f64; 2]> = (0..n)
+        .unwrap()
+}
+
+/// `n` positions spread over a 0.2 m square (a low-discrepancy sequence).
+fn spread(n: usize) -> Vec<[f64; 2]> {
+    (0..n)
         .map(|i| {
             let a = i as f64 * 0.618_033_988_75;
             [
@@ -72,7 +76,12 @@ fn integrator(motion: &PlateMotion, n: usize, steps: usize, dt: f64) -> f64 {
                 0.1 * ((a * 7.0).fract() * 2.0 - 1.0),
             ]
         })
-        .collect();
+        .collect()
+}
+
+/// ns per part-step of the integrator on one rayon thread, `n` parts at rest on `motion`.
+fn integrator(motion: &PlateMotion, n: usize, steps: usize, dt: f64) -> f64 {
+    let (one, position) = (one_thread(), spread(n));
     let parts = Parts::points(position, vec![[0.0; 2]; n], vec![0.3; n], vec![0.4; n]);
     let cfg = Config {
         dt,
@@ -160,20 +169,8 @@ fn main() {
 /// ns per disk-step on one thread: 2000 disks of radius 5 mm at rest on a translating and on a
 /// rotating plate.
 fn disks(trans: &PlateMotion, rot: &PlateMotion, dt: f64) {
-    let one = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap();
     let (n, steps) = (2000, 2000);
-    let position: Vec<[f64; 2]> = (0..n)
-        .map(|i| {
-            let a = i as f64 * 0.618_033_988_75;
-            [
-                0.1 * (a.fract() * 2.0 - 1.0),
-                0.1 * ((a * 7.0).fract() * 2.0 - 1.0),
-            ]
-        })
-        .collect();
+    let (one, position) = (one_thread(), spread(n));
     let mut parts = Parts::points(position, vec![[0.0; 2]; n], vec![0.3; n], vec![0.3; n]);
     parts.radius = vec![0.005; n];
     let cfg = Config {

@@ -8,7 +8,7 @@ use crate::buffer::{recycle, scratch};
 
 use super::kernel::{self, Lanes, NEVER};
 use super::record::Rec;
-use super::{half_side, off_plate, Config, PartsView};
+use super::{half_side, moves_with_plate, off_plate, Config, PartsView};
 
 /// Parts per chunk, the unit of work of a thread (a multiple of every SIMD tile).
 pub const CHUNK_PARTS: usize = 256;
@@ -80,11 +80,10 @@ impl Points {
             }
         }
         // A part that starts moving with the plate surface starts stuck.
-        let [u1, u2, u3] = u0;
         p.stuck
             .extend(p.x.iter().zip(&p.y).zip(p.vx.iter().zip(&p.vy)).map(
                 |((&x, &y), (&vx, &vy))| {
-                    f64::from(u8::from((vx == u1 - u3 * y) & (vy == u2 + u3 * x)))
+                    f64::from(u8::from(moves_with_plate([x, y], [vx, vy], u0)))
                 },
             ));
         if half.is_finite() {
