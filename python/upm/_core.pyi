@@ -18,6 +18,7 @@ __all__ = [
     "bang_bang_velocity_range",
     "center_of_rotation",
     "cor_from_accelerometers",
+    "corner_excursions",
     "coverage_centroids",
     "flow_error",
     "force_table",
@@ -183,6 +184,9 @@ def harmonic_fit(
 ) -> tuple[_F, float, float]: ...
 def velocity_from_fit(coefficients: _F, frequency: float, multiples: list[float]) -> _F: ...
 def positive_force(coefficients: _F) -> NDArray[np.bool_]: ...
+def corner_excursions(
+    w_re: _F, w_im: _F, g_re: _F, g_im: _F, samples: int, corners: _F
+) -> NDArray[np.float64]: ...
 def cor_from_accelerometers(
     first: _F,
     second: _F,

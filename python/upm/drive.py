@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import _core
 from ._arrays import as_float, real
 from ._errors import ParameterError, ShapeError
 from .actuation import Axis, Plate
@@ -65,10 +66,10 @@ def envelope(t: FloatArray, attack: float, sustain: float, decay: float) -> Floa
 @functools.lru_cache(maxsize=256)
 def _unit_response(
     limits: DriveLimits, frequency: float, attack: float, sustain: float, decay: float, samples: int
-) -> NDArray[np.complex128]:
-    """Pose of each axis ``(harmonic, T, axis)`` under a unit complex wrench phasor of each
-    harmonic, enveloped, from rest (:meth:`DriveLimits.respond`; the real part of a phasor times
-    it is the response to that phasor, by linearity)."""
+) -> tuple[FloatArray, FloatArray]:
+    """Pose of each axis under a unit complex wrench phasor of each harmonic, enveloped, from
+    rest (:meth:`DriveLimits.respond`; the real part of a phasor times it is the response to that
+    phasor, by linearity): real and imaginary parts, each ``(harmonic, axis, T)`` flattened."""
     from .pulses import HARMONICS
 
     on = attack + sustain + decay
@@ -84,7 +85,9 @@ def _unit_response(
         _, _, pose, _ = limits.respond(wrench, dt)
         # Re(F z) = Re F Re z - Im F Im z: the response to F z is Re(F (pose_re - i pose_im))
         out[j] = pose[0] - 1j * pose[1]
-    return out
+    # as the extension reads it: (harmonic, axis, T), real and imaginary parts apart
+    flat = np.ascontiguousarray(out.transpose(0, 2, 1)).reshape(-1)
+    return np.ascontiguousarray(flat.real), np.ascontiguousarray(flat.imag)
 
 
 class StrokeError(ParameterError):
@@ -306,18 +309,16 @@ class DriveLimits:
         groups: dict[tuple[float, float, float, float], list[int]] = {}
         for i in range(k):
             groups.setdefault((float(f[i]), float(a[i]), float(s_[i]), float(d[i])), []).append(i)
-        kx, ky = self.corners[:, 0], self.corners[:, 1]
         for key, members in groups.items():
             idx = np.array(members)
             wrench = v[idx] / self.responses(key[0])[None]  # (n, harmonic, axis) wrench phasors
             # each motor's peak: its harmonics' amplitudes summed (minimum-norm sharing, 5.8)
             force[idx] = np.abs(wrench @ share.T).sum(axis=1).max(axis=1)
-            g = _unit_response(self, *key, samples)  # (harmonic, T, axis), complex
-            pose = np.real(np.einsum("nha,hta->nta", wrench, g))
-            c, sn = np.cos(pose[..., 2])[..., None], np.sin(pose[..., 2])[..., None]
-            dx = c * kx - sn * ky + pose[..., :1] - kx
-            dy = sn * kx + c * ky + pose[..., 1:2] - ky
-            excursion[idx] = np.sqrt(np.max(dx**2 + dy**2, axis=(1, 2)))
+            g_re, g_im = _unit_response(self, *key, samples)  # (harmonic, axis, T)
+            w = np.ascontiguousarray(wrench).reshape(-1)
+            excursion[idx] = _core.corner_excursions(
+                np.ascontiguousarray(w.real), np.ascontiguousarray(w.imag), g_re, g_im, samples, self.corners
+            )
         return force, excursion
 
     def _reach_of(self, pulse: Pulse) -> tuple[float, float]:

@@ -20,6 +20,7 @@
 //! * [`mchip`]: the M-Chip resonator array of chapter 2 (rapier3d).
 //! * [`solve`]: the sequencing-rotations and displacement-field solvers (SVD, bounded, ordered).
 //! * [`parallel`]: deterministic batches on rayon.
+//! * [`stroke`]: the largest plate-corner excursion of many pulses at once.
 #![deny(missing_docs)]
 
 pub mod actuation;
@@ -36,6 +37,7 @@ pub(crate) mod quadrature;
 pub(crate) mod roots;
 pub mod sim;
 pub mod solve;
+pub mod stroke;
 pub mod theory;
 pub mod waveform;
 

@@ -71,6 +71,20 @@ impl Envelope {
         self.attack + self.sustain + self.decay
     }
 
+    /// `e(t)` alone (one cosine on the ramps, none on the hold).
+    #[inline]
+    fn value(&self, t: f64) -> f64 {
+        if t < 0.0 || t > self.duration() {
+            0.0
+        } else if t < self.attack {
+            0.5 - 0.5 * (PI * t / self.attack).cos()
+        } else if t <= self.attack + self.sustain {
+            1.0
+        } else {
+            0.5 - 0.5 * (PI * (self.duration() - t) / self.decay).cos()
+        }
+    }
+
     /// `(e(t), e'(t))`.
     fn at(&self, t: f64) -> (f64, f64) {
         let ramp = |s: f64, len: f64| {
@@ -179,6 +193,38 @@ impl Segment {
                 }
                 (v, a)
             }
+        }
+    }
+
+    /// `u` alone at local time `t` [s]: the first half of [`Segment::at`] with fewer
+    /// trigonometric evaluations (a jet's `cos 2wt` from `sin_cos(wt)`).
+    #[inline]
+    fn velocity(&self, t: f64) -> [f64; 3] {
+        match self {
+            Segment::Translation { direction: d, wave } => {
+                let v = wave.velocity(t);
+                [d[0] * v, d[1] * v, 0.0]
+            }
+            Segment::Rotation { center: c, wave } => {
+                let w = wave.velocity(t);
+                [w * c[1], -w * c[0], w]
+            }
+            Segment::Jet {
+                center: c,
+                direction: d,
+                rho,
+                amplitude,
+                omega,
+            } => {
+                let x = omega * t;
+                let (s1, c1) = x.sin_cos();
+                let g = c1 - (c1 - s1) * (c1 + s1); // cos(w t) - cos(2 w t)
+                let w = 2.0 * amplitude / rho * (2.0 * x / 3.0).sin();
+                let (tx, ty) = (amplitude * d[0], amplitude * d[1]);
+                [tx * g + w * c[1], ty * g - w * c[0], w]
+            }
+            Segment::Rest => [0.0; 3],
+            Segment::Samples { .. } => self.at(t).0,
         }
     }
 
@@ -421,7 +467,46 @@ impl PlateMotion {
 
     /// Plate velocity `(u1, u2, u3)` at time `t`.
     pub fn velocity(&self, t: f64) -> [f64; 3] {
-        self.at(t).0
+        let i = self.starts.partition_point(|&s| s <= t).saturating_sub(1);
+        self.velocity_in(i, t)
+    }
+
+    /// The velocity at `t` [s] of item `i` (zero outside it or before the program starts).
+    #[inline]
+    fn velocity_in(&self, i: usize, t: f64) -> [f64; 3] {
+        let item = &self.items[i];
+        let local = t - self.starts[i];
+        if t < 0.0 || item.duration.is_some_and(|d| local >= d) {
+            return [0.0; 3];
+        }
+        let u = item.segment.velocity(local);
+        match item.envelope {
+            None => u,
+            Some(env) => {
+                let e = env.value(local);
+                u.map(|x| e * x)
+            }
+        }
+    }
+
+    /// Appends the velocity at `t_s = (s + 1 - 1e-6) dt` for every step `s` in `steps` to `out`:
+    /// [`PlateMotion::velocity`] at each, the item found once for the whole run of steps (the
+    /// simulator's table of a block of steps; the sample a hair before each step's end puts a
+    /// program boundary on a step end in the step before it, whatever the rounding).
+    pub fn velocities_into(&self, steps: std::ops::Range<usize>, dt: f64, out: &mut Vec<[f64; 3]>) {
+        let t_of = |s: usize| ((s + 1) as f64 - 1e-6) * dt;
+        let mut i = self
+            .starts
+            .partition_point(|&s| s <= t_of(steps.start))
+            .saturating_sub(1);
+        out.reserve(steps.len());
+        for s in steps {
+            let t = t_of(s);
+            while i + 1 < self.starts.len() && self.starts[i + 1] <= t {
+                i += 1;
+            }
+            out.push(self.velocity_in(i, t));
+        }
     }
 
     /// Start time of each item [s].

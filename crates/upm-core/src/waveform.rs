@@ -103,6 +103,21 @@ impl Harmonics {
             .sum()
     }
 
+    /// `v / scale` at phase `x` (the first entry of [`Harmonics::derivs`], computed alike).
+    #[inline]
+    fn value(&self, x: f64) -> f64 {
+        let (s1, c1) = x.sin_cos();
+        let (mut s, mut c) = (s1, c1);
+        let mut v = 0.0;
+        for (a, b) in self.cos.iter().zip(&self.sin) {
+            v += a * c + b * s;
+            let cn = c * c1 - s * s1;
+            s = s * c1 + c * s1;
+            c = cn;
+        }
+        v
+    }
+
     /// `[v, v', v'', v''', v''''] / scale` (derivatives in the phase `x`) at phase `x`.
     #[inline]
     fn derivs(&self, x: f64) -> [f64; 5] {
@@ -240,7 +255,7 @@ impl Waveform {
     /// Velocity [m/s] at time `t` [s].
     pub fn velocity(&self, t: f64) -> f64 {
         match self {
-            Waveform::Harmonics(h) => h.scale * h.derivs(TAU * h.frequency * t)[0],
+            Waveform::Harmonics(h) => h.scale * h.value(TAU * h.frequency * t),
             Waveform::BangBang(b) => b.at(t.rem_euclid(b.period)).0,
         }
     }

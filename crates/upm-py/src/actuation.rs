@@ -4,9 +4,10 @@
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use upm_core::actuation::{self as act, Axis, Plate};
+use upm_core::stroke;
 
 use crate::errors::{core, detached, shape_error, Failure};
-use crate::pairs;
+use crate::{pair_view, pairs, view};
 
 fn plate(py: Python<'_>, mass: f64, inertia: f64, lever: f64) -> PyResult<Plate> {
     core(py, Plate::new(mass, inertia, lever))
@@ -154,4 +155,30 @@ pub fn cor_from_accelerometers<'py>(
             .map_err(Failure::from)
     })?;
     Ok((rot.center, PyArray1::from_vec(py, rot.omega), rot.residual))
+}
+
+/// Largest corner excursion [m] of each pulse: wrench phasors `w_re`, `w_im` (`n * 9`, pulse,
+/// harmonic, axis), unit responses `g_re`, `g_im` (`9 * samples`, harmonic, axis, sample) and the
+/// plate's `corners (K, 2)` (see `upm_core::stroke`).
+#[pyfunction]
+pub fn corner_excursions<'py>(
+    py: Python<'py>,
+    w_re: PyReadonlyArray1<'py, f64>,
+    w_im: PyReadonlyArray1<'py, f64>,
+    g_re: PyReadonlyArray1<'py, f64>,
+    g_im: PyReadonlyArray1<'py, f64>,
+    samples: usize,
+    corners: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let k = pair_view(py, "corners", &corners)?;
+    let (wr, wi, gr, gi) = (view(&w_re), view(&w_im), view(&g_re), view(&g_im));
+    let g = stroke::Responses {
+        re: &gr,
+        im: &gi,
+        samples,
+    };
+    let out = detached(py, || {
+        stroke::corner_excursions(&wr, &wi, &g, &k).map_err(Failure::from)
+    })?;
+    Ok(PyArray1::from_vec(py, out))
 }

@@ -43,6 +43,8 @@ __all__ = ["PredictivePlanner"]
 
 FloatArray = NDArray[np.float64]
 
+G = 9.81  # the simulator's gravity [m/s^2]
+
 
 class _CostTask(Protocol):
     def cost(self, state: Any, positions: FloatArray | None = None, elapsed: Any = 0.0) -> Any: ...
@@ -224,19 +226,32 @@ class PredictivePlanner:
         for k, (p, m) in enumerate(zip(pulses, motions, strict=True)):
             groups.setdefault((round(p.on_time, 6), m.max_frequency), []).append(k)
         for (on, top), members in groups.items():
+            dt = 1.0 / ((2 if fine else 1) * self.dt_factor * top)
+            if not extra:
+                # points: simulated while the plate moves, then each slides to a stop on the
+                # resting plate in closed form (a constant deceleration mu g along its velocity,
+                # which the integrator's step reproduces exactly)
+                run = simulate_batch(
+                    [motions[k] for k in members], parts, duration=on, dt=dt, mu=mu_v, mu_s=mu_s,
+                    record_every=2**40,
+                )  # fmt: skip
+                v = run.velocities[:, -1]
+                speed = np.hypot(v[..., 0], v[..., 1])
+                decel = np.broadcast_to(np.asarray(mu_v, dtype=float), speed.shape[-1:]) * G
+                final[members] = run.positions[:, -1] + v * (speed / (2 * decel))[..., None]
+                durations[members] = on + np.max(speed / decel, axis=1, initial=0.0)
+                continue
             horizon = on + self._coast([pulses[k] for k in members])
             seq = [
                 PlateMotion.sequence([motions[k], PlateMotion.rest(horizon - pulses[k].on_time + 1e-3)])
                 for k in members
             ]
-            dt = 1.0 / ((2 if fine else 1) * self.dt_factor * top)
             every = max(1, round(0.01 / dt))
             run = simulate_batch(
                 seq, parts, duration=horizon, dt=dt, mu=mu_v, mu_s=mu_s, record_every=every, **extra
             )
             out = run.positions[:, -1].copy()
-            if extra:
-                out[np.asarray(run.left_plate)] = np.nan
+            out[np.asarray(run.left_plate)] = np.nan
             final[members] = out
             # stopped: every part stuck from then on, after the pulse's end
             moving: NDArray[np.bool_] = np.asarray(~np.all(run.stuck, axis=2))  # (K, T)

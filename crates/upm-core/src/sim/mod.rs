@@ -447,12 +447,8 @@ where
         let end = (first + block).min(steps);
         worlds.par_iter_mut().for_each(|w| {
             w.table.clear();
-            // Sampled a hair before each step's end: a program boundary that falls on a step end
-            // (the usual case: durations in whole steps) then always belongs to the step before
-            // it, whatever the rounding of (s + 1) dt.
-            let motion = w.motion;
-            w.table
-                .extend((first..end).map(|s| motion.velocity(((s + 1) as f64 - 1e-6) * cfg.dt)));
+            // Sampled a hair before each step's end (see `velocities_into`).
+            w.motion.velocities_into(first..end, cfg.dt, &mut w.table);
             let (table, rec) = (&w.table, &w.rec);
             let (points, disks, contact) = (&mut w.points, &mut w.disks, &mut w.contact);
             rayon::join(

@@ -66,39 +66,47 @@ pub(super) unsafe fn run<const EDGE: bool>(
     let n = s.x.len();
     let mut start = 0;
     while start < n {
-        tile::<EDGE>(table, first, dt, half, s, start);
-        start += 4 * TILE;
+        // the last parts in the narrowest tile that holds them (a world of a few parts does
+        // not pay for a full tile)
+        let vectors = (n - start).div_ceil(4);
+        start += 4 * match vectors {
+            1 => tile::<EDGE, 1>(table, first, dt, half, s, start),
+            2 => tile::<EDGE, 2>(table, first, dt, half, s, start),
+            3 | 4 => tile::<EDGE, 4>(table, first, dt, half, s, start),
+            _ => tile::<EDGE, TILE>(table, first, dt, half, s, start),
+        };
     }
 }
 
-/// One tile: the parts `start .. start + 4 TILE` (fewer at the end) through every step of `table`.
+/// One tile of `T` vectors: the parts `start .. start + 4 T` (fewer at the end) through every
+/// step of `table`; returns `T`.
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-unsafe fn tile<const EDGE: bool>(
+unsafe fn tile<const EDGE: bool, const T: usize>(
     table: &[[f64; 3]],
     first: usize,
     dt: f64,
     half: f64,
     s: &mut Lanes,
     start: usize,
-) {
+) -> usize {
     let n = s.x.len();
     let zero = _mm256_setzero_pd();
     let one = _mm256_set1_pd(1.0);
     let hdt = _mm256_set1_pd(0.5 * dt);
     let halfv = _mm256_set1_pd(half);
     let abs = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
-    let mut live = [_mm256_setzero_si256(); TILE];
+    let mut live = [_mm256_setzero_si256(); T];
     for (j, l) in live.iter_mut().enumerate() {
         let lo = start + 4 * j;
         let k = n.saturating_sub(lo).min(4) as i64;
         *l = _mm256_cmpgt_epi64(_mm256_set1_epi64x(k), _mm256_set_epi64x(3, 2, 1, 0));
     }
     let at = |j: usize| start + 4 * j;
-    let (mut x, mut y, mut vx, mut vy) = ([zero; TILE], [zero; TILE], [zero; TILE], [zero; TILE]);
-    let (mut slide, mut s2, mut h2) = ([zero; TILE], [zero; TILE], [zero; TILE]);
-    let (mut stuck, mut act) = ([zero; TILE], [zero; TILE]);
-    for j in 0..TILE {
+    let (mut x, mut y, mut vx, mut vy) = ([zero; T], [zero; T], [zero; T], [zero; T]);
+    let (mut slide, mut s2, mut h2) = ([zero; T], [zero; T], [zero; T]);
+    let (mut stuck, mut act) = ([zero; T], [zero; T]);
+    for j in 0..T {
         let k = live[j];
         x[j] = _mm256_maskload_pd(s.x.as_ptr().add(at(j)), k);
         y[j] = _mm256_maskload_pd(s.y.as_ptr().add(at(j)), k);
@@ -119,7 +127,7 @@ unsafe fn tile<const EDGE: bool>(
     }
     for (k, &[u1, u2, u3]) in table.iter().enumerate() {
         let (u1, u2, u3) = (_mm256_set1_pd(u1), _mm256_set1_pd(u2), _mm256_set1_pd(u3));
-        for j in 0..TILE {
+        for j in 0..T {
             let sx = _mm256_fnmadd_pd(u3, y[j], u1);
             let sy = _mm256_fmadd_pd(u3, x[j], u2);
             let (wx, wy) = (_mm256_sub_pd(vx[j], sx), _mm256_sub_pd(vy[j], sy));
@@ -162,7 +170,7 @@ unsafe fn tile<const EDGE: bool>(
             }
         }
     }
-    for j in 0..TILE {
+    for j in 0..T {
         let k = live[j];
         _mm256_maskstore_pd(s.x.as_mut_ptr().add(at(j)), k, x[j]);
         _mm256_maskstore_pd(s.y.as_mut_ptr().add(at(j)), k, y[j]);
@@ -178,4 +186,5 @@ unsafe fn tile<const EDGE: bool>(
             _mm256_maskstore_pd(s.active.as_mut_ptr().add(at(j)), k, a);
         }
     }
+    T
 }

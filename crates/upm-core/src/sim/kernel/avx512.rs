@@ -59,37 +59,45 @@ pub(super) unsafe fn run<const EDGE: bool>(
     let n = s.x.len();
     let mut start = 0;
     while start < n {
-        tile::<EDGE>(table, first, dt, half, s, start);
-        start += 8 * TILE;
+        // the last parts in the narrowest tile that holds them (a world of a few parts does
+        // not pay for a full tile)
+        let vectors = (n - start).div_ceil(8);
+        start += 8 * match vectors {
+            1 => tile::<EDGE, 1>(table, first, dt, half, s, start),
+            2 => tile::<EDGE, 2>(table, first, dt, half, s, start),
+            3 | 4 => tile::<EDGE, 4>(table, first, dt, half, s, start),
+            _ => tile::<EDGE, TILE>(table, first, dt, half, s, start),
+        };
     }
 }
 
-/// One tile: the parts `start .. start + 8 TILE` (fewer at the end) through every step of `table`.
+/// One tile of `T` vectors: the parts `start .. start + 8 T` (fewer at the end) through every
+/// step of `table`; returns `T`.
 #[target_feature(enable = "avx512f")]
 #[inline]
-unsafe fn tile<const EDGE: bool>(
+unsafe fn tile<const EDGE: bool, const T: usize>(
     table: &[[f64; 3]],
     first: usize,
     dt: f64,
     half: f64,
     s: &mut Lanes,
     start: usize,
-) {
+) -> usize {
     let n = s.x.len();
     let zero = _mm512_setzero_pd();
     let one = _mm512_set1_pd(1.0);
     let hdt = _mm512_set1_pd(0.5 * dt);
     let halfv = _mm512_set1_pd(half);
-    let mut live = [0 as __mmask8; TILE];
+    let mut live = [0 as __mmask8; T];
     for (j, l) in live.iter_mut().enumerate() {
         let lo = start + 8 * j;
         *l = if lo < n { first_lanes(n - lo) } else { 0 };
     }
     let at = |j: usize| start + 8 * j;
-    let (mut x, mut y, mut vx, mut vy) = ([zero; TILE], [zero; TILE], [zero; TILE], [zero; TILE]);
-    let (mut slide, mut s2, mut h2) = ([zero; TILE], [zero; TILE], [zero; TILE]);
-    let (mut stuck, mut act) = ([0 as __mmask8; TILE], [0 as __mmask8; TILE]);
-    for j in 0..TILE {
+    let (mut x, mut y, mut vx, mut vy) = ([zero; T], [zero; T], [zero; T], [zero; T]);
+    let (mut slide, mut s2, mut h2) = ([zero; T], [zero; T], [zero; T]);
+    let (mut stuck, mut act) = ([0 as __mmask8; T], [0 as __mmask8; T]);
+    for j in 0..T {
         let k = live[j];
         x[j] = _mm512_maskz_loadu_pd(k, s.x.as_ptr().add(at(j)));
         y[j] = _mm512_maskz_loadu_pd(k, s.y.as_ptr().add(at(j)));
@@ -110,7 +118,7 @@ unsafe fn tile<const EDGE: bool>(
     }
     for (k, &[u1, u2, u3]) in table.iter().enumerate() {
         let (u1, u2, u3) = (_mm512_set1_pd(u1), _mm512_set1_pd(u2), _mm512_set1_pd(u3));
-        for j in 0..TILE {
+        for j in 0..T {
             let sx = _mm512_fnmadd_pd(u3, y[j], u1);
             let sy = _mm512_fmadd_pd(u3, x[j], u2);
             let (wx, wy) = (_mm512_sub_pd(vx[j], sx), _mm512_sub_pd(vy[j], sy));
@@ -148,7 +156,7 @@ unsafe fn tile<const EDGE: bool>(
             }
         }
     }
-    for j in 0..TILE {
+    for j in 0..T {
         let k = live[j];
         _mm512_mask_storeu_pd(s.x.as_mut_ptr().add(at(j)), k, x[j]);
         _mm512_mask_storeu_pd(s.y.as_mut_ptr().add(at(j)), k, y[j]);
@@ -161,4 +169,5 @@ unsafe fn tile<const EDGE: bool>(
             _mm512_mask_storeu_pd(s.active.as_mut_ptr().add(at(j)), k, a);
         }
     }
+    T
 }
