@@ -40,6 +40,26 @@ fn turn(theta: f64) -> (f64, f64) {
     (cm1, s)
 }
 
+/// Samples in flight at once in the series path.
+const LANES: usize = 8;
+
+/// Largest squared distance of a corner from home when the plate is at `(x, y)`, turned by
+/// `theta` (`cm1 = cos theta - 1`, `sn = sin theta`).
+#[inline(always)]
+fn corner_max(cm1: f64, sn: f64, x: f64, y: f64, corners: &[[f64; 2]]) -> f64 {
+    let mut best = 0.0f64;
+    for &[kx, ky] in corners {
+        let dx = cm1 * kx - sn * ky + x;
+        let dy = sn * kx + cm1 * ky + y;
+        let d2 = dx * dx + dy * dy;
+        best = if d2 > best { d2 } else { best };
+    }
+    best
+}
+
+/// Samples per block of the pose, formed axis by axis over contiguous samples (vectorised).
+const BLOCK: usize = 256;
+
 /// Largest squared corner distance of one pulse whose wrench phasors are `(wr, wi)` (`[h][a]`),
 /// and the largest `|theta|` met.
 fn farthest(
@@ -51,28 +71,52 @@ fn farthest(
 ) -> (f64, f64) {
     let t = g.samples;
     let (mut best, mut widest) = (0.0f64, 0.0f64);
-    let at = |h: usize, a: usize| (h * A + a) * t;
-    for s in 0..t {
-        let mut pose = [0.0; A];
+    let mut pose = [[0.0; BLOCK]; A];
+    let mut start = 0;
+    while start < t {
+        let len = BLOCK.min(t - start);
         for (a, p) in pose.iter_mut().enumerate() {
+            let p = &mut p[..len];
+            p.fill(0.0);
             for h in 0..H {
-                let k = at(h, a) + s;
-                *p += wr[h * A + a] * g.re[k] - wi[h * A + a] * g.im[k];
+                let k = (h * A + a) * t + start;
+                let (re, im) = (&g.re[k..k + len], &g.im[k..k + len]);
+                let (cr, ci) = (wr[h * A + a], wi[h * A + a]);
+                for ((v, r), i) in p.iter_mut().zip(re).zip(im) {
+                    *v += cr * r - ci * i;
+                }
             }
         }
-        let [x, y, theta] = pose;
-        widest = widest.max(theta.abs());
-        let (cm1, sn) = if exact {
-            let (sn, c) = theta.sin_cos();
-            (c - 1.0, sn)
+        let [x, y, theta] = &pose;
+        if exact {
+            for s in 0..len {
+                widest = widest.max(theta[s].abs());
+                let (sn, c) = theta[s].sin_cos();
+                best = best.max(corner_max(c - 1.0, sn, x[s], y[s], corners));
+            }
         } else {
-            turn(theta)
-        };
-        for &[kx, ky] in corners {
-            let dx = cm1 * kx - sn * ky + x;
-            let dy = sn * kx + cm1 * ky + y;
-            best = best.max(dx * dx + dy * dy);
+            // in lanes, so that the series and the corners vectorise
+            let mut far = [0.0f64; LANES];
+            let mut wide = [0.0f64; LANES];
+            let whole = len / LANES * LANES;
+            for s0 in (0..whole).step_by(LANES) {
+                for l in 0..LANES {
+                    let s = s0 + l;
+                    let (cm1, sn) = turn(theta[s]);
+                    let (w, f) = (theta[s].abs(), corner_max(cm1, sn, x[s], y[s], corners));
+                    wide[l] = if w > wide[l] { w } else { wide[l] };
+                    far[l] = if f > far[l] { f } else { far[l] };
+                }
+            }
+            for s in whole..len {
+                let (cm1, sn) = turn(theta[s]);
+                widest = widest.max(theta[s].abs());
+                best = best.max(corner_max(cm1, sn, x[s], y[s], corners));
+            }
+            best = far.iter().fold(best, |m, &v| m.max(v));
+            widest = wide.iter().fold(widest, |m, &v| m.max(v));
         }
+        start += len;
     }
     (best, widest)
 }
