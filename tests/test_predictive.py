@@ -245,3 +245,24 @@ def test_the_planner_learns_a_lower_friction() -> None:
         device.execute(planner.plan_task(state, task))
     planner.plan_task(State(4, 0.0, np.arange(2), plant.parts.copy(), ("a", "b"), 0.0), task)
     assert planner.mu_estimate < 0.26
+
+
+def test_the_end_of_a_sort_does_not_stall_against_the_edge() -> None:
+    # a layout where a sort stalled (seed 1 of bench/control.py sort8): two reds still to go left,
+    # two sorted reds on the edge band's border and the blues just past their target, so every
+    # pulse that moves a red nudges the others; a steep edge penalty then refused every pulse
+    at = np.array([[114.7, -133.6], [148.9, -39.2], [111.8, 79.9], [111.3, -50.4],
+                   [-81.9, 61.8], [-43.2, -74.7], [-168.1, 21.6], [-168.0, -53.7]]) / 1000  # fmt: skip
+    labels = ("blue",) * 4 + ("red",) * 4
+    task = control.SortTask({"red": -1, "blue": 1}, margin=0.08, spacing=0.046, max_step=0.025)
+    limits = SimulatedUPM().limits
+    state = _state(at.tolist(), labels)
+    chosen = PredictivePlanner(limits, mu=0.3, part_radius=CHIP).plan_task(state, task)
+    assert len(chosen) == 1
+    steep = PredictivePlanner(limits, mu=0.3, part_radius=CHIP, edge_weight=3.0, lookahead=None)
+    assert steep.plan_task(state, task) == []
+    # what the chosen pulse does: the cost falls, and no part is predicted off the plate
+    planner = PredictivePlanner(limits, mu=0.3, part_radius=CHIP)
+    final, _ = planner.predict(chosen, at, disks=True, fine=True)
+    assert np.all(np.isfinite(final)) and np.all(np.abs(final) < limits.size / 2)
+    assert task.cost(state, final[0]) < task.cost(state) - 1e-3

@@ -197,10 +197,15 @@ def generate(
     for i, (kind, _, c, d, rho, f, t) in enumerate(specs):
         # shapes at a part are sized at its position rounded to 5 mm (their reach changes by well
         # under 2 % over that), so they too are mostly found in the cache from cycle to cycle
-        at = np.round(c, 9) if fixed[i] else np.round(c / 0.005) * 0.005
-        key = (kind, *at, *np.round(d, 9), rho, f, t)
+        cx, cy = float(c[0]), float(c[1])
+        at = (
+            (round(cx, 9), round(cy, 9))
+            if fixed[i]
+            else (round(cx / 0.005) * 0.005, round(cy / 0.005) * 0.005)
+        )
+        key = (kind, *at, round(float(d[0]), 9), round(float(d[1]), 9), rho, f, t)
         keys.append(key)
-        sized_at.append(at)
+        sized_at.append(np.array(at))
         if cache is not None and key in cache:
             force[i], reach[i] = cache[key]
     todo = np.nonzero(np.isnan(force))[0]

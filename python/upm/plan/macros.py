@@ -15,6 +15,7 @@ parts would end); it is rebuilt when the planner's friction estimate moves by mo
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import replace
 
@@ -22,22 +23,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..drive import DriveLimits
-from ..motion import PlateMotion
 from ..pulses import Pulse
 from ..sim import simulate_batch
 from .candidates import Candidates, generate
-from .sizing import scaled
+from .sizing import scaled, slide_to_rest
 
 __all__ = ["MacroTable"]
 
 FloatArray = NDArray[np.float64]
-
-
-def _stopped(t: FloatArray, stuck: NDArray[np.bool_], on: float) -> float:
-    """When the last part stopped after the pulse's end (``stuck`` (T, M) at times ``t``)."""
-    moving = ~np.all(stuck, axis=1) & (t >= on - 1e-9)
-    late = np.nonzero(moving)[0]
-    return float(t[late[-1]] + (t[1] - t[0])) if len(late) else on
 
 
 class MacroTable:
@@ -93,6 +86,7 @@ class MacroTable:
         self.rotations = [p for p in self.pulses if p.kind == "rotation"]
         self.translations = [p for p in self.pulses if p.kind == "translation"]
         self.radii = np.concatenate([[0.0], np.geomspace(0.003, 1.2 * limits.size, 47)])
+        self._playable: dict[float, Candidates] = {}  # by the share of the stroke left
         self._build()
 
     def _build(self) -> None:
@@ -100,25 +94,22 @@ class MacroTable:
         only on where the part is from its centre (the plate's velocity there is
         ``w R90(P - C)``), so every rotation is played about the origin on one ray of parts, and
         the translations on the same ray (they move every part alike)."""
-        coast = 1.05 * self.on_time * self.static + 0.02
         about_origin = [replace(p, center=(0.0, 0.0)) if p.kind == "rotation" else p for p in self.pulses]
-        motions = [
-            PlateMotion.sequence([p.motion(rest=False), PlateMotion.rest(coast)]) for p in about_origin
-        ]
+        motions = [p.motion(rest=False) for p in about_origin]
         ray = np.stack([self.radii, np.zeros(len(self.radii))], 1)
         dt = 1.0 / (40.0 * max(m.max_frequency for m in motions))
-        duration = self.on_time + coast
-        run = simulate_batch(motions, ray, duration=duration, dt=dt, mu=self.mu, mu_s=self.mu * self.static,
-                             record_every=max(1, round(0.01 / dt)))  # fmt: skip
-        moved = run.positions[:, -1] - ray[None]
+        # simulated while the plate moves; the parts then slide to rest in closed form
+        run = simulate_batch(motions, ray, duration=self.on_time, dt=dt, mu=self.mu,
+                             mu_s=self.mu * self.static, record_every=2**40)  # fmt: skip
+        final, stop = slide_to_rest(run.positions[:, -1], run.velocities[:, -1], self.mu)
+        moved = final - ray[None]
         n_rot = len(self.rotations)
         self.turn = moved[:n_rot]  # displacement of a part at (r, 0) from the centre
         self.shift = moved[n_rot:, 0]
         inside = self.radii <= 0.75 * self.limits.size  # parts that can be on the plate
-        self.durations = np.array(
-            [_stopped(run.t, run.stuck[k][:, inside] if k < n_rot else run.stuck[k][:, :1], self.on_time)
-             for k in range(len(self.pulses))]
-        )  # fmt: skip
+        self.durations = self.on_time + np.concatenate(
+            [np.max(stop[:n_rot, inside], axis=1, initial=0.0), stop[n_rot:, 0]]
+        )
         self.centres = np.array([p.center for p in self.rotations]).reshape(-1, 2)
 
     def playable(self, carried: float = 0.0) -> Candidates:
@@ -127,13 +118,19 @@ class MacroTable:
         room = min(1.0, max(self.limits.stroke - carried, 0.0) / self.limits.stroke)
         if room >= 1.0:
             return self.sized
+        room = math.floor(room * 80) / 80  # down to 1/80 of the stroke: the sets recur
+        hit = self._playable.get(room)
+        if hit is not None:
+            return hit
         pulses = [
             replace(p, amplitude=p.amplitude * room)
             if p.kind == "jet"
             else replace(p, waveform=scaled(p.waveform, room))  # type: ignore[arg-type]
             for p in self.pulses
         ]
-        return Candidates(pulses, self.sized.family, self.sized.force * room, self.sized.excursion * room)
+        out = Candidates(pulses, self.sized.family, self.sized.force * room, self.sized.excursion * room)
+        self._playable[room] = out
+        return out
 
     def refresh(self, mu: float) -> None:
         """Rebuild for a new friction estimate when it moved by more than 5 %."""
@@ -149,12 +146,21 @@ class MacroTable:
         r = np.hypot(rel[..., 0], rel[..., 1])
         cos = np.where(r > 0, rel[..., 0] / np.where(r > 0, r, 1.0), 1.0)
         sin = np.where(r > 0, rel[..., 1] / np.where(r > 0, r, 1.0), 0.0)
-        dx = np.stack(
-            [np.interp(r[..., k, :], self.radii, self.turn[k, :, 0]) for k in range(len(self.centres))], -2
-        )
-        dy = np.stack(
-            [np.interp(r[..., k, :], self.radii, self.turn[k, :, 1]) for k in range(len(self.centres))], -2
-        )
+        # linear interpolation in each macro's table (the radii: 0, then geometric): the interval
+        # from the logarithm, one gather for every macro at once
+        ratio = self.radii[2] / self.radii[1]
+        n = len(self.radii)
+        with np.errstate(divide="ignore"):
+            j = np.floor(np.log(np.maximum(r, 1e-300) / self.radii[1]) / np.log(ratio)).astype(np.int64) + 1
+        j = np.clip(j, 0, n - 2)
+        # the logarithm may land one interval off at a boundary
+        j = np.where(self.radii[j] > r, np.maximum(j - 1, 0), j)
+        j = np.where(self.radii[np.minimum(j + 1, n - 1)] < r, np.minimum(j + 1, n - 2), j)
+        lo, hi = self.radii[j], self.radii[j + 1]
+        w = np.clip((r - lo) / (hi - lo), 0.0, 1.0)[..., None]
+        k = np.arange(len(self.centres))[:, None]
+        d = self.turn[k, j] * (1.0 - w) + self.turn[k, j + 1] * w  # (..., R, M, 2)
+        dx, dy = d[..., 0], d[..., 1]
         turned = np.stack([cos * dx - sin * dy, sin * dx + cos * dy], axis=-1)
         rotated = q[..., None, :, :] + turned
         shifted = q[..., None, :, :] + self.shift[:, None, :]

@@ -38,12 +38,11 @@ from ..sim import Disk, simulate_batch
 from .candidates import Candidates, generate
 from .macros import MacroTable
 from .sizing import positive as _positive
+from .sizing import slide_to_rest
 
 __all__ = ["PredictivePlanner"]
 
 FloatArray = NDArray[np.float64]
-
-G = 9.81  # the simulator's gravity [m/s^2]
 
 
 class _CostTask(Protocol):
@@ -110,6 +109,11 @@ class PredictivePlanner:
     edge : float
         Parts predicted closer than this to a plate edge [m] are penalised; beyond the edge, a
         part counts as lost (``lost_cost`` [m of task cost]).
+    edge_weight : float
+        The penalty per metre a part is predicted inside that band [m of cost per m]; the band's
+        outer half counts five times more. A low weight lets a pulse nudge parts already near an
+        edge a little further when it moves others a lot (a steep one stalls the end of a sort
+        whose sorted parts lie along the edge).
     min_gain : float
         No pulse when the best predicted cost decrease is below this [m].
     adapt : bool
@@ -135,6 +139,7 @@ class PredictivePlanner:
         on_times: Sequence[float] = (0.2, 0.4, 0.8),
         use: float = 0.9,
         edge: float = 0.035,
+        edge_weight: float = 1.0,
         lost_cost: float = 1.0,
         min_gain: float = 1e-4,
         rerank: int = 4,
@@ -157,12 +162,19 @@ class PredictivePlanner:
         if not 0 < use <= 1:
             raise ParameterError(f"use must be in (0, 1]; got {use!r}")
         self.use = float(use)
-        for name, value in (("edge", edge), ("lost_cost", lost_cost), ("min_gain", min_gain)):
+        named = (
+            ("edge", edge),
+            ("edge_weight", edge_weight),
+            ("lost_cost", lost_cost),
+            ("min_gain", min_gain),
+        )
+        for name, value in named:
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ParameterError(f"{name} must be finite and >= 0; got {value!r}")
         if isinstance(rerank, bool) or not isinstance(rerank, int) or rerank < 0:
             raise ParameterError(f"rerank must be an integer >= 0; got {rerank!r}")
         self.edge = float(edge)
+        self.edge_weight = float(edge_weight)
         self.lost_cost = float(lost_cost)
         self.min_gain = float(min_gain)
         self.rerank = int(rerank)
@@ -235,11 +247,9 @@ class PredictivePlanner:
                     [motions[k] for k in members], parts, duration=on, dt=dt, mu=mu_v, mu_s=mu_s,
                     record_every=2**40,
                 )  # fmt: skip
-                v = run.velocities[:, -1]
-                speed = np.hypot(v[..., 0], v[..., 1])
-                decel = np.broadcast_to(np.asarray(mu_v, dtype=float), speed.shape[-1:]) * G
-                final[members] = run.positions[:, -1] + v * (speed / (2 * decel))[..., None]
-                durations[members] = on + np.max(speed / decel, axis=1, initial=0.0)
+                at_rest, stopping = slide_to_rest(run.positions[:, -1], run.velocities[:, -1], mu_v)
+                final[members] = at_rest
+                durations[members] = on + np.max(stopping, axis=1, initial=0.0)
                 continue
             horizon = on + self._coast([pulses[k] for k in members])
             seq = [
@@ -279,8 +289,12 @@ class PredictivePlanner:
         """Edge and overlap penalties ``(K,)`` [m of cost] for predicted positions ``(K, M, 2)``."""
         half = self.limits.size / 2
         lost = ~np.all(np.isfinite(q), axis=-1) | np.any(np.abs(np.nan_to_num(q)) > half, axis=-1)
-        over = np.clip(np.abs(np.nan_to_num(q)) - (half - self.edge), 0.0, None).sum(axis=-1)
-        out: FloatArray = self.lost_cost * lost.sum(axis=-1) + 3.0 * np.where(lost, 0.0, over).sum(axis=-1)
+        # inside the edge band: edge_weight per metre, and five times more in its outer half
+        a = np.abs(np.nan_to_num(q))
+        inner = np.clip(a - (half - self.edge), 0.0, None)
+        outer = np.clip(a - (half - 0.5 * self.edge), 0.0, None)
+        over = self.edge_weight * (inner + 5.0 * outer).sum(axis=-1)
+        out: FloatArray = self.lost_cost * lost.sum(axis=-1) + np.where(lost, 0.0, over).sum(axis=-1)
         if overlaps and self.part_radius is not None and q.shape[1] > 1:
             i, j = np.triu_indices(q.shape[1], 1)
             gap = np.linalg.norm(np.nan_to_num(q[:, i] - q[:, j], nan=1.0), axis=-1)
@@ -292,7 +306,7 @@ class PredictivePlanner:
     ) -> tuple[FloatArray, FloatArray]:
         """Cost decrease against resting for as long, and that per second."""
         still = np.broadcast_to(pos, final.shape)
-        rest_cost = np.asarray(task.cost(state, still, durations), dtype=float) + self._penalty(still)
+        rest_cost = np.asarray(task.cost(state, still, durations), dtype=float) + self._penalty(pos[None])[0]
         safe = np.where(np.isfinite(final), final, still)
         after = np.asarray(task.cost(state, safe, durations), dtype=float) + self._penalty(final)
         gain = rest_cost - after
@@ -462,14 +476,16 @@ class PredictivePlanner:
         total = durations[:, None] + self.macros.durations[None, :]
         still = np.broadcast_to(pos, after.shape)
         flat = (-1, *pos.shape)
+        # resting: the same layout throughout (its penalty once), only the time differs
         rest = np.asarray(task.cost(state, still, total), dtype=float)
-        rest = rest + self._penalty(still.reshape(flat), overlaps=False).reshape(total.shape)
+        rest = rest + self._penalty(pos[None], overlaps=False)[0]
         cost = np.asarray(task.cost(state, after, total), dtype=float)
         cost = cost + self._penalty(after.reshape(flat), overlaps=False).reshape(total.shape)
-        # the first step's own losses (a part pushed off) count in full
+        # a set-up step must keep every part out of the edge band (a prediction error there, over
+        # the long pulse that follows, loses a part)
         half = self.limits.size / 2
         lost = ~np.all(np.isfinite(final), axis=(1, 2)) | np.any(
-            np.abs(np.nan_to_num(final)) > half - 0.5 * self.edge, axis=(1, 2)
+            np.abs(np.nan_to_num(final)) > half - self.edge, axis=(1, 2)
         )
         out: FloatArray = np.max((rest - cost) / total, axis=1)
         out[lost] = -np.inf

@@ -37,6 +37,7 @@ __all__ = [
     "positive",
     "scaled",
     "settle_time",
+    "slide_to_rest",
     "solve_increasing",
     "stopping_time",
     "tangential_columns",
@@ -158,6 +159,19 @@ def settle_time(pulse: float, mu: float, mu_s: float, rest: float | None) -> flo
     accelerates a part by at most ``mu_s g`` during the pulse and brakes it by ``mu g`` after."""
     stop = 1.05 * pulse * mu_s / mu + 1e-3
     return stop if rest is None else max(float(rest), stop)
+
+
+def slide_to_rest(
+    positions: FloatArray, velocities: FloatArray, mu: ArrayLike, g: float = 9.81
+) -> tuple[FloatArray, FloatArray]:
+    """Where point parts at ``positions (..., M, 2)`` moving at ``velocities`` come to rest on a
+    plate at rest, and how long each takes [s]: a sliding part decelerates at ``mu g`` along its
+    velocity, which the integrator's implicit step reproduces exactly (``mu`` per part or one)."""
+    speed = np.hypot(velocities[..., 0], velocities[..., 1])
+    decel = np.broadcast_to(np.asarray(mu, dtype=float), speed.shape[-1:]) * g
+    final: FloatArray = positions + velocities * (speed / (2 * decel))[..., None]
+    stop: FloatArray = speed / decel
+    return final, stop
 
 
 def stopping_time(t: np.ndarray, stuck: np.ndarray, after: float) -> float:
