@@ -266,3 +266,24 @@ def test_the_end_of_a_sort_does_not_stall_against_the_edge() -> None:
     final, _ = planner.predict(chosen, at, disks=True, fine=True)
     assert np.all(np.isfinite(final)) and np.all(np.abs(final) < limits.size / 2)
     assert task.cost(state, final[0]) < task.cost(state) - 1e-3
+
+
+def test_parts_slide_to_rest_as_the_integrator_has_them() -> None:
+    # the closed form against the integrator itself: point parts thrown across a plate at rest
+    from upm.plan.sizing import slide_to_rest
+
+    rng = np.random.default_rng(4)
+    start = rng.uniform(-0.1, 0.1, (12, 2))
+    velocity = rng.normal(0.0, 0.3, (12, 2))
+    velocity[0] = 0.0  # one part already at rest
+    mu = rng.uniform(0.15, 0.6, 12)
+    parts = [upm.Point(tuple(p), tuple(v)) for p, v in zip(start, velocity, strict=True)]
+    dt = 1e-4
+    run = upm.simulate(upm.PlateMotion.rest(1.0), parts, duration=0.5, dt=dt, mu=mu, record_every=1)
+    final, stop = slide_to_rest(start, velocity, mu)
+    assert np.allclose(run.positions[-1], final, atol=0.5 * 9.81 * 0.6 * dt * dt + 1e-12, rtol=0)
+    moving = ~run.stuck
+    last = np.array(
+        [run.t[np.nonzero(moving[:, j])[0][-1]] if moving[:, j].any() else 0.0 for j in range(12)]
+    )
+    assert np.all(np.abs(last + dt - stop) <= dt + 1e-12) and stop[0] == 0.0

@@ -253,3 +253,40 @@ def test_friction_per_world_equals_separate_runs():
     assert not np.array_equal(batch.positions[0], batch.positions[1])
     with pytest.raises(upm.ShapeError, match=r"mu per world must have shape \(3, 2\) or \(3, 1\)"):
         upm.simulate_batch([spin, spin, spin], parts, mu=np.full((2, 2), 0.3), **opts)
+
+
+def _wave() -> upm.PlateMotion:
+    return upm.PlateMotion.translation((1.0, 0.0), upm.Harmonics([0.3, -0.15], [0.0, 0.0], 30.0))
+
+
+def test_progress_reports_the_fraction_done_and_can_stop_a_run():
+    seen: list[float] = []
+    parts = np.zeros((10, 2))
+    # 20,000 steps: several blocks of at most 4096
+    run = upm.simulate(_wave(), parts, duration=1.0, dt=5e-5, mu=0.3, record_every=1000, progress=seen.append)
+    assert len(seen) >= 5 and seen[-1] == 1.0 and np.all(np.diff(seen) > 0) and 0 < seen[0] < 0.5
+    quiet = upm.simulate(_wave(), parts, duration=1.0, dt=5e-5, mu=0.3, record_every=1000)
+    assert np.array_equal(run.positions, quiet.positions)  # reporting changes nothing
+
+    class Stop(Exception):
+        pass
+
+    def stop(fraction: float) -> None:
+        if fraction > 0.3:
+            raise Stop
+
+    with pytest.raises(Stop):
+        upm.simulate(_wave(), parts, duration=1.0, dt=5e-5, mu=0.3, record_every=1000, progress=stop)
+    with pytest.raises(Stop):  # on a pool of its own too
+        upm.simulate(_wave(), parts, duration=1.0, dt=5e-5, mu=0.3, threads=2, progress=stop)
+    with pytest.raises(upm.ParameterError, match="progress"):
+        upm.simulate(_wave(), parts, duration=0.01, dt=5e-5, mu=0.3, progress=1)  # type: ignore[arg-type]
+
+
+def test_progress_of_a_batch_with_friction_per_world_runs_once_to_the_end():
+    seen: list[float] = []
+    mu = np.array([[0.2], [0.3], [0.2], [0.4]])
+    upm.simulate_batch([_wave()] * 4, np.zeros((3, 2)), duration=0.5, dt=5e-5, mu=mu, record_every=500,
+                       progress=seen.append)  # fmt: skip
+    assert seen[-1] == 1.0 and np.all(np.diff(seen) > 0)
+    assert any(abs(f - 1 / 3) < 1e-12 for f in seen) and any(abs(f - 2 / 3) < 1e-12 for f in seen)

@@ -1,5 +1,6 @@
 """Typed stubs of the Rust extension ``upm._core`` (checked by ``mypy.stubtest``)."""
 
+from collections.abc import Callable
 from typing import final
 
 import numpy as np
@@ -121,6 +122,7 @@ def simulate(
     plate_size: float | None,
     record_every: int,
     threads: int | None = None,
+    progress: Callable[[int], object] | None = None,
     contacts: bool = False,
     restitution: float = 0.5,
     part_friction: float = 0.3,

@@ -7,7 +7,7 @@ over parts with the GIL released; ``simulate_batch`` runs many independent world
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -267,6 +267,8 @@ def _run(
     record_every: int,
     threads: int | None = None,
     contacts: dict[str, Any] | None = None,
+    progress: Callable[[float], object] | None = None,
+    share: tuple[int, int] = (0, 1),
 ) -> tuple[Any, ...]:
     if not all(isinstance(m, PlateMotion) for m in motions):
         raise ParameterError("motion must be a upm.PlateMotion")
@@ -286,6 +288,14 @@ def _run(
     mu_s_a = mu_a if mu_s is None else _per_part("mu_s", mu_s, m)
     every = integer("record_every", record_every, low=1, high=2**62)
     _check_memory(len(motions), m, span, step, every)
+    report = None
+    if progress is not None:
+        steps = max(1, math.ceil(span / step - 1e-9))
+        done_before, parts_of = share
+
+        def report(done: int) -> None:
+            progress(min(1.0, (done_before + done / steps) / parts_of))
+
     return _core.simulate(
         [mo._inner for mo in motions],
         pos,
@@ -301,6 +311,7 @@ def _run(
         plate_size=None if plate_size is None else real("plate_size", plate_size, low=0.0, low_open=True),
         record_every=every,
         threads=pool(threads),
+        progress=report,
         **(contacts or {}),
     )
 
@@ -351,6 +362,7 @@ def simulate(
     walls_move_with_plate: bool = False,
     contact_iterations: int = 4,
     threads: int | None = None,
+    progress: Callable[[float], object] | None = None,
 ) -> SimResult:
     """Simulate parts sliding (points) or sliding and spinning (disks) on the plate under ``motion``.
 
@@ -396,6 +408,10 @@ def simulate(
         rapier solver iterations per step.
     threads : int, optional
         Run on a pool of this many threads (default: one per core, or ``RAYON_NUM_THREADS``).
+    progress : callable, optional
+        Called with the fraction of the run done (0 to 1) about every 0.1 s of CPU time, on the
+        thread running the simulation; an exception it raises stops the run and is raised here
+        (as Ctrl-C is).
 
     Returns
     -------
@@ -404,8 +420,9 @@ def simulate(
     contact = _contact(parts, plate_size, contacts, restitution, part_friction, walls, walls_move_with_plate,
                        contact_iterations)  # fmt: skip
     t, pos, vel, stuck, angles, spins, left = _run(
-        [motion], parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact
-    )
+        [motion], parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact,
+        _progress(progress),
+    )  # fmt: skip
     return SimResult(t, pos[0], vel[0], stuck[0], angles[0], spins[0], ~np.isnan(left[0]), left[0])
 
 
@@ -427,6 +444,7 @@ def simulate_batch(
     walls: ArrayLike | str | None = None,
     walls_move_with_plate: bool = False,
     contact_iterations: int = 4,
+    progress: Callable[[float], object] | None = None,
 ) -> SimResult:
     """:func:`simulate` for ``B`` independent worlds (one motion each, the same parts), in parallel.
 
@@ -434,7 +452,7 @@ def simulate_batch(
     to ``B`` separate calls and to any thread count. ``threads``: run on a pool of that many
     threads (default: rayon's global pool, one thread per core); :func:`upm.sweep` runs each
     chunk on one and parallelises over chunks (``RAYON_NUM_THREADS`` sets the global pool's
-    size). The contact arguments are :func:`simulate`'s.
+    size). The contact and ``progress`` arguments are :func:`simulate`'s.
 
     ``mu`` and ``mu_s`` may differ from world to world (a friction sweep): shape ``(B, M)``, or
     ``(B, 1)`` for one value per world. Worlds of equal friction run together.
@@ -445,9 +463,10 @@ def simulate_batch(
     contact = _contact(parts, plate_size, contacts, restitution, part_friction, walls, walls_move_with_plate,
                        contact_iterations)  # fmt: skip
     friction = _per_world(ms, parts, mu, mu_s)
+    report = _progress(progress)
     if friction is None:
         t, pos, vel, stuck, angles, spins, left = _run(
-            ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact
+            ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact, report
         )
         return SimResult(t, pos, vel, stuck, angles, spins, ~np.isnan(left), left)
     # Friction per world: one run per distinct friction, each world's result in its place.
@@ -455,17 +474,26 @@ def simulate_batch(
     rows = np.concatenate([mu_b, mu_s_b], axis=1)
     _, group = np.unique(rows, axis=0, return_inverse=True)
     out: list[Any] = []
-    for g_index in range(int(group.max()) + 1):
+    n_groups = int(group.max()) + 1
+    for g_index in range(n_groups):
         worlds = np.flatnonzero(group.reshape(-1) == g_index)
         first = int(worlds[0])
         part = _run([ms[w] for w in worlds], parts, duration, dt, mu_b[first], mu_s_b[first], g, plate_size,
-                    record_every, threads, contact)  # fmt: skip
+                    record_every, threads, contact, report, (g_index, n_groups))  # fmt: skip
         if not out:
             out = [part[0], *(np.empty((len(ms), *a.shape[1:]), a.dtype) for a in part[1:])]
         for full, piece in zip(out[1:], part[1:], strict=True):
             full[worlds] = piece
     t, pos, vel, stuck, angles, spins, left = out
     return SimResult(t, pos, vel, stuck, angles, spins, ~np.isnan(left), left)
+
+
+def _progress(progress: Any) -> Callable[[float], object] | None:
+    if progress is not None and not callable(progress):
+        raise ParameterError(
+            f"progress must be a callable taking the fraction done, or None; got {progress!r}"
+        )
+    return progress  # type: ignore[no-any-return]
 
 
 def _per_world(

@@ -181,7 +181,7 @@ fn to_arrays<'py>(
 
 /// Simulates point and disk parts under each of `motions` (B worlds); arrays carry a batch axis.
 #[pyfunction]
-#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4))]
+#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -199,6 +199,7 @@ pub fn simulate<'py>(
     plate_size: Option<f64>,
     record_every: usize,
     threads: Option<usize>,
+    progress: Option<Py<PyAny>>,
     contacts: bool,
     restitution: f64,
     part_friction: f64,
@@ -273,8 +274,17 @@ pub fn simulate<'py>(
     };
     let run = detached(py, || {
         // Every world advances one block at a time; Ctrl-C is honoured between blocks.
+        // `progress(steps_done)` after each block too; an exception from it stops the run.
         on_threads(threads, |between| {
-            sim::simulate_stacked(&motions, &parts, &cfg, contacts.as_ref(), between)
+            let report = |done: usize| -> Result<(), Failure> {
+                between(done)?;
+                match &progress {
+                    Some(cb) => Python::attach(|py| cb.bind(py).call1((done,)).map(|_| ()))
+                        .map_err(Failure::from),
+                    None => Ok(()),
+                }
+            };
+            sim::simulate_stacked(&motions, &parts, &cfg, contacts.as_ref(), report)
         })
     })?;
     to_arrays(py, run, motions.len(), m)

@@ -6,7 +6,8 @@ Each cycle :class:`PredictivePlanner`
    (:func:`upm.plan.candidates.generate`: translations, rotations about a grid and about each
    part, jets at each part; several frequencies and on-times);
 2. predicts them all from the tracked positions in batched :func:`upm.simulate_batch` calls (one
-   per on-time and frequency; point parts, a coarse step, the parts followed until they stop),
+   per on-time and frequency; point parts, a coarse step, while the plate moves; then each part
+   slides to rest in closed form),
    each part's predicted step scaled by its learnt gain;
 3. scores each by the task's own cost (``task.cost(state, positions, elapsed)``) against resting
    for as long, plus penalties for parts leaving the plate's usable area and for overlapping
@@ -221,7 +222,8 @@ class PredictivePlanner:
         fine: bool = False,
     ) -> tuple[FloatArray, FloatArray]:
         """Positions ``(K, M, 2)`` after each pulse once the parts have stopped, and the plate time
-        ``(K,)`` [s] each takes (the pulse and the rest until the last part stops, to 10 ms)."""
+        ``(K,)`` [s] each takes (the pulse and the rest until the last part stops: in closed form
+        for points, to 10 ms with disks)."""
         mu_v = self.mu_estimate if mu is None else mu
         mu_s = np.asarray(mu_v, dtype=float) * self._static
         if disks and self.part_radius is not None:
