@@ -177,9 +177,15 @@ def generate(
             for rho in jet_radii:
                 for d in ways:
                     add("jet", "jet", p, d, rho, on, frequencies)
+        short = min(jet_on_times or (on_part,))
+        if jet_toward is not None and ways:
+            # and short, narrow jets 70 degrees either side: a detour round a part in the way
+            # (a part's goal behind a neighbour already at its own)
+            for b in (-1.22, 1.22):
+                d = np.array([np.cos(base + b), np.sin(base + b)])
+                add("jet", "jet", p, d, jet_radii[0], short, frequencies)
         # and gentle short jets for the last millimetres: a part's speed saturates at a velocity
         # proportional to the amplitude, so a weaker jet moves it less
-        short = min(jet_on_times or (on_part,))
         for part in fine:
             for d in ways:
                 add("jet", "fine-jet", p, d, jet_radii[0], short, frequencies[-1:], part)
