@@ -130,6 +130,8 @@ def simulate(
     walls_move_with_plate: bool = False,
     mass: _F | None = None,
     contact_iterations: int = 4,
+    world_mu: _F | None = None,
+    world_mu_s: _F | None = None,
 ) -> tuple[_F, _F, _F, NDArray[np.bool_], _F, _F, _F]: ...
 def simd_info() -> tuple[str, list[str]]: ...
 

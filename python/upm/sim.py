@@ -268,7 +268,7 @@ def _run(
     threads: int | None = None,
     contacts: dict[str, Any] | None = None,
     progress: Callable[[float], object] | None = None,
-    share: tuple[int, int] = (0, 1),
+    worlds: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> tuple[Any, ...]:
     if not all(isinstance(m, PlateMotion) for m in motions):
         raise ParameterError("motion must be a upm.PlateMotion")
@@ -291,10 +291,9 @@ def _run(
     report = None
     if progress is not None:
         steps = max(1, math.ceil(span / step - 1e-9))
-        done_before, parts_of = share
 
         def report(done: int) -> None:
-            progress(min(1.0, (done_before + done / steps) / parts_of))
+            progress(min(1.0, done / steps))
 
     return _core.simulate(
         [mo._inner for mo in motions],
@@ -312,6 +311,8 @@ def _run(
         record_every=every,
         threads=pool(threads),
         progress=report,
+        world_mu=None if worlds is None else worlds[0],
+        world_mu_s=None if worlds is None else worlds[1],
         **(contacts or {}),
     )
 
@@ -455,7 +456,7 @@ def simulate_batch(
     size). The contact and ``progress`` arguments are :func:`simulate`'s.
 
     ``mu`` and ``mu_s`` may differ from world to world (a friction sweep): shape ``(B, M)``, or
-    ``(B, 1)`` for one value per world. Worlds of equal friction run together.
+    ``(B, 1)`` for one value per world; all the worlds still run in one parallel call.
     """
     ms = items("motions", motions, PlateMotion, "a upm.PlateMotion")
     if not ms:
@@ -469,22 +470,12 @@ def simulate_batch(
             ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact, report
         )
         return SimResult(t, pos, vel, stuck, angles, spins, ~np.isnan(left), left)
-    # Friction per world: one run per distinct friction, each world's result in its place.
+    # Friction per world: every world in one parallel run, each with its own rows.
     mu_b, mu_s_b = friction
-    rows = np.concatenate([mu_b, mu_s_b], axis=1)
-    _, group = np.unique(rows, axis=0, return_inverse=True)
-    out: list[Any] = []
-    n_groups = int(group.max()) + 1
-    for g_index in range(n_groups):
-        worlds = np.flatnonzero(group.reshape(-1) == g_index)
-        first = int(worlds[0])
-        part = _run([ms[w] for w in worlds], parts, duration, dt, mu_b[first], mu_s_b[first], g, plate_size,
-                    record_every, threads, contact, report, (g_index, n_groups))  # fmt: skip
-        if not out:
-            out = [part[0], *(np.empty((len(ms), *a.shape[1:]), a.dtype) for a in part[1:])]
-        for full, piece in zip(out[1:], part[1:], strict=True):
-            full[worlds] = piece
-    t, pos, vel, stuck, angles, spins, left = out
+    t, pos, vel, stuck, angles, spins, left = _run(
+        ms, parts, duration, dt, mu_b[0], mu_s_b[0], g, plate_size, record_every, threads, contact, report,
+        worlds=(np.ascontiguousarray(mu_b), np.ascontiguousarray(mu_s_b)),
+    )  # fmt: skip
     return SimResult(t, pos, vel, stuck, angles, spins, ~np.isnan(left), left)
 
 

@@ -179,9 +179,17 @@ fn to_arrays<'py>(
     )
 }
 
+/// A 2-D array's values in row-major order, borrowed when it is C-contiguous (copied otherwise).
+fn view2<'a>(a: &'a PyReadonlyArray2<'_, f64>) -> std::borrow::Cow<'a, [f64]> {
+    match a.as_slice() {
+        Ok(s) => std::borrow::Cow::Borrowed(s),
+        Err(_) => std::borrow::Cow::Owned(a.as_array().iter().copied().collect()),
+    }
+}
+
 /// Simulates point and disk parts under each of `motions` (B worlds); arrays carry a batch axis.
 #[pyfunction]
-#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4))]
+#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4, world_mu=None, world_mu_s=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -207,6 +215,8 @@ pub fn simulate<'py>(
     walls_move_with_plate: bool,
     mass: Option<PyReadonlyArray1<'py, f64>>,
     contact_iterations: usize,
+    world_mu: Option<PyReadonlyArray2<'py, f64>>,
+    world_mu_s: Option<PyReadonlyArray2<'py, f64>>,
 ) -> PyResult<Bound<'py, PyTuple>> {
     // The caller's arrays as they are: no copy of a contiguous array.
     let position = pair_view(py, "positions", &positions)?;
@@ -272,6 +282,31 @@ pub fn simulate<'py>(
     } else {
         None
     };
+    // Friction per world: (B, M) or (B, 1) rows, both or neither.
+    let worlds = match (&world_mu, &world_mu_s) {
+        (Some(a), Some(b)) => {
+            let width = a.as_array().shape()[1];
+            if b.as_array().shape()[1] != width {
+                return Err(shape_error(
+                    py,
+                    "world_mu and world_mu_s must have the same shape".to_string(),
+                ));
+            }
+            Some((view2(a), view2(b), width))
+        }
+        (None, None) => None,
+        _ => {
+            return Err(crate::errors::to_py(
+                py,
+                Error::parameter("world_mu", "and world_mu_s must be given together"),
+            ))
+        }
+    };
+    let friction = worlds.as_ref().map(|(mu, mu_s, width)| sim::WorldFriction {
+        mu,
+        mu_s,
+        width: *width,
+    });
     let run = detached(py, || {
         // Every world advances one block at a time; Ctrl-C is honoured between blocks.
         // `progress(steps_done)` after each block too; an exception from it stops the run.
@@ -284,7 +319,14 @@ pub fn simulate<'py>(
                     None => Ok(()),
                 }
             };
-            sim::simulate_stacked(&motions, &parts, &cfg, contacts.as_ref(), report)
+            sim::simulate_stacked(
+                &motions,
+                &parts,
+                &cfg,
+                contacts.as_ref(),
+                friction.as_ref(),
+                report,
+            )
         })
     })?;
     to_arrays(py, run, motions.len(), m)

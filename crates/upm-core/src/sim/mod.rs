@@ -38,7 +38,7 @@ use crate::error::{positive, Error, Result};
 use crate::motion::PlateMotion;
 pub use contact::Contacts;
 pub use kernel::{simd, Simd};
-pub use parts::{Parts, PartsView};
+pub use parts::{Parts, PartsView, WorldFriction};
 pub use points::CHUNK_PARTS;
 use record::{recorded_rows, Rec, Recorder};
 
@@ -338,7 +338,7 @@ where
     E: From<Error>,
     B: FnMut(usize) -> std::result::Result<(), E>,
 {
-    let all = simulate_stacked(motions, parts, cfg, contacts, between)?;
+    let all = simulate_stacked(motions, parts, cfg, contacts, None, between)?;
     let (b, m) = (motions.len(), parts.len());
     let cells = all.t.len() * m;
     Ok((0..b)
@@ -360,12 +360,14 @@ where
 /// [`simulate_worlds_with`] with the worlds' results stacked in one [`Trajectory`], written in
 /// place: `positions`, `velocities`, `stuck`, `angles` and `spins` are `(worlds, rows, parts)`,
 /// `left_plate` is `(worlds, parts)` and `t` is `(rows,)`, shared (the binding hands these
-/// buffers to NumPy as they are).
+/// buffers to NumPy as they are). With `friction`, world `b` has its own friction coefficients
+/// (a friction sweep in one parallel run): `parts`' are replaced by that world's rows.
 pub fn simulate_stacked<E, B>(
     motions: &[PlateMotion],
     parts: &PartsView,
     cfg: &Config,
     contacts: Option<&Contacts>,
+    friction: Option<&WorldFriction>,
     mut between: B,
 ) -> std::result::Result<Trajectory, E>
 where
@@ -374,6 +376,14 @@ where
 {
     parts.check()?;
     let m = parts.len();
+    if let Some(f) = friction {
+        f.check(motions.len(), m)?;
+        for b in 0..motions.len() {
+            f.world(parts, b)
+                .check()
+                .map_err(|e| e.with_context(&format!("world {b}")))?;
+        }
+    }
     let mut steps = 0;
     for (b, motion) in motions.iter().enumerate() {
         steps = cfg.steps(motion, m).map_err(|e| {
@@ -421,6 +431,8 @@ where
     let mut recorder = Recorder::new(motions.len(), rows, m)?;
     for (b, motion) in motions.iter().enumerate() {
         let u0 = motion.velocity(0.0);
+        let own = friction.map(|f| f.world(parts, b));
+        let parts = own.as_ref().unwrap_or(parts);
         let disks: Vec<DiskState> = disk_index
             .iter()
             .map(|&i| DiskState::new(parts, i, cfg, u0))

@@ -227,3 +227,47 @@ impl PartsView<'_> {
         Ok(())
     }
 }
+
+/// Friction coefficients per world of a batch: world `b`'s parts take `mu` and `mu_s` from rows
+/// `b * width .. (b + 1) * width`, `width` the number of parts or 1 (one value for all its parts).
+#[derive(Debug, Clone, Copy)]
+pub struct WorldFriction<'a> {
+    /// Sliding friction, `worlds * width` values.
+    pub mu: &'a [f64],
+    /// Static friction, `worlds * width` values.
+    pub mu_s: &'a [f64],
+    /// Values per world: 1 or the number of parts.
+    pub width: usize,
+}
+
+impl<'a> WorldFriction<'a> {
+    /// Checks the lengths against `worlds` worlds of `parts` parts.
+    pub fn check(&self, worlds: usize, parts: usize) -> Result<()> {
+        let ok = (self.width == 1 || self.width == parts)
+            && self.mu.len() == worlds * self.width
+            && self.mu_s.len() == worlds * self.width;
+        if ok {
+            return Ok(());
+        }
+        Err(Error::Shape(format!(
+            "friction per world: mu and mu_s must each hold {worlds} x {parts} or {worlds} x 1 values; \
+             got {} and {} ({} per world)",
+            self.mu.len(),
+            self.mu_s.len(),
+            self.width
+        )))
+    }
+
+    /// `parts` with world `b`'s friction.
+    pub fn world<'p>(&self, parts: &PartsView<'p>, b: usize) -> PartsView<'p>
+    where
+        'a: 'p,
+    {
+        let r = b * self.width..(b + 1) * self.width;
+        PartsView {
+            mu: &self.mu[r.clone()],
+            mu_s: &self.mu_s[r],
+            ..*parts
+        }
+    }
+}
