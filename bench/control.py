@@ -67,7 +67,7 @@ def setup(task: str, seed: int) -> tuple[np.ndarray, list[str], float, Any, int,
         parts = scatter(rng, n, 0.12 if n <= 8 else 0.13 if n <= 10 else 0.16, 0.052 if n <= 16 else 0.042)
         labels = ["red"] * (n // 2) + ["blue"] * (n - n // 2)
         job = control.SortTask({"red": -1, "blue": 1}, margin=0.08, spacing=0.046, max_step=0.025)
-        return parts, labels, CHIP, job, 60, mu
+        return parts, labels, CHIP, job, 60 * max(1, n // 8), mu
     if task == "goto6":
         parts = scatter(rng, 6, 0.12, 0.04)
         goals = scatter(rng, 6, 0.12, 0.04)
@@ -137,30 +137,77 @@ def table(tasks: list[str], planners: list[str], seeds: int) -> None:
             print(f"| {task} | {name} | {done}/{seeds} | {cells} |", flush=True)
 
 
-def scaling(planners: list[str], seeds: int, out: Path) -> None:
+def scaling(planners: list[str], seeds: int, counts: list[int], out: Path) -> None:
+    """Sort time, chips lost and chips per minute against the number of chips. Every run is
+    appended to ``out`` with the suffix ``.jsonl`` as it ends, and runs already there are not run
+    again (an interrupted sweep resumes)."""
+    import json
+
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    counts = [4, 8, 16, 32]
-    fig, (a, b) = plt.subplots(1, 2, figsize=(9, 3.5))
+    store = out.with_suffix(".jsonl")
+    store.parent.mkdir(parents=True, exist_ok=True)
+    done: dict[tuple[str, int, int], dict[str, float]] = {}
+    if store.exists():
+        for line in store.read_text().splitlines():
+            row = json.loads(line)
+            done[(row["planner"], int(row["chips"]), int(row["seed"]))] = row
     for name in planners:
-        med, lost = [], []
         for n in counts:
-            rows = [run(f"sort{n}", name, seed) for seed in range(1, seeds + 1)]
-            med.append(np.median([r["time"] for r in rows]))
-            lost.append(np.median([r["lost"] for r in rows]))
-            print(f"sort{n} {name}: {med[-1]:.1f} s, {lost[-1]:.0f} lost", flush=True)
-        a.plot(counts, med, "o-", label=name)
-        b.plot(counts, lost, "o-", label=name)
-    a.set(xlabel="chips", ylabel="plate time to sort [s] (median)", xscale="log", yscale="log")
-    b.set(xlabel="chips", ylabel="chips lost (median)", xscale="log")
-    a.legend()
+            for seed in range(1, seeds + 1):
+                if (name, n, seed) in done:
+                    continue
+                row = {"planner": name, "chips": n, "seed": seed, **run(f"sort{n}", name, seed)}
+                done[(name, n, seed)] = row
+                with store.open("a") as f:
+                    f.write(json.dumps(row) + "\n")
+                print(f"sort{n} {name} seed {seed}: {row['time']:.1f} s, done {row['done']:.0f}, "
+                      f"{row['lost']:.0f} lost, {row['wall']:.0f} s wall", flush=True)  # fmt: skip
+    fig, (a, b, c) = plt.subplots(1, 3, figsize=(12, 3.6))
+    print(f"\n{cpu()}: median (max) over {seeds} seeds\n")
+    print("| planner | chips | sorted | plate time [s] | lost | chips per minute |")
+    print("|---|---|---|---|---|---|")
+    for name in planners:
+        xs, med, top, lost, rate, full = [], [], [], [], [], []
+        for n in counts:
+            rows = [done[(name, n, s)] for s in range(1, seeds + 1) if (name, n, s) in done]
+            if not rows:
+                continue
+            t = np.array([r["time"] for r in rows])
+            ok = int(sum(r["done"] for r in rows))
+            xs.append(n)
+            med.append(float(np.median(t)))
+            top.append(float(np.max(t)))
+            lost.append(float(np.median([r["lost"] for r in rows])))
+            rate.append(60.0 * n / med[-1])
+            full.append(ok == len(rows))
+            print(f"| {name} | {n} | {ok}/{len(rows)} | {med[-1]:.1f} ({top[-1]:.1f}) "
+                  f"| {lost[-1]:.0f} ({max(r['lost'] for r in rows):.0f}) | {rate[-1]:.0f} |")  # fmt: skip
+        (line,) = a.plot(xs, med, "-", label=name)
+        colour = line.get_color()
+        for x, m, hi, ok in zip(xs, med, top, full, strict=True):
+            # hollow: not every seed finished (the time is then the cycle cap's)
+            a.plot([x], [m], "o", color=colour, mfc=colour if ok else "white")
+            a.plot([x, x], [m, hi], color=colour, lw=0.8)
+        b.plot(xs, lost, "o-", color=colour, label=name)
+        c.plot(xs, rate, "o-", color=colour, label=name)
+    a.axhline(30.0, color="0.6", ls=":", lw=0.8)
+    a.text(4, 31, "thesis hardware, 8 chips", color="0.4", fontsize=7)
+    a.set(xlabel="chips", ylabel="plate time to sort [s]", xscale="log", yscale="log", xticks=counts)
+    a.set_xticklabels([str(n) for n in counts])
+    b.set(xlabel="chips", ylabel="chips lost (median)", xscale="log", xticks=counts)
+    b.set_xticklabels([str(n) for n in counts])
+    c.set(xlabel="chips", ylabel="chips sorted per minute", xscale="log", xticks=counts)
+    c.set_xticklabels([str(n) for n in counts])
+    a.legend(fontsize=8)
+    fig.suptitle(f"sorting by colour through the full loop, 10 mm stroke (median, bar to max; {cpu()})",
+                 fontsize=9)  # fmt: skip
     fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110)
-    print(f"wrote {out}")
+    print(f"\nwrote {out} and {store}")
 
 
 def main() -> None:
@@ -169,10 +216,12 @@ def main() -> None:
     parser.add_argument("--planners", default="predictive,jets")
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--scaling", action="store_true", help="sort time against the number of chips")
+    parser.add_argument("--counts", default="4,8,16,32", help="chip counts for --scaling")
     args = parser.parse_args()
     planners = args.planners.split(",")
     if args.scaling:
-        scaling(planners, args.seeds, Path("docs/img/scaling.png"))
+        counts = [int(n) for n in args.counts.split(",")]
+        scaling(planners, args.seeds, counts, Path("docs/img/scaling.png"))
     else:
         table(args.tasks.split(","), planners, args.seeds)
 

@@ -220,6 +220,44 @@ def test_the_planner_picks_the_obviously_best_pulse() -> None:
     assert planner.choose(task, _state([[0.03, 0.0]], ("p",)), pulses)[0] is None
 
 
+def test_a_pulse_is_scored_with_the_best_second_pulse_after_it() -> None:
+    # every (first, second) pair predicted one layout at a time and scored by hand: the planner's
+    # rate for each first pulse is the better of its own gain per second and the best pair's
+    limits = SimulatedUPM().limits
+    planner = PredictivePlanner(limits, mu=0.3, lookahead=None, pairs=(4, 4))
+    start = np.array([[0.0, 0.0], [-0.04, 0.03]])
+    goals = np.array([[0.05, 0.02], [0.0, 0.05]])
+    task = control.GotoTask(goals, starts=start, tolerance=0.002)
+    state = _state(start.tolist(), ("a", "b"))
+    h = Harmonics([0.6, -0.3], [0.0, 0.0], 25.0)
+    pulses = [
+        Pulse.translation((1.0, 0.0), h, 0.12, 0.2, 0.12),
+        Pulse.translation((0.0, 1.0), h, 0.12, 0.1, 0.12),
+        Pulse.translation((1.0, 1.0), h, 0.12, 0.3, 0.12),
+        Pulse.rotation((0.1, 0.0), Harmonics([2.0, -1.0], [0.0, 0.0], 35.0), 0.1, 0.2, 0.1),
+    ]
+
+    def cost(q: np.ndarray) -> float:
+        return float(np.sum(np.maximum(np.hypot(*(q - goals).T) - 0.001, 0.0)))
+
+    firsts = [planner.predict([p], start) for p in pulses]
+    c0 = cost(start)
+    want = []
+    for final, time in firsts:
+        rates = [(c0 - cost(final[0])) / time[0]]
+        for s, (_, time_s) in enumerate(firsts):
+            after, _ = planner.predict([pulses[s]], final[0])
+            rates.append((c0 - cost(after[0])) / (time[0] + time_s[0]))
+        want.append(max(rates))
+    best, _, rate = planner.choose(task, state, pulses)
+    assert np.allclose(rate, want, rtol=1e-9, atol=1e-12)
+    assert best == int(np.argmax(want))
+    # without pairs: each pulse's own gain per second
+    alone = PredictivePlanner(limits, mu=0.3, lookahead=None, pairs=None).choose(task, state, pulses)[2]
+    assert np.allclose(alone, [(c0 - cost(f[0])) / t[0] for f, t in firsts], rtol=1e-9)
+    assert np.all(rate >= alone) and np.any(rate > alone + 1e-6)
+
+
 def test_a_short_predictive_sort_sorts_without_loss_within_the_stroke() -> None:
     parts = np.array([[-0.07, 0.06], [0.06, 0.05], [-0.05, -0.06], [0.07, -0.05]])
     labels = ["red", "blue", "red", "blue"]
@@ -259,8 +297,17 @@ def test_the_end_of_a_sort_does_not_stall_against_the_edge() -> None:
     state = _state(at.tolist(), labels)
     chosen = PredictivePlanner(limits, mu=0.3, part_radius=CHIP).plan_task(state, task)
     assert len(chosen) == 1
-    steep = PredictivePlanner(limits, mu=0.3, part_radius=CHIP, edge_weight=3.0, lookahead=None)
+    steep = PredictivePlanner(limits, mu=0.3, part_radius=CHIP, edge_weight=3.0, lookahead=None, pairs=None)
     assert steep.plan_task(state, task) == []
+    # two pulses see past it even then: the second puts back what the first nudges
+    assert (
+        len(
+            PredictivePlanner(limits, mu=0.3, part_radius=CHIP, edge_weight=3.0, lookahead=None).plan_task(
+                state, task
+            )
+        )
+        == 1
+    )
     # what the chosen pulse does: the cost falls, and no part is predicted off the plate
     planner = PredictivePlanner(limits, mu=0.3, part_radius=CHIP)
     final, _ = planner.predict(chosen, at, disks=True, fine=True)

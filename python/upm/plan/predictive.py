@@ -11,7 +11,10 @@ Each cycle :class:`PredictivePlanner`
    each part's predicted step scaled by its learnt gain;
 3. scores each by the task's own cost (``task.cost(state, positions, elapsed)``) against resting
    for as long, plus penalties for parts leaving the plate's usable area and for overlapping
-   parts, per second of plate time (the pulse and the rest while the parts stop);
+   parts, per second of plate time (the pulse and the rest while the parts stop); the best few
+   also as the first of two pulses, each followed by the best of the one-step favourites predicted
+   from where it leaves the parts (all those layouts in one batched call), and as the first of a
+   pulse and a long one from displacement tables (:class:`~upm.plan.macros.MacroTable`);
 4. re-ranks the best few with disks that collide (rapier2d) at a finer step, and plays the best,
    one pulse; none when the best predicted gain is below ``min_gain``.
 
@@ -127,6 +130,11 @@ class PredictivePlanner:
     lookahead : float or None
         On-time [s] of the long pulses (:class:`~upm.plan.macros.MacroTable`) each candidate is
         also scored with as a second step; ``None``: one step only.
+    pairs : (int, int) or None
+        Two-pulse search: the ``pairs[0]`` best candidates are each scored followed by the best
+        of the ``pairs[1]`` best one-step candidates, predicted from where the first leaves the
+        parts (gain per second over both pulses; the second's plate time as from the present
+        layout); the first of the best pair is played. ``None``: off.
     """
 
     def __init__(
@@ -149,6 +157,7 @@ class PredictivePlanner:
         grid: int = 5,
         jet_radii: Sequence[float] = (0.04, 0.08, 0.12),
         lookahead: float | None = 1.0,
+        pairs: tuple[int, int] | None = (16, 100),
     ) -> None:
         if not isinstance(limits, DriveLimits):
             raise ParameterError(f"limits must be a upm.DriveLimits; got {type(limits).__name__}")
@@ -186,6 +195,7 @@ class PredictivePlanner:
         self.grid = int(grid)
         self.jet_radii = tuple(_positive("jet_radii", r) for r in jet_radii)
         self.mu_estimate = self.mu
+        self.pairs = None if pairs is None else (int(pairs[0]), int(pairs[1]))
         self.macros = (
             None if lookahead is None else MacroTable(limits, mu=self.mu, mu_s=mu_s, on_time=lookahead)
         )
@@ -444,6 +454,22 @@ class PredictivePlanner:
         final = pos + gain_of[None, :, None] * (final - pos)
         gain, rate = self._score(task, state, pos, final, durations)
         rate = np.maximum(rate, self._two_step(task, state, pos, final, durations))
+        second: list[int] = []
+        pair_rate = np.full(len(pulses), -np.inf)
+        pair_gain = np.zeros(len(pulses))
+        if self.pairs is not None and len(pulses):
+            # two pulses: the best few first pulses, each followed by the best of the one-step
+            # favourites from where it leaves the parts
+            self._durations = durations
+            one = np.where(np.isfinite(gain), gain / np.maximum(durations, 1e-9), -np.inf)
+            second = [int(k) for k in np.argsort(-one)[: self.pairs[1]] if np.isfinite(one[k])]
+            ok = np.isfinite(rate) & np.all(np.isfinite(final), axis=(1, 2))
+            first = [int(k) for k in np.argsort(-np.where(ok, rate, -np.inf))[: self.pairs[0]] if ok[k]]
+            if first and second:
+                pair_rate[first], pair_gain[first] = self._pairs(
+                    task, state, pos, pulses, first, final[first], durations[first], second, gain_of
+                )
+                rate = np.maximum(rate, pair_rate)
         order = np.argsort(-np.where(np.isfinite(rate), rate, -np.inf))
         best: int | None = int(order[0]) if len(order) else None
         if self.part_radius is not None and self.rerank > 0 and len(order):
@@ -460,8 +486,12 @@ class PredictivePlanner:
         if best is not None and not (
             gain[best] >= self.min_gain or rate[best] * durations[best] >= self.min_gain
         ):
-            # the look-ahead's favourite does not hold up: the best sure one-step gain instead
+            # the look-ahead's favourite does not hold up: the best sure one-step gain instead, or
+            # else the best pair that gains (the last part to place moves its neighbours: the
+            # second pulse puts them back)
             one_step = np.where(gain >= self.min_gain, gain / np.maximum(durations, 1e-9), -np.inf)
+            if not np.isfinite(one_step).any():
+                one_step = np.where(pair_gain >= self.min_gain, pair_rate, -np.inf)
             best = int(np.argmax(one_step)) if np.isfinite(one_step).any() else None
         if best is None:
             return None, gain, rate, math.nan, np.full_like(pos, np.nan)
@@ -492,6 +522,43 @@ class PredictivePlanner:
         out: FloatArray = np.max((rest - cost) / total, axis=1)
         out[lost] = -np.inf
         return out
+
+    def _pairs(
+        self,
+        task: _CostTask,
+        state: Any,
+        pos: FloatArray,
+        pulses: Sequence[Pulse],
+        first: Sequence[int],
+        final: FloatArray,
+        durations: FloatArray,
+        second: Sequence[int],
+        gain_of: FloatArray,
+    ) -> tuple[FloatArray, FloatArray]:
+        """Gain per second (and gain [m]) of each ``first`` pulse (leaving the parts at
+        ``final (F, M, 2)`` after ``durations (F,)``) followed by the best of the ``second``
+        pulses, predicted from there (point parts do not interact, so all the first pulses'
+        layouts ride in one world). A first pulse that leaves a part in the edge band scores
+        ``-inf``, as a set-up step does."""
+        m = len(pos)
+        after, _ = self.predict([pulses[k] for k in second], final.reshape(-1, 2))
+        after = after.reshape(len(second), len(first), m, 2).transpose(1, 0, 2, 3)  # (F, S, M, 2)
+        base = final[:, None]
+        after = base + gain_of[None, None, :, None] * (after - base)
+        total = durations[:, None] + self._durations[list(second)][None, :]
+        still = np.broadcast_to(pos, after.shape)
+        rest = np.asarray(task.cost(state, still, total), dtype=float) + self._penalty(pos[None])[0]
+        safe = np.where(np.isfinite(after), after, still)
+        cost = np.asarray(task.cost(state, safe, total), dtype=float)
+        cost = cost + self._penalty(safe.reshape(-1, m, 2)).reshape(total.shape)
+        per_second = (rest - cost) / total
+        pick = np.argmax(per_second, axis=1)
+        rows = np.arange(len(first))
+        out: FloatArray = per_second[rows, pick]
+        won: FloatArray = (rest - cost)[rows, pick]
+        half = self.limits.size / 2
+        out[np.any(np.abs(final) > half - self.edge, axis=(1, 2))] = -np.inf
+        return out, won
 
     def plan_task(self, state: Any, task: _CostTask) -> list[Pulse]:
         """One pulse for ``task`` from the tracked ``state`` (its parts all seen), or none."""
