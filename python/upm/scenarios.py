@@ -301,7 +301,7 @@ SCENARIOS: dict[str, Scenario] = {
             "to compare with). `seed` > 0 "
             "moves the part's start by up to 10 µm (replicas: the runs are chaotic, and the "
             "replicas' spread is the noise of a feed rate). Each point simulates `duration` s "
-            "(about 10 s of wall time per simulated 0.1 s).",
+            "(slow: docs/mchip.md gives measured wall times).",
             ranges={
                 "mass": (1e-12, 1e-3),
                 "thickness": (1e-6, 1e-3),

@@ -117,7 +117,7 @@ def _harmonic_batch(
 
 
 #: The most terms a :class:`Harmonics` series may have (1000 terms defeat the exact root
-#: isolation that ``feed_rate`` and ``mean_force`` rely on; 256 take about 0.1 s each).
+#: isolation that ``feed_rate`` and ``mean_force`` rely on; the cost grows with the terms).
 MAX_HARMONICS = 256
 
 
