@@ -271,3 +271,41 @@ impl<'a> WorldFriction<'a> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_world_reads_its_own_rows_and_bad_lengths_are_refused() {
+        let parts = Parts::points(
+            vec![[0.0, 0.0], [0.1, 0.0]],
+            vec![[0.0; 2]; 2],
+            vec![0.3; 2],
+            vec![0.3; 2],
+        );
+        let view = parts.view();
+        let mu = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6];
+        let mu_s = [0.2, 0.3, 0.4, 0.5, 0.6, 0.7];
+        let f = WorldFriction {
+            mu: &mu,
+            mu_s: &mu_s,
+            width: 2,
+        };
+        f.check(3, 2).unwrap();
+        let w = f.world(&view, 2);
+        assert_eq!((w.mu(0), w.mu(1), w.mu_s(1)), (0.5, 0.6, 0.7));
+        assert_eq!(w.position, view.position);
+        let one = WorldFriction {
+            mu: &mu[..3],
+            mu_s: &mu_s[..3],
+            width: 1,
+        };
+        one.check(3, 2).unwrap();
+        assert_eq!(one.world(&view, 1).mu(1), 0.2); // one value for every part of world 1
+        assert!(matches!(f.check(2, 2), Err(Error::Shape(_))));
+        assert!(matches!(one.check(4, 2), Err(Error::Shape(_))));
+        let odd = WorldFriction { width: 3, ..f };
+        assert!(odd.check(2, 2).is_err());
+    }
+}
