@@ -256,6 +256,9 @@ def test_a_pulse_is_scored_with_the_best_second_pulse_after_it() -> None:
     alone = PredictivePlanner(limits, mu=0.3, lookahead=None, pairs=None).choose(task, state, pulses)[2]
     assert np.allclose(alone, [(c0 - cost(f[0])) / t[0] for f, t in firsts], rtol=1e-9)
     assert np.all(rate >= alone) and np.any(rate > alone + 1e-6)
+    for bad in ((0, 5), (3,), "16,100", (2.5, 4), (True, 4)):
+        with pytest.raises(upm.ParameterError, match="pairs must be None or two integers"):
+            PredictivePlanner(limits, pairs=bad)  # type: ignore[arg-type]
 
 
 def test_a_short_predictive_sort_sorts_without_loss_within_the_stroke() -> None:

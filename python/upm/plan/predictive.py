@@ -93,6 +93,16 @@ def _separate(positions: FloatArray, radius: float, gap: float = 1e-4) -> FloatA
     return q
 
 
+def _pair_sizes(pairs: Any) -> tuple[int, int]:
+    ok = isinstance(pairs, (tuple, list)) and len(pairs) == 2
+    ok = ok and all(isinstance(n, (int, np.integer)) and not isinstance(n, bool) and n >= 1 for n in pairs)
+    if not ok:
+        raise ParameterError(
+            f"pairs must be None or two integers >= 1 (first pulses, second pulses); got {pairs!r}"
+        )
+    return int(pairs[0]), int(pairs[1])
+
+
 class PredictivePlanner:
     """Sampling receding-horizon planner on the batched simulator (see the module docstring).
 
@@ -195,7 +205,7 @@ class PredictivePlanner:
         self.grid = int(grid)
         self.jet_radii = tuple(_positive("jet_radii", r) for r in jet_radii)
         self.mu_estimate = self.mu
-        self.pairs = None if pairs is None else (int(pairs[0]), int(pairs[1]))
+        self.pairs = None if pairs is None else _pair_sizes(pairs)
         self.macros = (
             None if lookahead is None else MacroTable(limits, mu=self.mu, mu_s=mu_s, on_time=lookahead)
         )
@@ -460,15 +470,15 @@ class PredictivePlanner:
         if self.pairs is not None and len(pulses):
             # two pulses: the best few first pulses, each followed by the best of the one-step
             # favourites from where it leaves the parts
-            self._durations = durations
             one = np.where(np.isfinite(gain), gain / np.maximum(durations, 1e-9), -np.inf)
             second = [int(k) for k in np.argsort(-one)[: self.pairs[1]] if np.isfinite(one[k])]
             ok = np.isfinite(rate) & np.all(np.isfinite(final), axis=(1, 2))
             first = [int(k) for k in np.argsort(-np.where(ok, rate, -np.inf))[: self.pairs[0]] if ok[k]]
             if first and second:
                 pair_rate[first], pair_gain[first] = self._pairs(
-                    task, state, pos, pulses, first, final[first], durations[first], second, gain_of
-                )
+                    task, state, pos, [pulses[k] for k in second], durations[second],
+                    final[first], durations[first], gain_of,
+                )  # fmt: skip
                 rate = np.maximum(rate, pair_rate)
         order = np.argsort(-np.where(np.isfinite(rate), rate, -np.inf))
         best: int | None = int(order[0]) if len(order) else None
@@ -528,32 +538,31 @@ class PredictivePlanner:
         task: _CostTask,
         state: Any,
         pos: FloatArray,
-        pulses: Sequence[Pulse],
-        first: Sequence[int],
+        second: Sequence[Pulse],
+        second_time: FloatArray,
         final: FloatArray,
         durations: FloatArray,
-        second: Sequence[int],
         gain_of: FloatArray,
     ) -> tuple[FloatArray, FloatArray]:
-        """Gain per second (and gain [m]) of each ``first`` pulse (leaving the parts at
+        """Gain per second (and gain [m]) of each of ``F`` first pulses (leaving the parts at
         ``final (F, M, 2)`` after ``durations (F,)``) followed by the best of the ``second``
-        pulses, predicted from there (point parts do not interact, so all the first pulses'
-        layouts ride in one world). A first pulse that leaves a part in the edge band scores
-        ``-inf``, as a set-up step does."""
-        m = len(pos)
-        after, _ = self.predict([pulses[k] for k in second], final.reshape(-1, 2))
-        after = after.reshape(len(second), len(first), m, 2).transpose(1, 0, 2, 3)  # (F, S, M, 2)
+        pulses (plate times ``second_time`` as from the present layout), predicted from there
+        (point parts do not interact, so all the first pulses' layouts ride in one world). A
+        first pulse that leaves a part in the edge band scores ``-inf``, as a set-up step does."""
+        f, m = final.shape[:2]
+        after, _ = self.predict(second, final.reshape(-1, 2))
+        after = after.reshape(len(second), f, m, 2).transpose(1, 0, 2, 3)  # (F, S, M, 2)
         base = final[:, None]
         after = base + gain_of[None, None, :, None] * (after - base)
-        total = durations[:, None] + self._durations[list(second)][None, :]
+        total = durations[:, None] + second_time[None, :]
         still = np.broadcast_to(pos, after.shape)
         rest = np.asarray(task.cost(state, still, total), dtype=float) + self._penalty(pos[None])[0]
         safe = np.where(np.isfinite(after), after, still)
         cost = np.asarray(task.cost(state, safe, total), dtype=float)
-        cost = cost + self._penalty(safe.reshape(-1, m, 2)).reshape(total.shape)
+        cost = cost + self._penalty(after.reshape(-1, m, 2)).reshape(total.shape)
         per_second = (rest - cost) / total
         pick = np.argmax(per_second, axis=1)
-        rows = np.arange(len(first))
+        rows = np.arange(f)
         out: FloatArray = per_second[rows, pick]
         won: FloatArray = (rest - cost)[rows, pick]
         half = self.limits.size / 2
