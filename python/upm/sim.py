@@ -464,17 +464,13 @@ def simulate_batch(
     contact = _contact(parts, plate_size, contacts, restitution, part_friction, walls, walls_move_with_plate,
                        contact_iterations)  # fmt: skip
     friction = _per_world(ms, parts, mu, mu_s)
-    report = _progress(progress)
-    if friction is None:
-        t, pos, vel, stuck, angles, spins, left = _run(
-            ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact, report
-        )
-        return SimResult(t, pos, vel, stuck, angles, spins, ~np.isnan(left), left)
-    # Friction per world: every world in one parallel run, each with its own rows.
-    mu_b, mu_s_b = friction
+    worlds = None
+    if friction is not None:  # every world in the same parallel run, each with its own rows
+        mu, mu_s = friction[0][0], friction[1][0]
+        worlds = (np.ascontiguousarray(friction[0]), np.ascontiguousarray(friction[1]))
     t, pos, vel, stuck, angles, spins, left = _run(
-        ms, parts, duration, dt, mu_b[0], mu_s_b[0], g, plate_size, record_every, threads, contact, report,
-        worlds=(np.ascontiguousarray(mu_b), np.ascontiguousarray(mu_s_b)),
+        ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact, _progress(progress),
+        worlds=worlds,
     )  # fmt: skip
     return SimResult(t, pos, vel, stuck, angles, spins, ~np.isnan(left), left)
 

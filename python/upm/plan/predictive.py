@@ -40,6 +40,7 @@ from ..motion import PlateMotion
 from ..pulses import Pulse
 from ..sim import Disk, simulate_batch
 from .candidates import Candidates, generate
+from .fitting import FACTORS, best_factor
 from .macros import MacroTable
 from .sizing import positive as _positive
 from .sizing import slide_to_rest
@@ -360,7 +361,7 @@ class PredictivePlanner:
         if moved.sum() >= 2:
             # friction: the value among a few that best explains this pulse (parts replicated, one
             # friction each: point parts do not interact), moved half way in log
-            factors = np.array([0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4])
+            factors = FACTORS
             m = int(moved.sum())
             starts = np.tile(start[a][moved], (len(factors), 1))
             mus = np.repeat(self.mu_estimate * factors, m)
@@ -370,19 +371,8 @@ class PredictivePlanner:
                     2, 0, 1
                 )
             )
-            err = np.nansum(miss**2, axis=1)
-            best = int(np.argmin(err))
             # a parabola through the best and its neighbours for a value between the factors
-            f = factors[best]
-            if 0 < best < len(factors) - 1:
-                y0, y1, y2 = err[best - 1], err[best], err[best + 1]
-                x0, x1, x2 = np.log(factors[best - 1 : best + 2])
-                den = (x0 - x1) * (x0 - x2) * (x1 - x2)
-                if den != 0:
-                    aa = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / den
-                    bb = (x2**2 * (y0 - y1) + x1**2 * (y2 - y0) + x0**2 * (y1 - y2)) / den
-                    if aa > 0:
-                        f = float(np.exp(np.clip(-bb / (2 * aa), x0, x2)))
+            f = best_factor(factors, np.nansum(miss**2, axis=1))
             # damped, and trusted only where the pulse moved the parts well clear of noise
             weight = 0.5 if float(np.median(np.hypot(*achieved[moved].T))) > 0.02 else 0.25
             self.mu_estimate = float(np.clip(self.mu_estimate * f**weight, 0.05, 1.5))
@@ -464,7 +454,6 @@ class PredictivePlanner:
         final = pos + gain_of[None, :, None] * (final - pos)
         gain, rate = self._score(task, state, pos, final, durations)
         rate = np.maximum(rate, self._two_step(task, state, pos, final, durations))
-        second: list[int] = []
         pair_rate = np.full(len(pulses), -np.inf)
         pair_gain = np.zeros(len(pulses))
         if self.pairs is not None and len(pulses):
@@ -525,12 +514,15 @@ class PredictivePlanner:
         cost = cost + self._penalty(after.reshape(flat), overlaps=False).reshape(total.shape)
         # a set-up step must keep every part out of the edge band (a prediction error there, over
         # the long pulse that follows, loses a part)
-        half = self.limits.size / 2
-        lost = ~np.all(np.isfinite(final), axis=(1, 2)) | np.any(
-            np.abs(np.nan_to_num(final)) > half - self.edge, axis=(1, 2)
-        )
+        lost = ~np.all(np.isfinite(final), axis=(1, 2)) | self._in_band(final)
         out: FloatArray = np.max((rest - cost) / total, axis=1)
         out[lost] = -np.inf
+        return out
+
+    def _in_band(self, q: FloatArray) -> NDArray[np.bool_]:
+        """Whether any part of each layout ``(K, M, 2)`` lies in the edge band or beyond."""
+        half = self.limits.size / 2
+        out: NDArray[np.bool_] = np.any(np.abs(np.nan_to_num(q)) > half - self.edge, axis=(1, 2))
         return out
 
     def _pairs(
@@ -565,8 +557,7 @@ class PredictivePlanner:
         rows = np.arange(f)
         out: FloatArray = per_second[rows, pick]
         won: FloatArray = (rest - cost)[rows, pick]
-        half = self.limits.size / 2
-        out[np.any(np.abs(final) > half - self.edge, axis=(1, 2))] = -np.inf
+        out[self._in_band(final)] = -np.inf
         return out, won
 
     def plan_task(self, state: Any, task: _CostTask) -> list[Pulse]:
