@@ -203,21 +203,34 @@ impl DiskState {
         (self.p, self.v, self.angle, self.spin, self.stuck)
     }
 
-    /// The disk's velocity, spin and stuck flag after the implicit friction step
-    /// ([`crate::disk::implicit_step`]) under the plate velocity `u`; the state is not changed.
-    fn friction(&self, [u1, u2, u3]: [f64; 3]) -> ([f64; 2], f64, bool) {
+    /// The plate surface's velocity under the disk's centre, the disk's velocity relative to it
+    /// and `R` times its spin relative to the plate's, under the plate velocity `u`.
+    fn relative(&self, [u1, u2, u3]: [f64; 3]) -> ([f64; 2], [f64; 2], f64) {
         let [x, y] = self.p;
         let (sx, sy) = (u1 - u3 * y, u2 + u3 * x);
-        let free = [self.v[0] - sx, self.v[1] - sy];
-        let r = self.radius;
-        let st = crate::disk::implicit_step(
-            free,
-            r * (self.spin - u3),
-            self.slide,
-            self.hold,
-            self.stuck,
-        );
-        ([sx + st.w[0], sy + st.w[1]], u3 + st.s / r, st.stuck)
+        (
+            [sx, sy],
+            [self.v[0] - sx, self.v[1] - sy],
+            self.radius * (self.spin - u3),
+        )
+    }
+
+    /// The disk's velocity, spin and stuck flag after the implicit friction step
+    /// ([`crate::disk::implicit_step`]) under the plate velocity `u`; the state is not changed.
+    fn friction(&self, u: [f64; 3]) -> ([f64; 2], f64, bool) {
+        let (surface, free, s) = self.relative(u);
+        let st = crate::disk::implicit_step(free, s, self.slide, self.hold, self.stuck);
+        self.absolute(surface, u[2], st)
+    }
+
+    /// The velocity, spin and stuck flag of the relative step `st` over the surface velocity
+    /// `surface` and the plate's spin `u3`.
+    fn absolute(&self, surface: [f64; 2], u3: f64, st: crate::disk::Step) -> ([f64; 2], f64, bool) {
+        (
+            [surface[0] + st.w[0], surface[1] + st.w[1]],
+            u3 + st.s / self.radius,
+            st.stuck,
+        )
     }
 
     /// Moves to velocity `v` and spin `spin` over one step, positions by the trapezoid.
@@ -256,7 +269,12 @@ impl DiskState {
         if !self.active {
             return false;
         }
-        let (v, spin, stuck) = self.friction(u);
+        self.take(self.friction(u), s, cfg)
+    }
+
+    /// Takes step `s` (0-based) to the velocity, spin and stuck flag `next`; whether the disk
+    /// left the plate in it.
+    fn take(&mut self, (v, spin, stuck): ([f64; 2], f64, bool), s: usize, cfg: &Config) -> bool {
         self.advance(v, spin, stuck, cfg.dt);
         self.leaves(s, cfg)
     }
@@ -267,17 +285,54 @@ const DISK_GROUP: usize = 32;
 
 /// Advances `disks` (no contacts) through one block with the disk's implicit step
 /// ([`crate::disk::implicit_step`]), in groups on rayon threads. Within a group the steps are the
-/// outer loop: consecutive iterations are different disks, independent, so the out-of-order core
-/// overlaps their long dependency chains (one disk's steps are a single chain).
+/// outer loop: consecutive disks are independent, so their long dependency chains overlap in the
+/// out-of-order core (one disk's steps are a single chain), and the sliding solves of a step run
+/// side by side ([`crate::disk::lanes::slide_many`]).
 fn run_disks(disks: &mut [DiskState], table: &[[f64; 3]], first: usize, cfg: &Config, rec: &Rec) {
     disks.par_chunks_mut(DISK_GROUP).for_each(|group| {
         for (k, &u) in table.iter().enumerate() {
-            for d in group.iter_mut() {
-                d.step(u, first + k, cfg);
+            step_group(group, u, first + k, cfg);
+            for d in group.iter() {
                 d.record_step(Some(first + k), rec);
             }
         }
     });
+}
+
+/// Step `s` (0-based) of the group's disks still on the plate under the plate velocity `u`, as
+/// [`DiskState::step`] takes it one disk at a time (bitwise the same): the stick tests and
+/// closed forms first, then the sliding solves of all sliding disks at once.
+fn step_group(group: &mut [DiskState], u: [f64; 3], s: usize, cfg: &Config) {
+    use crate::disk::{finish, lanes::slide_many, prepare, slide_safe, Pre};
+    let mut a0 = [0.0; DISK_GROUP];
+    let mut b0 = [0.0; DISK_GROUP];
+    let mut c = [0.0; DISK_GROUP];
+    let mut which = [0usize; DISK_GROUP];
+    let mut out = [None; DISK_GROUP];
+    let mut k = 0;
+    for (i, d) in group.iter_mut().enumerate() {
+        if !d.active {
+            continue;
+        }
+        let (surface, free, spin) = d.relative(u);
+        match prepare(free, spin, d.slide, d.hold, d.stuck) {
+            Pre::Done(st) => {
+                d.take(d.absolute(surface, u[2], st), s, cfg);
+            }
+            Pre::Slide { a0: a, b0: b } => {
+                (a0[k], b0[k], c[k], which[k]) = (a, b, d.slide, i);
+                k += 1;
+            }
+        }
+    }
+    slide_many(&a0[..k], &b0[..k], &c[..k], &mut out[..k]);
+    for j in 0..k {
+        let d = &mut group[which[j]];
+        let (surface, free, spin) = d.relative(u);
+        let (a, b) = out[j].unwrap_or_else(|| slide_safe(a0[j], b0[j], c[j]));
+        let st = finish(free, spin, a0[j], a, b);
+        d.take(d.absolute(surface, u[2], st), s, cfg);
+    }
 }
 
 /// The parts of one world and what has been recorded of it.

@@ -20,6 +20,10 @@
 //! it lies inside the limit curve `(f, t)`; otherwise `w'` keeps the direction of `w*`, `W'` the
 //! sign of `W*`, and their magnitudes follow from one monotone root in `phi`.
 
+#[cfg(target_arch = "x86_64")]
+mod avx512;
+pub mod lanes;
+
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::sync::OnceLock;
 
@@ -137,13 +141,14 @@ const ZTABLE: usize = 16385;
 
 /// `(f, t)` tabulated over `z`, a rational function of the disk's `(|w|, R |W|)`: `z = b / (a + b)`
 /// (no `atan2` to find the entry). `phi = atan2(z, 1 - z)`, so `dphi/dz` lies in `[1, 2]`.
-fn ztable() -> &'static [(f64, f64)] {
-    static T: OnceLock<Vec<(f64, f64)>> = OnceLock::new();
+fn ztable() -> &'static [[f64; 2]] {
+    static T: OnceLock<Vec<[f64; 2]>> = OnceLock::new();
     T.get_or_init(|| {
         (0..ZTABLE)
             .map(|i| {
                 let z = i as f64 / (ZTABLE - 1) as f64;
-                force_torque(z.atan2(1.0 - z))
+                let (f, t) = force_torque(z.atan2(1.0 - z));
+                [f, t]
             })
             .collect()
     })
@@ -158,7 +163,7 @@ pub fn limit_curve_z(z: f64) -> (f64, f64, f64, f64) {
 /// [`limit_curve_z`] on the table `tab`, with the second derivatives:
 /// `[(f, f', f''), (t, t', t'')]` in `z`.
 #[inline(always)]
-fn curve_z(tab: &[(f64, f64)], z: f64) -> [[f64; 3]; 2] {
+fn curve_z(tab: &[[f64; 2]], z: f64) -> [[f64; 3]; 2] {
     let scale = (ZTABLE - 1) as f64;
     let u = z.clamp(0.0, 1.0) * scale;
     let i = (u as usize).min(ZTABLE - 2);
@@ -177,7 +182,10 @@ fn curve_z(tab: &[(f64, f64)], z: f64) -> [[f64; 3]; 2] {
             (2.0 * c2 + 6.0 * s * c3) * scale * scale,
         ]
     };
-    [cr(p0.0, p1.0, p2.0, p3.0), cr(p0.1, p1.1, p2.1, p3.1)]
+    [
+        cr(p0[0], p1[0], p2[0], p3[0]),
+        cr(p0[1], p1[1], p2[1], p3[1]),
+    ]
 }
 
 /// The sliding magnitudes `(|w'|, R |W'|)` from `(a0, b0)` (both > 0) by Halley's method on
@@ -189,31 +197,52 @@ fn curve_z(tab: &[(f64, f64)], z: f64) -> [[f64; 3]; 2] {
 fn slide_newton(a0: f64, b0: f64, c: f64) -> Option<(f64, f64)> {
     let tab = ztable();
     let mut z = b0 / (a0 + b0);
-    for _ in 0..8 {
-        let [[f, df, ddf], [t, dt, ddt]] = curve_z(tab, z);
-        let (a, b) = (a0 - c * f, b0 - 2.0 * c * t);
-        let r = (1.0 - z) * b - z * a;
-        let dr = -b - a - 2.0 * c * (1.0 - z) * dt + c * z * df;
-        let ddr = 4.0 * c * dt + 2.0 * c * df - 2.0 * c * (1.0 - z) * ddt + c * z * ddf;
-        if dr.is_nan() || dr >= 0.0 {
-            return None;
-        }
-        let newton = r / dr;
-        let step = newton / (1.0 - 0.5 * newton * ddr / dr);
-        z -= step;
-        if !(0.0..=1.0).contains(&z) {
-            return None;
-        }
-        // Cubic convergence: once the step is below 1e-6 the next is below rounding, and the curve
-        // at the new z is its second-order Taylor polynomial (the neglected term: c step^3 f3/6).
-        if step.abs() <= 1e-6 {
-            let h = 0.5 * step * step;
-            let a = a0 - c * (f - df * step + ddf * h);
-            let b = b0 - 2.0 * c * (t - dt * step + ddt * h);
-            return (a > 0.0 && b > 0.0).then_some((a, b));
+    for _ in 0..HALLEY_STEPS {
+        match halley(tab, a0, b0, c, z) {
+            Halley::Next(next) => z = next,
+            Halley::Done(ab) => return ab,
         }
     }
     None
+}
+
+/// The most Halley steps [`slide_newton`] takes before it gives up.
+const HALLEY_STEPS: usize = 8;
+
+/// One step of [`slide_newton`].
+enum Halley {
+    /// Not settled yet: the next `z`.
+    Next(f64),
+    /// Settled (`Some` magnitudes) or failed (`None`: the caller's safe solve).
+    Done(Option<(f64, f64)>),
+}
+
+/// One Halley step of [`slide_newton`] from `z`.
+#[inline(always)]
+fn halley(tab: &[[f64; 2]], a0: f64, b0: f64, c: f64, z: f64) -> Halley {
+    let [[f, df, ddf], [t, dt, ddt]] = curve_z(tab, z);
+    let (a, b) = (a0 - c * f, b0 - 2.0 * c * t);
+    let r = (1.0 - z) * b - z * a;
+    let dr = -b - a - 2.0 * c * (1.0 - z) * dt + c * z * df;
+    let ddr = 4.0 * c * dt + 2.0 * c * df - 2.0 * c * (1.0 - z) * ddt + c * z * ddf;
+    if dr.is_nan() || dr >= 0.0 {
+        return Halley::Done(None);
+    }
+    let newton = r / dr;
+    let step = newton / (1.0 - 0.5 * newton * ddr / dr);
+    let z = z - step;
+    if !(0.0..=1.0).contains(&z) {
+        return Halley::Done(None);
+    }
+    // Cubic convergence: once the step is below 1e-6 the next is below rounding, and the curve
+    // at the new z is its second-order Taylor polynomial (the neglected term: c step^3 f3/6).
+    if step.abs() <= 1e-6 {
+        let h = 0.5 * step * step;
+        let a = a0 - c * (f - df * step + ddf * h);
+        let b = b0 - 2.0 * c * (t - dt * step + ddt * h);
+        return Halley::Done((a > 0.0 && b > 0.0).then_some((a, b)));
+    }
+    Halley::Next(z)
 }
 
 /// Result of one implicit step of a disk.
@@ -227,6 +256,21 @@ pub struct Step {
     pub stuck: bool,
 }
 
+/// What the stick test and the closed forms leave of a disk's step ([`prepare`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Pre {
+    /// The step is done: stuck, pure sliding or pure spinning.
+    Done(Step),
+    /// The disk slides and spins: its magnitudes `(|w'|, R |W'|)` solve the sliding equations
+    /// from `(a0, b0) = (|w_free|, |s_free|)`, both positive ([`slide`], then [`finish`]).
+    Slide {
+        /// `|w_free|` [m/s].
+        a0: f64,
+        /// `|s_free|` [m/s].
+        b0: f64,
+    },
+}
+
 /// The implicit Coulomb step of a uniform disk (`I = m R^2 / 2`): `w_free` and `s_free` are the
 /// relative velocity and `R` times the relative spin the disk would have after the step without
 /// friction; `slide = mu g dt`, `hold = mu_s g dt` (used while the disk is stuck).
@@ -237,13 +281,26 @@ pub fn implicit_step(
     hold: f64,
     was_stuck: bool,
 ) -> Step {
+    match prepare(w_free, s_free, slide, hold, was_stuck) {
+        Pre::Done(step) => step,
+        Pre::Slide { a0, b0 } => {
+            let (a, b) = self::slide(a0, b0, slide);
+            finish(w_free, s_free, a0, a, b)
+        }
+    }
+}
+
+/// The first part of [`implicit_step`]: the stick test and the closed forms of pure sliding and
+/// pure spinning; what remains is a [`Pre::Slide`] (solved one disk at a time by [`slide`], or
+/// many at once by [`lanes::slide_many`]).
+pub fn prepare(w_free: [f64; 2], s_free: f64, slide: f64, hold: f64, was_stuck: bool) -> Pre {
     let a0 = (w_free[0] * w_free[0] + w_free[1] * w_free[1]).sqrt();
     let b0 = s_free.abs();
-    let stuck = Step {
+    let stuck = Pre::Done(Step {
         w: [0.0; 2],
         s: 0.0,
         stuck: true,
-    };
+    });
     if a0 == 0.0 && b0 == 0.0 {
         return stuck;
     }
@@ -273,48 +330,62 @@ pub fn implicit_step(
     }
     // Sliding: |w'| = |w_free| - slide f(phi'), |s'| = |s_free| - 2 slide t(phi'), with phi' the
     // angle of the result itself. Pure sliding and pure spinning are closed forms (f(0) = 1,
-    // t(pi/2) = 2/3); otherwise Newton's method on z = b / (a + b) (`slide_newton`: no atan2,
-    // three or four table look-ups). Where it does not settle (a disk about to stop), iterate
-    // phi <- atan2(b(phi), a(phi)), with Brent's method on the monotone residual as the fallback.
+    // t(pi/2) = 2/3).
+    if b0 == 0.0 {
+        Pre::Done(finish(w_free, s_free, a0, a0 - slide, 0.0))
+    } else if a0 == 0.0 {
+        Pre::Done(finish(w_free, s_free, a0, 0.0, b0 - 4.0 / 3.0 * slide))
+    } else {
+        Pre::Slide { a0, b0 }
+    }
+}
+
+/// The sliding magnitudes `(|w'|, R |W'|)` of a [`Pre::Slide`]: Halley's method on `z = b / (a +
+/// b)` (`slide_newton`: no atan2, one to three table look-ups), and where it does not settle (a
+/// disk about to stop) the safe solve [`slide_safe`].
+pub fn slide(a0: f64, b0: f64, slide: f64) -> (f64, f64) {
+    slide_newton(a0, b0, slide).unwrap_or_else(|| slide_safe(a0, b0, slide))
+}
+
+/// The slow, safe sliding solve: iterate `phi <- atan2(b(phi), a(phi))`, with Brent's method on
+/// the monotone residual where that does not converge.
+pub fn slide_safe(a0: f64, b0: f64, slide: f64) -> (f64, f64) {
     let ab = |p: f64| {
         let (f, t) = limit_curve(p);
         (a0 - slide * f, b0 - 2.0 * slide * t)
     };
-    let (a, b) = if b0 == 0.0 {
-        (a0 - slide, 0.0)
-    } else if a0 == 0.0 {
-        (0.0, b0 - 4.0 / 3.0 * slide)
-    } else if let Some(ab) = slide_newton(a0, b0, slide) {
-        ab
-    } else {
-        let mut phi = b0.atan2(a0);
-        let mut converged = false;
-        for _ in 0..30 {
-            let (a, b) = ab(phi);
-            let next = b.atan2(a);
-            if !(0.0..=FRAC_PI_2).contains(&next) {
-                break;
-            }
-            if (next - phi).abs() <= 1e-15 {
-                phi = next;
-                converged = true;
-                break;
-            }
+    let mut phi = b0.atan2(a0);
+    let mut converged = false;
+    for _ in 0..30 {
+        let (a, b) = ab(phi);
+        let next = b.atan2(a);
+        if !(0.0..=FRAC_PI_2).contains(&next) {
+            break;
+        }
+        if (next - phi).abs() <= 1e-15 {
             phi = next;
+            converged = true;
+            break;
         }
-        if !converged {
-            phi = crate::roots::brent(
-                |p| {
-                    let (a, b) = ab(p);
-                    p - b.atan2(a)
-                },
-                0.0,
-                FRAC_PI_2,
-                1e-15,
-            );
-        }
-        ab(phi)
-    };
+        phi = next;
+    }
+    if !converged {
+        phi = crate::roots::brent(
+            |p| {
+                let (a, b) = ab(p);
+                p - b.atan2(a)
+            },
+            0.0,
+            FRAC_PI_2,
+            1e-15,
+        );
+    }
+    ab(phi)
+}
+
+/// The step of a sliding disk from the magnitudes `(a, b)` of its result (`a0 = |w_free|`): `w'`
+/// keeps the direction of `w_free`, `s'` the sign of `s_free`.
+pub fn finish(w_free: [f64; 2], s_free: f64, a0: f64, a: f64, b: f64) -> Step {
     let (a, b) = (a.max(0.0), b.max(0.0));
     let scale = if a0 > 0.0 { a / a0 } else { 0.0 };
     Step {
