@@ -13,7 +13,7 @@ from upm.board import protocol
 from upm.board.emulator import BoardEmulator
 from upm.control.tasks import State
 from upm.drive import DriveLimits, StrokeError, flexures
-from upm.plan import PredictivePlanner, generate
+from upm.plan import PredictivePlanner, aligned_centres, generate
 from upm.plant import Channel, Envelope, SimulatedUPM
 from upm.pulses import Pulse
 from upm.waveforms import Harmonics
@@ -85,13 +85,14 @@ def test_candidates_stay_within_force_and_stroke_on_the_plant() -> None:
     plant = SimulatedUPM()
     limits = plant.limits
     parts = np.array([[0.05, 0.05], [-0.08, 0.02], [0.1, -0.1]])
-    cands = generate(limits, parts, use=0.9)
+    aligned = (np.array([[0.02, 0.3], [-0.1, -0.04]]), np.array([1.0, -1.0]))
+    cands = generate(limits, parts, use=0.9, aligned=aligned)
     families = set(cands.family)
-    assert {"translation", "rotation", "part-rotation", "jet", "fine-jet"} <= families
+    assert {"translation", "rotation", "part-rotation", "aligned-rotation", "jet", "fine-jet"} <= families
     kinds = {p.kind for p in cands.pulses}
     assert kinds == {"translation", "rotation", "jet"}
     assert len(cands) >= 250
-    for k in range(0, len(cands), 5):
+    for k in sorted(set(range(0, len(cands), 5)) | set(np.nonzero(cands.family == "aligned-rotation")[0])):
         p = cands.pulses[k]
         force = p.peak_force(limits.plate, limits.axes)  # the channels' own arithmetic
         channels = [Channel(**c) for c in p.channels(limits.plate, limits.axes)]
@@ -147,7 +148,7 @@ def test_the_loop_refuses_a_planner_whose_limits_differ_from_the_device() -> Non
         plant, plant.camera(), PredictivePlanner(plant.limits), control.WatchTask(1), part_radius=CHIP
     )
     with pytest.raises(upm.ParameterError, match="limits must be"):
-        PredictivePlanner(plant.plate)  # type: ignore[arg-type]
+        PredictivePlanner(plant.plate)
 
 
 def _state(positions: list[list[float]], labels: tuple[str, ...]) -> State:
@@ -166,11 +167,20 @@ def test_task_costs_vanish_at_the_goal_and_grow_with_distance() -> None:
     assert cost[0] == 0.0 and np.all(np.diff(cost[1:]) > 0)
     assert cost[-1] == pytest.approx(2 * (0.05 - 0.001))  # each part's distance less half the tolerance
 
-    sort = control.SortTask({"red": -1, "blue": 1}, line=0.1, past=0.01)
+    sort = control.SortTask({"red": -1, "blue": 1}, line=0.1, past=0.01, clear=0.003)
     s = _state([[-0.2, 0.0], [0.15, 0.0]], ("red", "blue"))
     assert sort.cost(s) == 0.0 and sort.done(s)
-    moved = np.array([[[-0.2, 0.0], [0.05, 0.0]], [[-0.2, 0.0], [0.0, 0.0]]])
-    assert sort.cost(s, moved) == pytest.approx([0.105 - 0.05, 0.105])
+    # the blue's way to 3 mm past its line weighs 2, its way to half of past beyond it 0.3
+    moved = np.array([[[-0.2, 0.0], [0.05, 0.0]], [[-0.2, 0.0], [0.0, 0.0]], [[-0.2, 0.0], [0.104, 0.0]]])
+    assert sort.cost(s, moved) == pytest.approx(
+        [2 * 0.053 + 0.3 * 0.055, 2 * 0.103 + 0.3 * 0.105, 0.3 * 0.001]
+    )
+    # a lost part costs more than one anywhere on the plate
+    lost = np.array([[[-0.2, 0.0], [np.nan, np.nan]], [[-0.2, 0.0], [-0.2, 0.0]]])
+    far, gone = sort.cost(s, lost[1:]), sort.cost(s, lost[:1])
+    assert gone[0] > far[0] > 0
+    with pytest.raises(upm.ParameterError, match="clear"):
+        control.SortTask({"red": -1}, clear=-0.001)
 
     path = [[0.0, 0.0], [0.1, 0.0]]
     traj = control.TrajectoryTask([path], speed=0.01)
@@ -178,6 +188,37 @@ def test_task_costs_vanish_at_the_goal_and_grow_with_distance() -> None:
     assert traj.cost(t0) == 0.0
     # after 2 s the reference is 2 cm along: a part left behind costs 2 cm, one there nothing
     assert traj.cost(t0, np.array([[[0.0, 0.0]], [[0.02, 0.0]]]), elapsed=2.0) == pytest.approx([0.02, 0.0])
+
+
+@pytest.mark.parametrize("sense", [1.0, -1.0])
+def test_aligned_centres_find_the_rotation_that_serves_every_part(sense: float) -> None:
+    # four parts whose goals lie 15 mm along their tangents about (0.05, -0.02), one way round:
+    # the quick model's best rotation is about that centre (a lattice point), in that sense
+    size = 0.4
+    lattice = np.linspace(-0.9 * size, 0.9 * size, 37)
+    centre = np.array([lattice[20], lattice[17]])
+    parts = centre + np.array([[0.06, 0.0], [0.0, 0.08], [-0.05, 0.0], [0.0, -0.07]])
+    rel = parts - centre
+    tangent = sense * np.stack([-rel[:, 1], rel[:, 0]], 1) / np.hypot(*rel.T)[:, None]
+    goals = parts + 0.015 * tangent
+    task = control.GotoTask(goals, starts=parts, tolerance=1e-9)
+    state = _state(parts.tolist(), ("a", "b", "c", "d"))
+    centres, senses = aligned_centres(lambda q: task.cost(state, q), parts, size, count=5)
+    assert np.allclose(centres[0], centre) and senses[0] == sense
+    assert len(centres) == 5 and np.all(np.hypot(*(centres[1:] - centres[0]).T) >= 0.03)
+    # the rotations built about them turn every part that way round the centre, and the shorter
+    # one brings them nearer their goals (the exact integrator, not the quick model)
+    limits = SimulatedUPM().limits
+    cands = generate(limits, parts, grid=0, jet_radii=(), fine=(), aligned=(centres[:1], senses[:1]))
+    mine = [p for p, f in zip(cands.pulses, cands.family, strict=True) if f == "aligned-rotation"]
+    assert len(mine) == 2  # on-times 0.2 and 0.4 s
+    final, _ = PredictivePlanner(limits, mu=0.3).predict(mine, parts)
+    assert np.all(np.einsum("kmi,mi->km", final - parts, tangent) > 0.005)
+    assert task.cost(state, final)[0] < task.cost(state) - 0.02
+    # nothing lowers the cost of parts at their goals
+    done = control.GotoTask(parts, starts=parts, tolerance=1e-9)
+    none, _ = aligned_centres(lambda q: done.cost(state, q), parts, size)
+    assert none.shape == (0, 2)
 
 
 def test_a_sort_with_a_lost_part_is_not_done() -> None:
@@ -258,7 +299,7 @@ def test_a_pulse_is_scored_with_the_best_second_pulse_after_it() -> None:
     assert np.all(rate >= alone) and np.any(rate > alone + 1e-6)
     for bad in ((0, 5), (3,), "16,100", (2.5, 4), (True, 4)):
         with pytest.raises(upm.ParameterError, match="pairs must be None or two integers"):
-            PredictivePlanner(limits, pairs=bad)  # type: ignore[arg-type]
+            PredictivePlanner(limits, pairs=bad)
 
 
 def test_a_short_predictive_sort_sorts_without_loss_within_the_stroke() -> None:
@@ -292,6 +333,7 @@ def test_the_end_of_a_sort_does_not_stall_against_the_edge() -> None:
     # a layout where a sort stalled (seed 1 of bench/control.py sort8): two reds still to go left,
     # two sorted reds on the edge band's border and the blues just past their target, so every
     # pulse that moves a red nudges the others; a steep edge penalty then refused every pulse
+    # (with the cost that weighed every millimetre to past / 2 alike)
     at = np.array([[114.7, -133.6], [148.9, -39.2], [111.8, 79.9], [111.3, -50.4],
                    [-81.9, 61.8], [-43.2, -74.7], [-168.1, 21.6], [-168.0, -53.7]]) / 1000  # fmt: skip
     labels = ("blue",) * 4 + ("red",) * 4
@@ -300,17 +342,18 @@ def test_the_end_of_a_sort_does_not_stall_against_the_edge() -> None:
     state = _state(at.tolist(), labels)
     chosen = PredictivePlanner(limits, mu=0.3, part_radius=CHIP).plan_task(state, task)
     assert len(chosen) == 1
-    steep = PredictivePlanner(limits, mu=0.3, part_radius=CHIP, edge_weight=3.0, lookahead=None, pairs=None)
-    assert steep.plan_task(state, task) == []
+
+    class Even(control.SortTask):  # every millimetre to half of past beyond the line alike
+        NEAR, FAR = 0.0, 1.0
+
+    even = Even({"red": -1, "blue": 1}, margin=0.08, spacing=0.046, max_step=0.025)
+    kw = {"mu": 0.3, "part_radius": CHIP, "edge_weight": 3.0, "lookahead": None, "aligned": 0}
+    assert PredictivePlanner(limits, pairs=None, **kw).plan_task(state, even) == []
     # two pulses see past it even then: the second puts back what the first nudges
-    assert (
-        len(
-            PredictivePlanner(limits, mu=0.3, part_radius=CHIP, edge_weight=3.0, lookahead=None).plan_task(
-                state, task
-            )
-        )
-        == 1
-    )
+    assert len(PredictivePlanner(limits, **kw).plan_task(state, even)) == 1
+    # and so does the sort's own cost, whose pull on a part not yet over its line outweighs the
+    # nudges to those past it
+    assert len(PredictivePlanner(limits, pairs=None, **kw).plan_task(state, task)) == 1
     # what the chosen pulse does: the cost falls, and no part is predicted off the plate
     planner = PredictivePlanner(limits, mu=0.3, part_radius=CHIP)
     final, _ = planner.predict(chosen, at, disks=True, fine=True)

@@ -372,12 +372,18 @@ class SortTask:
         Step asked for per cycle [m].
     past : float
         A sorted part is pushed no further than ``line + past`` [m].
+    clear : float
+        :meth:`cost` pulls a part hardest until it is this far past its line [m] (then lightly on
+        to ``line + past / 2``).
     free_y : bool
         Leave y free (NaN) for parts that are not being spread apart and are more than
         ``margin`` from the top and bottom edges (beyond it they are brought back): planners that
         solve for every constrained component (:class:`~upm.control.RotationsPlanner`) then have
         about half the constraints.
     """
+
+    NEAR, FAR = 2.0, 0.3
+    """:meth:`cost`'s weights on the distance to ``clear`` past the line and to ``past / 2``."""
 
     def __init__(
         self,
@@ -389,12 +395,14 @@ class SortTask:
         spacing: float = 0.045,
         max_step: float = 0.02,
         past: float = 0.02,
+        clear: float = 0.003,
         free_y: bool = False,
     ) -> None:
         self.free_y = bool(free_y)
-        if not (math.isfinite(past) and past >= 0):
-            raise ParameterError(f"past must be finite and >= 0 [m]; got {past!r}")
-        self.past = float(past)
+        for name, value in (("past", past), ("clear", clear)):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ParameterError(f"{name} must be finite and >= 0 [m]; got {value!r}")
+        self.past, self.clear = float(past), float(clear)
         self.expected: int | None = None  # labelled parts seen on the first cycle
         if not sides or any(v not in (-1, 1) for v in sides.values()):
             raise ParameterError(f"sides must map labels to -1 (left) or +1 (right); got {dict(sides)}")
@@ -455,15 +463,19 @@ class SortTask:
         return out
 
     def cost(self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0) -> FloatArray:
-        """Sum over labelled parts of the distance [m] still to go along x to ``line`` plus half
-        of ``past`` (beyond the line, so that neither vision noise nor the far field of a pulse
-        that moves another part unsorts a part just over it); a lost part (NaN) counts as the
-        plate's width."""
+        """Sum over labelled parts of two distances [m] still to go along x: to ``clear`` past
+        ``line``, weighted 2, and to ``line`` plus half of ``past``, weighted 0.3. A part's way
+        over its line counts most, so a planner spends no pulse on parts already over it while
+        others are not; the light pull on past it keeps vision noise and the far field of a pulse
+        that moves another part from unsorting a part just over it. A lost part (NaN) counts as
+        the plate's width at both weights."""
         q = _at(state, positions)
         side = self._side(state)
-        target = self.line + 0.5 * self.past
-        left = np.maximum(target - side * q[..., 0], 0.0)
-        left = np.where(np.isfinite(left), left, 2 * self.half)
+        x = side * q[..., 0]
+        near = np.maximum(self.line + self.clear - x, 0.0)
+        far = np.maximum(self.line + 0.5 * self.past - x, 0.0)
+        left = self.NEAR * near + self.FAR * far
+        left = np.where(np.isfinite(left), left, (self.NEAR + self.FAR) * 2 * self.half)
         out: FloatArray = np.sum(np.where(side != 0, left, 0.0), axis=-1)
         return out
 

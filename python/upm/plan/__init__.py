@@ -16,7 +16,7 @@ package never imports the loop, the board, vision or the plant.
 
 from __future__ import annotations
 
-from .candidates import Candidates, generate
+from .candidates import Candidates, aligned_centres, generate
 from .displacements import DisplacementPlanner, plan_pulses, plan_to_motion, sustain_for_displacement
 from .fixed import FixedPlanner, Planner
 from .jets import JetPlanner, jet_plan, jet_pulses
@@ -34,6 +34,7 @@ __all__ = [
     "Planner",
     "PredictivePlanner",
     "RotationsPlanner",
+    "aligned_centres",
     "generate",
     "jet_plan",
     "jet_pulses",

@@ -6,7 +6,9 @@ Families (all enveloped, 3 drive periods of attack and decay; jets 6, for their 
   ``v (cos wt - cos(2wt)/2)``, the same force on every part;
 * **rotations** about a grid of centres and about each part, both senses: the time-asymmetric
   rotation of 5.1.2 (every resting part the same tangential force);
-* **jets** (6.4) focused on each part, in several directions and radii.
+* **jets** (6.4) focused on each part, in several directions and radii;
+* **aligned rotations** about centres that serve the task best by a quick model
+  (:func:`aligned_centres`): one pulse that moves many parts toward their goals at once.
 
 Every family is built for each drive frequency and on-time. A pulse's motor forces and its
 plate excursion are linear in its amplitude, so each candidate is sized once at unit amplitude by
@@ -18,16 +20,17 @@ and more motor force; the limits decide which wins for each shape.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..drive import DriveLimits
 from ..pulses import Pulse
 from ..waveforms import Harmonics
 
-__all__ = ["Candidates", "generate"]
+__all__ = ["Candidates", "aligned_centres", "generate"]
 
 FloatArray = NDArray[np.float64]
 
@@ -38,7 +41,8 @@ class Candidates:
 
     pulses: list[Pulse]
     family: NDArray[np.str_]
-    """``"translation"``, ``"rotation"``, ``"part-rotation"`` or ``"jet"`` per pulse."""
+    """``"translation"``, ``"rotation"``, ``"part-rotation"``, ``"aligned-rotation"``, ``"jet"`` or
+    ``"fine-jet"`` per pulse."""
     force: FloatArray
     """Peak motor force of each pulse as sized [N]."""
     excursion: FloatArray
@@ -74,6 +78,48 @@ def _unit_phasors(kind: str, center: FloatArray, direction: FloatArray, rho: flo
     return out
 
 
+def aligned_centres(
+    cost: Callable[[FloatArray], ArrayLike],
+    positions: FloatArray,
+    size: float,
+    *,
+    count: int = 8,
+    step: float = 0.015,
+    core: float = 0.02,
+    spacing: float = 0.03,
+    points: int = 37,
+) -> tuple[FloatArray, FloatArray]:
+    """Centres and senses (``+1`` counter-clockwise) of the ``count`` rotations that lower
+    ``cost`` most by a quick model, at least ``spacing`` [m] apart, ``(n, 2)`` and ``(n,)``.
+
+    The model: a time-asymmetric rotation about ``C`` pushes every resting part along its tangent
+    about ``C`` alike (5.1.2), so it moves a part at ``P`` by ``step`` [m] along
+    ``R90 (P - C) / |P - C|``, scaled down within ``core`` [m] of ``C`` (the plate barely moves
+    there). Every centre of a ``points x points`` lattice over 1.8 plate sides (``size`` [m];
+    centres off the plate give nearly parallel fields), both senses, is scored by ``cost`` of the
+    layouts it would leave, ``cost((K, M, 2)) -> (K,)``; only centres that lower it are kept. The
+    candidates built about them are then predicted exactly, like every other."""
+    pos = np.asarray(positions, dtype=np.float64).reshape(-1, 2)
+    lattice = np.linspace(-0.9 * size, 0.9 * size, points)
+    centres = np.stack(np.meshgrid(lattice, lattice, indexing="ij"), axis=-1).reshape(-1, 2)
+    rel = pos[None] - centres[:, None]  # (G, M, 2)
+    r = np.hypot(rel[..., 0], rel[..., 1])
+    tangent = np.stack([-rel[..., 1], rel[..., 0]], axis=-1) / np.maximum(r, 1e-12)[..., None]
+    moved = step * np.minimum(1.0, r / core)[..., None] * tangent
+    layouts = np.concatenate([pos[None] + moved, pos[None] - moved])
+    now = float(np.asarray(cost(pos[None]), dtype=float).reshape(-1)[0])
+    gain = now - np.asarray(cost(layouts), dtype=float).reshape(-1)
+    picked: list[int] = []
+    for k in np.argsort(-np.where(np.isfinite(gain), gain, -np.inf), kind="stable"):
+        if len(picked) >= count or not gain[k] > 0:
+            break
+        c = centres[k % len(centres)]
+        if all(np.hypot(*(c - centres[j % len(centres)])) >= spacing for j in picked):
+            picked.append(int(k))
+    at = np.array(picked, dtype=np.int64)
+    return centres[at % len(centres)].reshape(-1, 2), np.where(at < len(centres), 1.0, -1.0)
+
+
 def generate(
     limits: DriveLimits,
     positions: FloatArray,
@@ -92,6 +138,8 @@ def generate(
     fine: tuple[float, ...] = (0.12, 0.35),
     jet_on_times: tuple[float, ...] | None = None,
     rotation_on_times: tuple[float, ...] | None = None,
+    aligned: tuple[FloatArray, FloatArray] | None = None,
+    aligned_on_times: tuple[float, ...] = (0.2, 0.4),
 ) -> Candidates:
     """Candidate pulses for parts at ``positions (M, 2)`` [m], sized within ``limits``.
 
@@ -107,7 +155,9 @@ def generate(
     spread directions. ``jet_on_times``, ``rotation_on_times``: on-times of the jets and of the
     rotations about the grid (default the middle of ``on_times``, and ``on_times``).
     ``carried`` [m]: the largest corner excursion the plate's motion left from earlier pulses
-    may still add; the stroke left for the candidate is ``stroke - carried``. Each shape is
+    may still add; the stroke left for the candidate is ``stroke - carried``. ``aligned``: centres
+    ``(n, 2)`` and senses ``(n,)`` of rotations to add at ``aligned_on_times`` (as
+    :func:`aligned_centres` gives them). Each shape is
     played at the one of ``frequencies`` that gives it the largest amplitude within the limits
     (rotations and jets: stroke-bound at low frequencies, force-bound at high ones).
     """
@@ -189,6 +239,10 @@ def generate(
         for part in fine:
             for d in ways:
                 add("jet", "fine-jet", p, d, jet_radii[0], short, frequencies[-1:], part)
+    if aligned is not None:
+        for c, sense in zip(np.asarray(aligned[0], float).reshape(-1, 2), aligned[1], strict=True):
+            for on in aligned_on_times:
+                add("rotation", "aligned-rotation", c, np.array([float(sense), 0.0]), 0.0, on, frequencies)
     k = len(specs)
     attack = np.array([(6.0 if s[0] == "jet" else 3.0) / s[5] for s in specs])
     freq = np.array([s[5] for s in specs])
@@ -199,7 +253,8 @@ def generate(
     reach = np.full(k, np.nan)
     keys: list[tuple[object, ...]] = []
     sized_at: list[FloatArray] = []
-    fixed = np.array([s[1] in ("translation", "rotation") for s in specs], dtype=bool)
+    # shapes that do not follow the parts (aligned centres lie on a fixed lattice)
+    fixed = np.array([s[1] in ("translation", "rotation", "aligned-rotation") for s in specs], dtype=bool)
     for i, (kind, _, c, d, rho, f, t) in enumerate(specs):
         # shapes at a part are sized at its position rounded to 5 mm (their reach changes by well
         # under 2 % over that), so they too are mostly found in the cache from cycle to cycle

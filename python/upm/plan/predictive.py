@@ -4,7 +4,9 @@ Each cycle :class:`PredictivePlanner`
 
 1. builds a few hundred candidate pulses at the drive's force and stroke limits
    (:func:`upm.plan.candidates.generate`: translations, rotations about a grid and about each
-   part, jets at each part; several frequencies and on-times);
+   part, rotations about the centres that serve the task best by a quick model
+   (:func:`~upm.plan.candidates.aligned_centres`), jets at each part; several frequencies and
+   on-times);
 2. predicts them all from the tracked positions in batched :func:`upm.simulate_batch` calls (one
    per on-time and frequency; point parts, a coarse step, while the plate moves; then each part
    slides to rest in closed form),
@@ -39,7 +41,7 @@ from ..drive import DriveLimits
 from ..motion import PlateMotion
 from ..pulses import Pulse
 from ..sim import Disk, simulate_batch
-from .candidates import Candidates, generate
+from .candidates import Candidates, aligned_centres, generate
 from .fitting import FACTORS, best_factor
 from .macros import MacroTable
 from .sizing import positive as _positive
@@ -146,6 +148,10 @@ class PredictivePlanner:
         of the ``pairs[1]`` best one-step candidates, predicted from where the first leaves the
         parts (gain per second over both pulses; the second's plate time as from the present
         layout); the first of the best pair is played. ``None``: off.
+    aligned : int
+        Rotations about this many centres picked each cycle for the task by a quick model
+        (:func:`~upm.plan.candidates.aligned_centres`), each at on-times 0.2 and 0.4 s: pulses
+        that move many parts toward their goals at once. 0: none.
     """
 
     def __init__(
@@ -169,6 +175,7 @@ class PredictivePlanner:
         jet_radii: Sequence[float] = (0.04, 0.08, 0.12),
         lookahead: float | None = 1.0,
         pairs: tuple[int, int] | None = (16, 100),
+        aligned: int = 8,
     ) -> None:
         if not isinstance(limits, DriveLimits):
             raise ParameterError(f"limits must be a upm.DriveLimits; got {type(limits).__name__}")
@@ -192,8 +199,10 @@ class PredictivePlanner:
         for name, value in named:
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ParameterError(f"{name} must be finite and >= 0; got {value!r}")
-        if isinstance(rerank, bool) or not isinstance(rerank, int) or rerank < 0:
-            raise ParameterError(f"rerank must be an integer >= 0; got {rerank!r}")
+        for name, count in (("rerank", rerank), ("aligned", aligned)):
+            if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 0:
+                raise ParameterError(f"{name} must be an integer >= 0; got {count!r}")
+        self.aligned = int(aligned)
         self.edge = float(edge)
         self.edge_weight = float(edge_weight)
         self.lost_cost = float(lost_cost)
@@ -414,11 +423,16 @@ class PredictivePlanner:
         return out
 
     def candidates(
-        self, positions: FloatArray, toward: FloatArray | None = None, carried: float | None = None
+        self,
+        positions: FloatArray,
+        toward: FloatArray | None = None,
+        carried: float | None = None,
+        aligned: tuple[FloatArray, FloatArray] | None = None,
     ) -> Candidates:
         """This cycle's candidates for parts at ``positions`` (see :mod:`upm.plan.candidates`),
         within the stroke the plate's leftover motion leaves (``carried`` [m], default from the
-        planner's plate model); jets along ``toward (M, 2)``."""
+        planner's plate model); jets along ``toward (M, 2)``; rotations about the ``aligned``
+        centres and senses."""
         return generate(
             self.limits,
             positions,
@@ -433,6 +447,7 @@ class PredictivePlanner:
             pulse_cache=self._pulses,
             jet_on_times=(0.35, 0.6),
             rotation_on_times=self.on_times[:2],
+            aligned=aligned,
         )
 
     def choose(
@@ -573,7 +588,12 @@ class PredictivePlanner:
             return []
         self.expected = None
         carried = self._carried()
-        cands = self.candidates(pos, self._descent(task, state, pos), carried)
+        aligned = None
+        if self.aligned:
+            aligned = aligned_centres(
+                lambda q: task.cost(state, q, 0.0), pos, self.limits.size, count=self.aligned
+            )
+        cands = self.candidates(pos, self._descent(task, state, pos), carried, aligned)
         if self.macros is not None:  # the long pulses of the look-ahead are playable themselves
             cands = cands + self.macros.playable(carried)
         best, _, _, duration, final = self._choose(task, state, cands.pulses, ids)
