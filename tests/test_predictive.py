@@ -380,3 +380,50 @@ def test_parts_slide_to_rest_as_the_integrator_has_them() -> None:
         [run.t[np.nonzero(moving[:, j])[0][-1]] if moving[:, j].any() else 0.0 for j in range(12)]
     )
     assert np.all(np.abs(last + dt - stop) <= dt + 1e-12) and stop[0] == 0.0
+
+
+def test_the_macro_tables_apply_as_a_plain_interpolation_does() -> None:
+    # every macro of the look-ahead applied to random layouts, against a slow evaluation written
+    # here: each part's distance from the rotation's centre, np.interp in the table, the
+    # displacement turned with the part about the centre; translations shift every part
+    limits = SimulatedUPM().limits
+    table = PredictivePlanner(limits, mu=0.3).macros
+    assert table is not None
+    rng = np.random.default_rng(7)
+    layouts = rng.uniform(-0.25, 0.25, (6, 5, 2))
+    layouts[2, 3] = np.nan
+    layouts[4, 1] = table.centres[3]  # a part at a centre: r = 0
+    got = table.apply(layouts)
+    n_rot = len(table.centres)
+    assert got.shape == (6, n_rot + len(table.shift), 5, 2)
+    for k, layout in enumerate(layouts):
+        for c, centre in enumerate(table.centres):
+            for i, p in enumerate(layout):
+                rel = p - centre
+                r = math.hypot(*rel)
+                if not math.isfinite(r):
+                    assert np.all(np.isnan(got[k, c, i]))
+                    continue
+                d = [np.interp(r, table.radii, table.turn[c, :, a]) for a in (0, 1)]
+                cos, sin = (rel / r) if r > 0 else (1.0, 0.0)
+                want = p + np.array([cos * d[0] - sin * d[1], sin * d[0] + cos * d[1]])
+                assert np.allclose(got[k, c, i], want, rtol=0, atol=1e-15)
+        assert np.allclose(
+            got[k, n_rot:], layout[None] + table.shift[:, None], rtol=0, atol=1e-15, equal_nan=True
+        )
+    assert table.apply(layouts[0]).shape == (n_rot + len(table.shift), 5, 2)  # one layout, no batch axis
+
+
+def test_the_edge_penalty_counts_band_depth_and_lost_parts() -> None:
+    planner = PredictivePlanner(SimulatedUPM().limits, mu=0.3, edge=0.04, edge_weight=2.0, lost_cost=1.5)
+    half = planner.limits.size / 2
+    q = np.array(
+        [
+            [[0.0, 0.0], [half - 0.03, 0.0]],
+            [[0.0, -(half - 0.01)], [np.nan, 0.0]],
+            [[half + 1e-3, 0.0], [0.0, 0.0]],
+        ]
+    )
+    # per coordinate: its depth in the 40 mm band, plus five times its depth in the band's outer half
+    want = [2.0 * 0.01, 2.0 * (0.03 + 5 * 0.01) + 1.5, 1.5]
+    assert planner._penalty(q, overlaps=False) == pytest.approx(want, abs=1e-12)

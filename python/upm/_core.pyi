@@ -11,6 +11,7 @@ __all__ = [
     "WaveformBatch",
     "__version__",
     "_panic_for_test",
+    "apply_rays",
     "average_field",
     "axis_response",
     "bang_bang_efficiency",
@@ -21,6 +22,7 @@ __all__ = [
     "cor_from_accelerometers",
     "corner_excursions",
     "coverage_centroids",
+    "edge_penalty",
     "flow_error",
     "force_table",
     "gamma",
@@ -188,6 +190,8 @@ def harmonic_fit(
 ) -> tuple[_F, float, float]: ...
 def velocity_from_fit(coefficients: _F, frequency: float, multiples: list[float]) -> _F: ...
 def positive_force(coefficients: _F) -> NDArray[np.bool_]: ...
+def apply_rays(q: _F, radii: _F, centres: _F, turn: _F, shift: _F) -> NDArray[np.float64]: ...
+def edge_penalty(q: _F, half: float, band: float, weight: float, lost: float) -> NDArray[np.float64]: ...
 def corner_excursions(
     w_re: _F, w_im: _F, g_re: _F, g_im: _F, samples: int, corners: _F
 ) -> NDArray[np.float64]: ...

@@ -33,6 +33,7 @@ pub mod friction;
 pub mod mchip;
 pub mod motion;
 pub mod parallel;
+pub mod plan;
 pub(crate) mod quadrature;
 pub(crate) mod roots;
 pub mod sim;

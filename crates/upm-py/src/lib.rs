@@ -418,6 +418,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(actuation::velocity_from_fit, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::positive_force, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::corner_excursions, m)?)?;
+    m.add_function(wrap_pyfunction!(actuation::apply_rays, m)?)?;
+    m.add_function(wrap_pyfunction!(actuation::edge_penalty, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::cor_from_accelerometers, m)?)?;
     m.add_function(wrap_pyfunction!(solve::solve, m)?)?;
     m.add_function(wrap_pyfunction!(solve::solve_batch, m)?)?;

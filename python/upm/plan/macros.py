@@ -22,6 +22,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import _core
 from ..drive import DriveLimits
 from ..pulses import Pulse
 from ..sim import simulate_batch
@@ -110,7 +111,9 @@ class MacroTable:
         self.durations = self.on_time + np.concatenate(
             [np.max(stop[:n_rot, inside], axis=1, initial=0.0), stop[n_rot:, 0]]
         )
-        self.centres = np.array([p.center for p in self.rotations]).reshape(-1, 2)
+        self.centres = np.array([p.center for p in self.rotations], dtype=np.float64).reshape(-1, 2)
+        self._turn = np.ascontiguousarray(self.turn, dtype=np.float64).reshape(len(self.centres), -1, 2)
+        self._shift = np.ascontiguousarray(self.shift, dtype=np.float64).reshape(-1, 2)
 
     def playable(self, carried: float = 0.0) -> Candidates:
         """The macro pulses as candidates, their amplitude lowered in proportion to the stroke
@@ -140,29 +143,11 @@ class MacroTable:
 
     def apply(self, positions: FloatArray) -> FloatArray:
         """Positions ``(..., n_macro, M, 2)`` after each macro pulse from ``positions (..., M, 2)``
-        (resting parts; NaN stays NaN)."""
-        q = np.asarray(positions, dtype=float)
-        rel = q[..., None, :, :] - self.centres[:, None, :]  # (..., R, M, 2)
-        r = np.hypot(rel[..., 0], rel[..., 1])
-        cos = np.where(r > 0, rel[..., 0] / np.where(r > 0, r, 1.0), 1.0)
-        sin = np.where(r > 0, rel[..., 1] / np.where(r > 0, r, 1.0), 0.0)
-        # linear interpolation in each macro's table (the radii: 0, then geometric): the interval
-        # from the logarithm, one gather for every macro at once
-        ratio = self.radii[2] / self.radii[1]
-        n = len(self.radii)
-        with np.errstate(divide="ignore"):
-            j = np.floor(np.log(np.maximum(r, 1e-300) / self.radii[1]) / np.log(ratio)).astype(np.int64) + 1
-        j = np.clip(j, 0, n - 2)
-        # the logarithm may land one interval off at a boundary
-        j = np.where(self.radii[j] > r, np.maximum(j - 1, 0), j)
-        j = np.where(self.radii[np.minimum(j + 1, n - 1)] < r, np.minimum(j + 1, n - 2), j)
-        lo, hi = self.radii[j], self.radii[j + 1]
-        w = np.clip((r - lo) / (hi - lo), 0.0, 1.0)[..., None]
-        k = np.arange(len(self.centres))[:, None]
-        d = self.turn[k, j] * (1.0 - w) + self.turn[k, j + 1] * w  # (..., R, M, 2)
-        dx, dy = d[..., 0], d[..., 1]
-        turned = np.stack([cos * dx - sin * dy, sin * dx + cos * dy], axis=-1)
-        rotated = q[..., None, :, :] + turned
-        shifted = q[..., None, :, :] + self.shift[:, None, :]
-        out: FloatArray = np.concatenate([rotated, shifted], axis=-3)
-        return out
+        (resting parts; NaN stays NaN): linear interpolation in each macro's table, turned with
+        the part about its centre, in the extension (``upm_core::plan``)."""
+        q = np.ascontiguousarray(positions, dtype=np.float64)
+        lead, m = q.shape[:-2], q.shape[-2]
+        out: FloatArray = _core.apply_rays(
+            q.reshape(-1, m, 2), self.radii, self.centres, self._turn, self._shift
+        )
+        return out.reshape(*lead, out.shape[1], m, 2)

@@ -36,6 +36,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import _core
 from .._errors import ParameterError
 from ..drive import DriveLimits
 from ..motion import PlateMotion
@@ -319,14 +320,12 @@ class PredictivePlanner:
     # -- scoring --------------------------------------------------------------------------------
     def _penalty(self, q: FloatArray, overlaps: bool = True) -> FloatArray:
         """Edge and overlap penalties ``(K,)`` [m of cost] for predicted positions ``(K, M, 2)``."""
-        half = self.limits.size / 2
-        lost = ~np.all(np.isfinite(q), axis=-1) | np.any(np.abs(np.nan_to_num(q)) > half, axis=-1)
-        # inside the edge band: edge_weight per metre, and five times more in its outer half
-        a = np.abs(np.nan_to_num(q))
-        inner = np.clip(a - (half - self.edge), 0.0, None)
-        outer = np.clip(a - (half - 0.5 * self.edge), 0.0, None)
-        over = self.edge_weight * (inner + 5.0 * outer).sum(axis=-1)
-        out: FloatArray = self.lost_cost * lost.sum(axis=-1) + np.where(lost, 0.0, over).sum(axis=-1)
+        # lost_cost per part off the plate; inside the edge band edge_weight per metre, and five
+        # times more in its outer half (the extension: upm_core::plan::edge_penalty)
+        out: FloatArray = _core.edge_penalty(
+            np.ascontiguousarray(q, dtype=np.float64), self.limits.size / 2, self.edge, self.edge_weight,
+            self.lost_cost,
+        )  # fmt: skip
         if overlaps and self.part_radius is not None and q.shape[1] > 1:
             i, j = np.triu_indices(q.shape[1], 1)
             gap = np.linalg.norm(np.nan_to_num(q[:, i] - q[:, j], nan=1.0), axis=-1)

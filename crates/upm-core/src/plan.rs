@@ -1,0 +1,251 @@
+//! Kernels of the predictive planner's scoring (`upm.plan`): displacement tables of long pulses
+//! applied to many layouts at once, and the penalty for parts near or past the plate's edges.
+//!
+//! A rotation about `C` moves a resting part at `P` by a displacement that depends only on
+//! `r = |P - C|`, turned with `P - C`; a translation moves every resting part alike. The planner
+//! simulates each long pulse once on a ray of parts at radii `0, r1, r1 q, r1 q^2, ...` and here
+//! applies the tables to every part of every candidate layout by linear interpolation in `r`
+//! (metres, the plate frame). Layouts are independent, so any thread count gives the same bits.
+
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+
+/// Displacement tables on a ray (see the module docs).
+pub struct RayTables<'a> {
+    /// Radii `[0, r1, r1 q, ...]` [m], `n >= 3` of them, geometric after the first.
+    pub radii: &'a [f64],
+    /// Centres `(R, 2)` of the rotations [m].
+    pub centres: &'a [[f64; 2]],
+    /// Displacement `(R, n, 2)` of a part at `(r, 0)` from each rotation's centre [m].
+    pub turn: &'a [[f64; 2]],
+    /// Displacement `(T, 2)` of every part under each translation [m].
+    pub shift: &'a [[f64; 2]],
+}
+
+impl RayTables<'_> {
+    fn check(&self) -> Result<()> {
+        let n = self.radii.len();
+        let geometric = n >= 3
+            && self.radii[0] == 0.0
+            && self.radii[1] > 0.0
+            && self.radii.windows(2).all(|w| w[1] > w[0])
+            && self.radii.iter().all(|r| r.is_finite());
+        if !geometric {
+            return Err(Error::parameter(
+                "radii",
+                format!("must be finite, increasing from 0 and hold >= 3 values; got {n} values"),
+            ));
+        }
+        if self.turn.len() != self.centres.len() * n {
+            return Err(Error::Shape(format!(
+                "turn must hold R x n = {} x {n} displacements; got {}",
+                self.centres.len(),
+                self.turn.len()
+            )));
+        }
+        Ok(())
+    }
+
+    /// Tables (rotations, then translations).
+    pub fn len(&self) -> usize {
+        self.centres.len() + self.shift.len()
+    }
+
+    /// Whether there is no table.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// The positions `(L, R + T, M, 2)` after each table from each layout `q (L, M, 2)` (`m` parts a
+/// layout) into `out`. A part at NaN stays NaN.
+pub fn apply_rays(
+    tables: &RayTables,
+    q: &[[f64; 2]],
+    m: usize,
+    out: &mut [[f64; 2]],
+) -> Result<()> {
+    tables.check()?;
+    let k = tables.len();
+    if m == 0 || !q.len().is_multiple_of(m) || out.len() != q.len() * k {
+        return Err(Error::Shape(format!(
+            "layouts of {m} parts: q holds {} positions, out must hold {} x {k}; got {}",
+            q.len(),
+            q.len(),
+            out.len()
+        )));
+    }
+    let radii = tables.radii;
+    let n = radii.len();
+    let log_q = (radii[2] / radii[1]).ln();
+    // the interval of r: from the logarithm, then moved to the one that holds r
+    let interval = |r: f64| -> usize {
+        let j = ((r.max(1e-300) / radii[1]).ln() / log_q).floor();
+        let mut j = if j.is_finite() {
+            (j + 1.0).clamp(0.0, (n - 2) as f64) as usize
+        } else {
+            0
+        };
+        if radii[j] > r {
+            j = j.saturating_sub(1);
+        }
+        if radii[(j + 1).min(n - 1)] < r {
+            j = (j + 1).min(n - 2);
+        }
+        j
+    };
+    out.par_chunks_mut(k * m)
+        .zip(q.par_chunks(m))
+        .for_each(|(o, layout)| {
+            for (c, &[cx, cy]) in tables.centres.iter().enumerate() {
+                let row = &tables.turn[c * n..(c + 1) * n];
+                for (i, &[x, y]) in layout.iter().enumerate() {
+                    let (dx, dy) = (x - cx, y - cy);
+                    let r = dx.hypot(dy);
+                    if !r.is_finite() {
+                        o[c * m + i] = [f64::NAN; 2];
+                        continue;
+                    }
+                    let (cos, sin) = if r > 0.0 {
+                        (dx / r, dy / r)
+                    } else {
+                        (1.0, 0.0)
+                    };
+                    let j = interval(r);
+                    let (lo, hi) = (radii[j], radii[j + 1]);
+                    let w = ((r - lo) / (hi - lo)).clamp(0.0, 1.0);
+                    let (a, b) = (row[j], row[j + 1]);
+                    let ux = a[0] * (1.0 - w) + b[0] * w;
+                    let uy = a[1] * (1.0 - w) + b[1] * w;
+                    o[c * m + i] = [x + (cos * ux - sin * uy), y + (sin * ux + cos * uy)];
+                }
+            }
+            let base = tables.centres.len() * m;
+            for (t, &[sx, sy]) in tables.shift.iter().enumerate() {
+                for (i, &[x, y]) in layout.iter().enumerate() {
+                    o[base + t * m + i] = [x + sx, y + sy];
+                }
+            }
+        });
+    Ok(())
+}
+
+/// The planner's edge penalty of parts near the plate's edges.
+#[derive(Clone, Copy, Debug)]
+pub struct Edges {
+    /// Half the plate's side [m]: a part beyond it (or NaN) is lost.
+    pub half: f64,
+    /// Width of the band inside the edges that is penalised [m].
+    pub band: f64,
+    /// Penalty per metre inside the band; the band's outer half counts five times more.
+    pub weight: f64,
+    /// Penalty of a lost part.
+    pub lost: f64,
+}
+
+/// Edge penalty of each layout `q (L, M, 2)` (`m` parts a layout) into `out (L,)`: `lost` per
+/// part off the plate or NaN, else `weight` times, per coordinate, its depth in the band plus
+/// five times its depth in the band's outer half.
+pub fn edge_penalty(edges: &Edges, q: &[[f64; 2]], m: usize, out: &mut [f64]) -> Result<()> {
+    if m == 0 || q.len() != out.len() * m {
+        return Err(Error::Shape(format!(
+            "layouts of {m} parts: q holds {} positions for {} layouts",
+            q.len(),
+            out.len()
+        )));
+    }
+    let Edges {
+        half,
+        band,
+        weight,
+        lost,
+    } = *edges;
+    let (inner, outer) = (half - band, half - 0.5 * band);
+    out.par_iter_mut()
+        .zip(q.par_chunks(m))
+        .for_each(|(o, layout)| {
+            let (mut gone, mut over) = (0.0, 0.0);
+            for p in layout {
+                let (ax, ay) = (p[0].abs(), p[1].abs());
+                if !(ax <= half && ay <= half) {
+                    gone += 1.0; // NaN fails both comparisons
+                    continue;
+                }
+                for a in [ax, ay] {
+                    over += (a - inner).max(0.0) + 5.0 * (a - outer).max(0.0);
+                }
+            }
+            *o = lost * gone + weight * over;
+        });
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_table_on_its_own_ray_gives_its_own_rows_and_turns_with_the_part() {
+        let radii = [0.0, 0.01, 0.02, 0.04, 0.08];
+        let turn: Vec<[f64; 2]> = (0..5)
+            .map(|j| [0.001 * j as f64, 0.002 * j as f64])
+            .collect();
+        let tables = RayTables {
+            radii: &radii,
+            centres: &[[0.1, -0.05]],
+            turn: &turn,
+            shift: &[[0.003, -0.004]],
+        };
+        // on the ray (along +x from the centre): the row; a quarter turn round: turned with it;
+        // half way between two radii: the mean; NaN stays NaN; the shift moves every part
+        let q = [[0.14, -0.05], [0.1, -0.01], [0.13, -0.05], [f64::NAN, 0.0]];
+        let mut out = vec![[0.0; 2]; 8];
+        apply_rays(&tables, &q, 4, &mut out).unwrap();
+        let close =
+            |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-15 && (a[1] - b[1]).abs() < 1e-15;
+        assert!(close(out[0], [0.14 + 0.003, -0.05 + 0.006]), "{:?}", out[0]);
+        assert!(close(out[1], [0.1 - 0.006, -0.01 + 0.003]), "{:?}", out[1]);
+        assert!(
+            close(out[2], [0.13 + 0.0025, -0.05 + 0.005]),
+            "{:?}",
+            out[2]
+        );
+        assert!(out[3][0].is_nan() && out[3][1].is_nan());
+        assert!(close(out[4], [0.143, -0.054]) && close(out[6], [0.133, -0.054]));
+        assert!(out[7][0].is_nan());
+        let mut short = vec![[0.0; 2]; 7];
+        assert!(apply_rays(&tables, &q, 4, &mut short).is_err());
+    }
+
+    #[test]
+    fn the_edge_penalty_counts_depth_in_the_band_and_lost_parts() {
+        let edges = Edges {
+            half: 0.2,
+            band: 0.04,
+            weight: 2.0,
+            lost: 1.0,
+        };
+        let q = [
+            [0.0, 0.0],
+            [0.17, 0.0],
+            [0.0, -0.19],
+            [0.25, 0.0],
+            [f64::NAN, 0.0],
+            [0.19, 0.19],
+        ];
+        let mut out = vec![0.0; 6];
+        edge_penalty(&edges, &q, 1, &mut out).unwrap();
+        let want = [
+            0.0,
+            2.0 * 0.01,
+            2.0 * (0.03 + 5.0 * 0.01),
+            1.0,
+            1.0,
+            2.0 * 2.0 * (0.03 + 0.05),
+        ];
+        for (a, b) in out.iter().zip(want) {
+            assert!((a - b).abs() < 1e-12, "{out:?} against {want:?}");
+        }
+    }
+}
