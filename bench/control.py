@@ -12,7 +12,8 @@ Tasks (each over ``--seeds`` seeds; medians and maxima):
 Columns: done (of the seeds), plate time to finish [s], parts lost, largest plate-corner excursion
 [mm], median predicted-vs-achieved step error [mm] (predictive planner), median planning time per
 cycle [ms], and the share of progress later undone. Also ``--scaling``: sort time and parts lost
-against the number of chips (4, 8, 16, 32), written to ``docs/img/scaling.png``.
+against the number of chips (4, 8, 16, 32), written to ``docs/img/scaling.png`` (``--stored``:
+plot the runs already in ``docs/img/scaling.jsonl``).
 
 Run: ``python bench/control.py [--tasks sort8,goto6] [--planners predictive,jets] [--seeds 5]``.
 """
@@ -137,10 +138,10 @@ def table(tasks: list[str], planners: list[str], seeds: int) -> None:
             print(f"| {task} | {name} | {done}/{seeds} | {cells} |", flush=True)
 
 
-def scaling(planners: list[str], seeds: int, counts: list[int], out: Path) -> None:
+def scaling(planners: list[str], seeds: int, counts: list[int], out: Path, stored: bool = False) -> None:
     """Sort time, chips lost and chips per minute against the number of chips. Every run is
     appended to ``out`` with the suffix ``.jsonl`` as it ends, and runs already there are not run
-    again (an interrupted sweep resumes)."""
+    again (an interrupted sweep resumes); ``stored``: plot the stored runs only, run nothing."""
     import json
 
     import matplotlib
@@ -159,7 +160,7 @@ def scaling(planners: list[str], seeds: int, counts: list[int], out: Path) -> No
     for name in planners:
         for n in counts:
             for seed in range(1, seeds + 1):
-                if (name, n, seed) in done:
+                if (name, n, seed) in done or stored:
                     continue
                 row = {"planner": name, "chips": n, "seed": seed, **run(f"sort{n}", name, seed)}
                 done[(name, n, seed)] = row
@@ -222,11 +223,12 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--scaling", action="store_true", help="sort time against the number of chips")
     parser.add_argument("--counts", default="4,8,16,32", help="chip counts for --scaling")
+    parser.add_argument("--stored", action="store_true", help="--scaling: plot the stored runs, run none")
     args = parser.parse_args()
     planners = args.planners.split(",")
     if args.scaling:
         counts = [int(n) for n in args.counts.split(",")]
-        scaling(planners, args.seeds, counts, Path("docs/img/scaling.png"))
+        scaling(planners, args.seeds, counts, Path("docs/img/scaling.png"), stored=args.stored)
     else:
         table(args.tasks.split(","), planners, args.seeds)
 

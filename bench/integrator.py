@@ -171,6 +171,36 @@ def per_call(motion: upm.PlateMotion, dt: float) -> None:
     print(f"  numpy writing the same positions, velocities and stuck flags: {floor:.1f} ns per part")
 
 
+def disk_times(dt: float, quick: bool) -> None:
+    """Disks on a rotating plate, one thread: upm against the Numba port of the disk step as it
+    stood when the speed issue was filed (``numba_peer.disks_serial``), both from rest on the
+    same positions, the final positions checked against each other."""
+    rot = upm.PlateMotion.rotation((0.03, -0.02), upm.Harmonics([0.5, -0.25], frequency=F))
+    n, steps = (500, 500) if quick else (2000, 2000)
+    radius = 0.005
+    pos = np.random.default_rng(5).uniform(-0.1, 0.1, (n, 2))
+    disks = [upm.Disk((x, y), radius=radius) for x, y in pos]
+    kw = dict(duration=steps * dt, dt=dt, mu=MU, mu_s=MU_S, record_every=steps, threads=1)
+    ns = 1e9 / (n * steps)
+    ours = best_of(lambda: upm.simulate(rot, disks, **kw)) * ns
+    print(
+        f"\ndisks on a rotating plate, {n:,} disks x {steps} steps, 1 thread: upm {ours:.1f} ns per disk-step"
+    )
+    if not numba:
+        print("  (no Numba peer: pip install 'upm[bench]')")
+        return
+    final = upm.simulate(rot, disks, **kw).positions[-1]
+    u = rot.velocity((np.arange(1, steps + 1) - 1e-6) * dt)
+    slide, hold = MU * G * dt, MU_S * G * dt
+    numba.set_num_threads(1)
+    numba_peer.run_disks(u[:2], pos[:8], radius, slide, hold, dt)  # compile outside the timing
+    peer = best_of(lambda: numba_peer.run_disks(u, pos, radius, slide, hold, dt)) * ns
+    diff = np.abs(numba_peer.run_disks(u, pos, radius, slide, hold, dt) - final).max()
+    assert diff < 1e-9, f"the Numba disk peer must reproduce upm's trajectory; differs by {diff:.1e}"
+    print(f"  Numba port of the step as the speed issue found it: {peer:.1f} ns, ratio {peer / ours:.1f}x"
+          f" (final positions agree to {diff:.1e} m)")  # fmt: skip
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="smaller problems")
@@ -216,6 +246,7 @@ def main() -> None:
     if not numba:
         print("(no Numba peer: pip install 'upm[bench]')")
     per_call(motion, dt)
+    disk_times(dt, quick=args.quick)
 
     recording(motion, dt, rng, quick=args.quick)
 

@@ -312,3 +312,29 @@ def test_friction_per_world_and_part_with_disks_equals_separate_runs():
         bad = 1.2 * mus
         bad[3, 1] = 0.5 * mus[3, 1]
         upm.simulate_batch([spin] * 5, parts, mu=mus, mu_s=bad, **opts)
+
+
+def test_the_disk_friction_curve_matches_a_brute_force_average_over_the_footprint():
+    # _core.disk_friction (the bench's Numba peer builds its table from it) against the friction
+    # averaged here over a polar grid of the unit disk: the relative velocity at a point is the
+    # centre's velocity (1, 0) plus the spin W = tan(phi) turning about the centre
+    from upm import _core
+
+    phi = np.array([0.0, 0.3, 0.7851, 1.2, np.pi / 2])
+    f, t = _core.disk_friction(phi)
+    r = (np.arange(400) + 0.5) / 400
+    th = (np.arange(800) + 0.5) / 800 * 2 * np.pi
+    rr, tt = np.meshgrid(r, th, indexing="ij")
+    x, y = rr * np.cos(tt), rr * np.sin(tt)
+    weight = rr / (math.pi * 400 * 800 / (2 * math.pi))  # dA / area, summing to 1
+    for k, p in enumerate(phi[1:-1], start=1):
+        spin = math.tan(p)
+        vx, vy = 1.0 - spin * y, spin * x
+        n = np.hypot(vx, vy)
+        force = np.sum(weight * vx / n)
+        torque = np.sum(weight * (x * vy - y * vx) / n)
+        assert f[k] == pytest.approx(force, abs=2e-4) and t[k] == pytest.approx(torque, abs=2e-4)
+    assert (f[0], t[0]) == (1.0, 0.0) and f[-1] == pytest.approx(0.0, abs=1e-12)
+    assert t[-1] == pytest.approx(2 / 3, rel=1e-12)
+    with pytest.raises(upm.ParameterError, match="phi"):
+        _core.disk_friction(np.array([np.nan]))

@@ -305,6 +305,16 @@ fn force_table<'py>(
     )
 }
 
+/// Friction of a sliding, spinning disk under uniform pressure at `phi = atan2(R |W|, |w|)` in
+/// `[0, pi/2]`: force / (mu m g) and torque / (mu m g R), by quadrature (`upm_core::disk`).
+#[pyfunction]
+fn disk_friction<'py>(py: Python<'py>, phi: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
+    elementwise(py, "disk_friction", [("phi", phi)], |[p]| {
+        let (f, t) = upm_core::disk::force_torque(upm_core::error::finite("phi", p)?);
+        Ok([f, t])
+    })
+}
+
 /// Theorem 1 closed form, `Tri(n1 n2 psi) / (n2^2 - n1^2)` (0 when both are odd, Lemma 1).
 #[pyfunction]
 fn theorem1_force<'py>(
@@ -430,6 +440,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(solve::jet_field, m)?)?;
     m.add_function(wrap_pyfunction!(solve::average_field, m)?)?;
     m.add_function(wrap_pyfunction!(force_table, m)?)?;
+    m.add_function(wrap_pyfunction!(disk_friction, m)?)?;
     m.add_function(wrap_pyfunction!(theorem1_force, m)?)?;
     m.add_function(wrap_pyfunction!(bang_bang_feed_rate, m)?)?;
     m.add_function(wrap_pyfunction!(bang_bang_force, m)?)?;
