@@ -580,7 +580,10 @@ mod tests {
                 worst = worst.max((stick_radius2(u) / exact - 1.0).abs());
             }
         }
-        assert!(worst < STICK_MARGIN / 100.0, "worst relative error {worst:e}");
+        assert!(
+            worst < STICK_MARGIN / 100.0,
+            "worst relative error {worst:e}"
+        );
         // and the decision is the exact one on both sides of the curve, near it and far from it
         for k in 1..400 {
             let psi = FRAC_PI_2 * k as f64 / 400.0;
