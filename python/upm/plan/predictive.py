@@ -176,7 +176,7 @@ class PredictivePlanner:
         jet_radii: Sequence[float] = (0.04, 0.08, 0.12),
         lookahead: float | None = 1.0,
         pairs: tuple[int, int] | None = (16, 100),
-        aligned: int = 8,
+        aligned: int = 16,
     ) -> None:
         if not isinstance(limits, DriveLimits):
             raise ParameterError(f"limits must be a upm.DriveLimits; got {type(limits).__name__}")
