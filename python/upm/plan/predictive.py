@@ -46,7 +46,7 @@ from .candidates import Candidates, aligned_centres, generate
 from .fitting import FACTORS, best_factor
 from .macros import MacroTable
 from .sizing import positive as _positive
-from .sizing import slide_to_rest
+from .sizing import separate, slide_to_rest
 
 __all__ = ["PredictivePlanner"]
 
@@ -76,25 +76,6 @@ class _View:
     def __init__(self, positions: FloatArray) -> None:
         self.positions = positions
         self.ids = np.arange(len(positions))
-
-
-def _separate(positions: FloatArray, radius: float, gap: float = 1e-4) -> FloatArray:
-    """Tracked disks moved apart just enough not to overlap (vision puts touching disks a
-    millimetre or two into each other), each pair pushed symmetrically along its line."""
-    q = np.array(positions, dtype=float)
-    for _ in range(50):
-        d = q[:, None] - q[None]
-        r = np.hypot(d[..., 0], d[..., 1])
-        np.fill_diagonal(r, np.inf)
-        need = 2 * radius + gap - r
-        if not np.any(need > 0):
-            break
-        i, j = np.nonzero(np.triu(need > 0, 1))
-        for a, b in zip(i, j, strict=True):
-            u = d[a, b] / r[a, b] if r[a, b] > 0 else np.array([1.0, 0.0])
-            q[a] += 0.5 * (need[a, b] + gap) * u
-            q[b] -= 0.5 * (need[a, b] + gap) * u
-    return q
 
 
 def _pair_sizes(pairs: Any) -> tuple[int, int]:
@@ -258,7 +239,7 @@ class PredictivePlanner:
         mu_v = self.mu_estimate if mu is None else mu
         mu_s = np.asarray(mu_v, dtype=float) * self._static
         if disks and self.part_radius is not None:
-            apart = _separate(positions, self.part_radius)
+            apart = separate(positions, self.part_radius)
             parts: Any = [Disk((float(x), float(y)), self.part_radius) for x, y in apart]
             extra: dict[str, Any] = {"contacts": True, "plate_size": self.limits.size}
         else:

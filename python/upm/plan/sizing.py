@@ -36,6 +36,7 @@ __all__ = [
     "harmonics_of",
     "positive",
     "scaled",
+    "separate",
     "settle_time",
     "slide_to_rest",
     "solve_increasing",
@@ -324,3 +325,22 @@ def clear_of_centers(
     out = steps.copy()
     out[near] = 0.0
     return out
+
+
+def separate(positions: FloatArray, radius: float, gap: float = 1e-4) -> FloatArray:
+    """Tracked disks moved apart just enough not to overlap (vision puts touching disks a
+    millimetre or two into each other), each pair pushed symmetrically along its line."""
+    q = np.array(positions, dtype=float)
+    for _ in range(50):
+        d = q[:, None] - q[None]
+        r = np.hypot(d[..., 0], d[..., 1])
+        np.fill_diagonal(r, np.inf)
+        need = 2 * radius + gap - r
+        if not np.any(need > 0):
+            break
+        i, j = np.nonzero(np.triu(need > 0, 1))
+        for a, b in zip(i, j, strict=True):
+            u = d[a, b] / r[a, b] if r[a, b] > 0 else np.array([1.0, 0.0])
+            q[a] += 0.5 * (need[a, b] + gap) * u
+            q[b] -= 0.5 * (need[a, b] + gap) * u
+    return q
