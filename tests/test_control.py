@@ -285,6 +285,8 @@ def test_sort_through_the_board_protocol_and_the_emulator_process():
     m = demos.run_demo("sort8", "out/test-board", board=True, quick=True, cycles=3, verbose=False)
     assert m["board"] and m["cycles"] == 3 and m["fallen"] == 0
     assert m["pulses"] > 0 and m["tracking_error_median"] < 0.03
+    # the emulated plate's largest corner excursion, read back from the emulator process
+    assert 0.0 < m["max_stroke"] <= 0.010
 
 
 def test_remote_camera_refuses_bad_addresses():

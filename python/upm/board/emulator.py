@@ -11,7 +11,8 @@ camera on a TCP port (read it with :class:`upm.vision.RemoteCamera`): the frames
 where the emulated plate has moved them. Each request is one byte: ``F`` answers ``b"UPMF"``,
 height, width, channels (little-endian u32) and the frame's bytes (uint8, row-major); ``P``
 answers ``b"UPMP"``, the part count (u32) and their true positions (float64 x, y [m], NaN for a
-part that fell off) — the simulation's ground truth, for reports and tests.
+part that fell off) — the simulation's ground truth, for reports and tests; ``S`` answers
+``b"UPMS"`` and the largest plate-corner excursion the emulated plate has made (float64 [m]).
 """
 
 from __future__ import annotations
@@ -322,6 +323,8 @@ class CameraServer:
                 elif request == b"P":
                     parts = np.ascontiguousarray(self.camera.source.parts, dtype="<f8").reshape(-1, 2)
                     client.sendall(b"UPMP" + struct.pack("<I", len(parts)) + parts.tobytes())
+                elif request == b"S":
+                    client.sendall(b"UPMS" + struct.pack("<d", float(self.camera.source.max_excursion)))
                 else:
                     raise ConnectionError("unknown request")
             except (ConnectionError, OSError):

@@ -18,7 +18,8 @@ class RemoteCamera:
     """A camera at ``address`` (``"tcp://host:port"`` or ``"host:port"``).
 
     ``read()`` returns ``(True, frame)`` or ``(False, None)`` once the server has gone;
-    :meth:`truth` returns the simulation's true part positions [m] (NaN: fell off).
+    :meth:`truth` returns the simulation's true part positions [m] (NaN: fell off), and
+    :meth:`max_excursion` the largest plate-corner excursion of the simulated plate [m].
     """
 
     def __init__(self, address: str, timeout: float = 10.0) -> None:
@@ -69,6 +70,15 @@ class RemoteCamera:
         except (ConnectionError, OSError) as error:
             raise VisionError(f"the camera at {self.address!r} is gone: {error}") from error
         return np.frombuffer(data, dtype="<f8").reshape(n, 2).astype(np.float64)
+
+    def max_excursion(self) -> float:
+        """The largest plate-corner excursion the simulated plate has made [m] (simulation only)."""
+        try:
+            self._ask(b"S", b"UPMS")
+            (value,) = struct.unpack("<d", self._recv(8))
+        except (ConnectionError, OSError) as error:
+            raise VisionError(f"the camera at {self.address!r} is gone: {error}") from error
+        return float(value)
 
     def isOpened(self) -> bool:
         return self._sock is not None
