@@ -112,7 +112,9 @@ class MacroTable:
             [np.max(stop[:n_rot, inside], axis=1, initial=0.0), stop[n_rot:, 0]]
         )
         self.centres = np.array([p.center for p in self.rotations], dtype=np.float64).reshape(-1, 2)
-        self._turn = np.ascontiguousarray(self.turn, dtype=np.float64).reshape(len(self.centres), -1, 2)
+        self._turn = np.ascontiguousarray(self.turn, dtype=np.float64).reshape(
+            len(self.centres), len(self.radii), 2
+        )
         self._shift = np.ascontiguousarray(self.shift, dtype=np.float64).reshape(-1, 2)
 
     def playable(self, carried: float = 0.0) -> Candidates:
