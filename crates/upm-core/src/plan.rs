@@ -3,7 +3,7 @@
 //!
 //! A rotation about `C` moves a resting part at `P` by a displacement that depends only on
 //! `r = |P - C|`, turned with `P - C`; a translation moves every resting part alike. The planner
-//! simulates each long pulse once on a ray of parts at radii `0, r1, r1 q, r1 q^2, ...` and here
+//! simulates each long pulse once on a ray of parts at increasing radii from 0, and here
 //! applies the tables to every part of every candidate layout by linear interpolation in `r`
 //! (metres, the plate frame). Layouts are independent, so any thread count gives the same bits.
 
@@ -13,7 +13,7 @@ use crate::error::{Error, Result};
 
 /// Displacement tables on a ray (see the module docs).
 pub struct RayTables<'a> {
-    /// Radii `[0, r1, r1 q, ...]` [m], `n >= 3` of them, geometric after the first.
+    /// Radii `[0, r1, r2, ...]` [m], increasing, `n >= 2` of them.
     pub radii: &'a [f64],
     /// Centres `(R, 2)` of the rotations [m].
     pub centres: &'a [[f64; 2]],
@@ -26,15 +26,14 @@ pub struct RayTables<'a> {
 impl RayTables<'_> {
     fn check(&self) -> Result<()> {
         let n = self.radii.len();
-        let geometric = n >= 3
+        let increasing = n >= 2
             && self.radii[0] == 0.0
-            && self.radii[1] > 0.0
             && self.radii.windows(2).all(|w| w[1] > w[0])
             && self.radii.iter().all(|r| r.is_finite());
-        if !geometric {
+        if !increasing {
             return Err(Error::parameter(
                 "radii",
-                format!("must be finite, increasing from 0 and hold >= 3 values; got {n} values"),
+                format!("must be finite, increasing from 0 and hold >= 2 values; got {n} values"),
             ));
         }
         if self.turn.len() != self.centres.len() * n {
@@ -78,23 +77,8 @@ pub fn apply_rays(
     }
     let radii = tables.radii;
     let n = radii.len();
-    let log_q = (radii[2] / radii[1]).ln();
-    // the interval of r: from the logarithm, then moved to the one that holds r
-    let interval = |r: f64| -> usize {
-        let j = ((r.max(1e-300) / radii[1]).ln() / log_q).floor();
-        let mut j = if j.is_finite() {
-            (j + 1.0).clamp(0.0, (n - 2) as f64) as usize
-        } else {
-            0
-        };
-        if radii[j] > r {
-            j = j.saturating_sub(1);
-        }
-        if radii[(j + 1).min(n - 1)] < r {
-            j = (j + 1).min(n - 2);
-        }
-        j
-    };
+    // the interval [radii[j], radii[j + 1]] that holds r (the last one beyond the table)
+    let interval = |r: f64| radii.partition_point(|&x| x <= r).clamp(1, n - 1) - 1;
     out.par_chunks_mut(k * m)
         .zip(q.par_chunks(m))
         .for_each(|(o, layout)| {

@@ -1,13 +1,10 @@
 //! Binding of `upm_core::actuation`: kinematics, plate dynamics, harmonic fits and the
 //! accelerometer centre of rotation.
 
-use numpy::{
-    PyArray1, PyArray4, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
-    PyUntypedArrayMethods,
-};
+use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use upm_core::actuation::{self as act, Axis, Plate};
-use upm_core::{plan, stroke};
+use upm_core::stroke;
 
 use crate::errors::{core, detached, shape_error, Failure};
 use crate::{pair_view, pairs, view};
@@ -184,93 +181,4 @@ pub fn corner_excursions<'py>(
         stroke::corner_excursions(&wr, &wi, &g, &k).map_err(Failure::from)
     })?;
     Ok(PyArray1::from_vec(py, out))
-}
-
-/// Positions `(L, R + T, M, 2)` after each displacement table from each layout `q (L, M, 2)`:
-/// rotations about `centres (R, 2)` tabulated on `radii (n,)` as `turn (R, n, 2)`, and
-/// translations `shift (T, 2)` (see `upm_core::plan`).
-#[pyfunction]
-pub fn apply_rays<'py>(
-    py: Python<'py>,
-    q: PyReadonlyArray3<'py, f64>,
-    radii: PyReadonlyArray1<'py, f64>,
-    centres: PyReadonlyArray2<'py, f64>,
-    turn: PyReadonlyArray3<'py, f64>,
-    shift: PyReadonlyArray2<'py, f64>,
-) -> PyResult<Bound<'py, PyArray4<f64>>> {
-    let (l, m) = (q.shape()[0], q.shape()[1]);
-    if q.shape()[2] != 2 || turn.shape()[2] != 2 {
-        return Err(shape_error(
-            py,
-            "q and turn must end in a coordinate axis of 2".to_string(),
-        ));
-    }
-    let c = pair_view(py, "centres", &centres)?;
-    let s = pair_view(py, "shift", &shift)?;
-    let k = c.len() + s.len();
-    if m == 0 || l == 0 {
-        return PyArray1::from_vec(py, Vec::<f64>::new()).reshape([l, k, m, 2]);
-    }
-    let qs = flat_pairs(&q);
-    let ts = flat_pairs(&turn);
-    let r = view(&radii);
-    let out = detached(py, || {
-        let tables = plan::RayTables {
-            radii: &r,
-            centres: &c,
-            turn: &ts,
-            shift: &s,
-        };
-        let mut out = vec![[0.0; 2]; l * k * m];
-        plan::apply_rays(&tables, &qs, m, &mut out).map_err(Failure::from)?;
-        Ok(out)
-    })?;
-    let flat: Vec<f64> = out.into_iter().flatten().collect();
-    PyArray1::from_vec(py, flat).reshape([l, k, m, 2])
-}
-
-/// The predictive planner's edge penalty `(L,)` of layouts `q (L, M, 2)` (see
-/// `upm_core::plan::edge_penalty`).
-#[pyfunction]
-pub fn edge_penalty<'py>(
-    py: Python<'py>,
-    q: PyReadonlyArray3<'py, f64>,
-    half: f64,
-    band: f64,
-    weight: f64,
-    lost: f64,
-) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let (l, m) = (q.shape()[0], q.shape()[1]);
-    if q.shape()[2] != 2 {
-        return Err(shape_error(
-            py,
-            format!("q must have shape (L, M, 2); got {:?}", q.shape()),
-        ));
-    }
-    let qs = flat_pairs(&q);
-    let edges = plan::Edges {
-        half,
-        band,
-        weight,
-        lost,
-    };
-    let out = detached(py, || {
-        let mut out = vec![0.0; l];
-        if m > 0 {
-            plan::edge_penalty(&edges, &qs, m, &mut out).map_err(Failure::from)?;
-        }
-        Ok(out)
-    })?;
-    Ok(PyArray1::from_vec(py, out))
-}
-
-/// The pairs of a `(..., 2)` array, borrowed when contiguous.
-fn flat_pairs<'a>(a: &'a PyReadonlyArray3<'_, f64>) -> std::borrow::Cow<'a, [[f64; 2]]> {
-    match a.as_slice() {
-        Ok(flat) => std::borrow::Cow::Borrowed(flat.as_chunks::<2>().0),
-        Err(_) => {
-            let v: Vec<f64> = a.as_array().iter().copied().collect();
-            std::borrow::Cow::Owned(v.chunks_exact(2).map(|c| [c[0], c[1]]).collect())
-        }
-    }
 }

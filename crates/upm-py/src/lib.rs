@@ -8,6 +8,7 @@ mod actuation;
 mod errors;
 mod mchip;
 mod motion;
+mod plan;
 mod solve;
 mod vision;
 
@@ -68,9 +69,31 @@ pub(crate) fn pair_view<'a>(
     name: &str,
     a: &'a PyReadonlyArray2<'_, f64>,
 ) -> PyResult<std::borrow::Cow<'a, [[f64; 2]]>> {
+    if a.shape()[1] != 2 {
+        return Err(shape_error(
+            py,
+            format!("{name} must have shape (N, 2); got {:?}", a.shape()),
+        ));
+    }
+    Ok(flat_pairs(a))
+}
+
+/// The consecutive pairs of an array whose last axis is 2 (checked by the caller), borrowed when
+/// it is C-contiguous (copied otherwise).
+pub(crate) fn flat_pairs<'a, D: numpy::ndarray::Dimension>(
+    a: &'a numpy::PyReadonlyArray<'_, f64, D>,
+) -> std::borrow::Cow<'a, [[f64; 2]]> {
     match a.as_slice() {
-        Ok(flat) if a.shape()[1] == 2 => Ok(std::borrow::Cow::Borrowed(flat.as_chunks::<2>().0)),
-        _ => pairs(py, name, a).map(std::borrow::Cow::Owned),
+        Ok(flat) => std::borrow::Cow::Borrowed(flat.as_chunks::<2>().0),
+        Err(_) => std::borrow::Cow::Owned(
+            a.as_array()
+                .iter()
+                .copied()
+                .collect::<Vec<f64>>()
+                .as_chunks::<2>()
+                .0
+                .to_vec(),
+        ),
     }
 }
 
@@ -431,8 +454,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(actuation::velocity_from_fit, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::positive_force, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::corner_excursions, m)?)?;
-    m.add_function(wrap_pyfunction!(actuation::apply_rays, m)?)?;
-    m.add_function(wrap_pyfunction!(actuation::edge_penalty, m)?)?;
+    m.add_function(wrap_pyfunction!(plan::apply_rays, m)?)?;
+    m.add_function(wrap_pyfunction!(plan::edge_penalty, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::cor_from_accelerometers, m)?)?;
     m.add_function(wrap_pyfunction!(solve::solve, m)?)?;
     m.add_function(wrap_pyfunction!(solve::solve_batch, m)?)?;

@@ -105,17 +105,13 @@ class MacroTable:
         final, stop = slide_to_rest(run.positions[:, -1], run.velocities[:, -1], self.mu)
         moved = final - ray[None]
         n_rot = len(self.rotations)
-        self.turn = moved[:n_rot]  # displacement of a part at (r, 0) from the centre
-        self.shift = moved[n_rot:, 0]
+        self.turn = np.ascontiguousarray(moved[:n_rot])  # displacement of a part at (r, 0) from the centre
+        self.shift = np.ascontiguousarray(moved[n_rot:, 0])
         inside = self.radii <= 0.75 * self.limits.size  # parts that can be on the plate
         self.durations = self.on_time + np.concatenate(
             [np.max(stop[:n_rot, inside], axis=1, initial=0.0), stop[n_rot:, 0]]
         )
         self.centres = np.array([p.center for p in self.rotations], dtype=np.float64).reshape(-1, 2)
-        self._turn = np.ascontiguousarray(self.turn, dtype=np.float64).reshape(
-            len(self.centres), len(self.radii), 2
-        )
-        self._shift = np.ascontiguousarray(self.shift, dtype=np.float64).reshape(-1, 2)
 
     def playable(self, carried: float = 0.0) -> Candidates:
         """The macro pulses as candidates, their amplitude lowered in proportion to the stroke
@@ -150,6 +146,6 @@ class MacroTable:
         q = np.ascontiguousarray(positions, dtype=np.float64)
         lead, m = q.shape[:-2], q.shape[-2]
         out: FloatArray = _core.apply_rays(
-            q.reshape(-1, m, 2), self.radii, self.centres, self._turn, self._shift
+            q.reshape(-1, m, 2), self.radii, self.centres, self.turn, self.shift
         )
         return out.reshape(*lead, out.shape[1], m, 2)

@@ -1,0 +1,88 @@
+//! Binding of `upm_core::plan`: the predictive planner's scoring kernels.
+
+use numpy::{
+    PyArray1, PyArray4, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
+    PyUntypedArrayMethods,
+};
+use pyo3::prelude::*;
+use upm_core::plan;
+
+use crate::errors::{detached, shape_error, Failure};
+use crate::{flat_pairs, pair_view, view};
+
+/// Positions `(L, R + T, M, 2)` after each displacement table from each layout `q (L, M, 2)`:
+/// rotations about `centres (R, 2)` tabulated on `radii (n,)` as `turn (R, n, 2)`, and
+/// translations `shift (T, 2)` (see `upm_core::plan`).
+#[pyfunction]
+pub fn apply_rays<'py>(
+    py: Python<'py>,
+    q: PyReadonlyArray3<'py, f64>,
+    radii: PyReadonlyArray1<'py, f64>,
+    centres: PyReadonlyArray2<'py, f64>,
+    turn: PyReadonlyArray3<'py, f64>,
+    shift: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyArray4<f64>>> {
+    let (l, m) = (q.shape()[0], q.shape()[1]);
+    if q.shape()[2] != 2 || turn.shape()[2] != 2 {
+        return Err(shape_error(
+            py,
+            "q and turn must end in a coordinate axis of 2".to_string(),
+        ));
+    }
+    let c = pair_view(py, "centres", &centres)?;
+    let s = pair_view(py, "shift", &shift)?;
+    let k = c.len() + s.len();
+    if m == 0 || l == 0 {
+        return PyArray1::from_vec(py, Vec::<f64>::new()).reshape([l, k, m, 2]);
+    }
+    let qs = flat_pairs(&q);
+    let ts = flat_pairs(&turn);
+    let r = view(&radii);
+    let out = detached(py, || {
+        let tables = plan::RayTables {
+            radii: &r,
+            centres: &c,
+            turn: &ts,
+            shift: &s,
+        };
+        let mut out = vec![[0.0; 2]; l * k * m];
+        plan::apply_rays(&tables, &qs, m, &mut out).map_err(Failure::from)?;
+        Ok(out)
+    })?;
+    PyArray1::from_vec(py, out.into_flattened()).reshape([l, k, m, 2])
+}
+
+/// The predictive planner's edge penalty `(L,)` of layouts `q (L, M, 2)` (see
+/// `upm_core::plan::edge_penalty`).
+#[pyfunction]
+pub fn edge_penalty<'py>(
+    py: Python<'py>,
+    q: PyReadonlyArray3<'py, f64>,
+    half: f64,
+    band: f64,
+    weight: f64,
+    lost: f64,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let (l, m) = (q.shape()[0], q.shape()[1]);
+    if q.shape()[2] != 2 {
+        return Err(shape_error(
+            py,
+            format!("q must have shape (L, M, 2); got {:?}", q.shape()),
+        ));
+    }
+    let qs = flat_pairs(&q);
+    let edges = plan::Edges {
+        half,
+        band,
+        weight,
+        lost,
+    };
+    let out = detached(py, || {
+        let mut out = vec![0.0; l];
+        if m > 0 {
+            plan::edge_penalty(&edges, &qs, m, &mut out).map_err(Failure::from)?;
+        }
+        Ok(out)
+    })?;
+    Ok(PyArray1::from_vec(py, out))
+}
