@@ -107,6 +107,12 @@ impl Harmonics {
     #[inline]
     fn value(&self, x: f64) -> f64 {
         let (s1, c1) = x.sin_cos();
+        self.value_of(c1, s1)
+    }
+
+    /// `v / scale` at the phase whose cosine and sine are `c1`, `s1`.
+    #[inline]
+    pub(crate) fn value_of(&self, c1: f64, s1: f64) -> f64 {
         let (mut s, mut c) = (s1, c1);
         let mut v = 0.0;
         for (a, b) in self.cos.iter().zip(&self.sin) {
@@ -116,6 +122,13 @@ impl Harmonics {
             c = cn;
         }
         v
+    }
+
+    /// Angular frequency of the fundamental [rad/s] and the velocity scale [m/s]: the velocity
+    /// at time `t` is `scale * value_of(cos wt, sin wt)` with `w = 2 pi frequency`.
+    #[inline]
+    pub(crate) fn omega_scale(&self) -> (f64, f64) {
+        (TAU * self.frequency, self.scale)
     }
 
     /// `[v, v', v'', v''', v''''] / scale` (derivatives in the phase `x`) at phase `x`.

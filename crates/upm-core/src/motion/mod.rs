@@ -13,6 +13,8 @@ use std::f64::consts::{PI, TAU};
 use crate::error::{finite, positive, Error, Result};
 use crate::waveform::Waveform;
 
+mod table;
+
 /// One kind of plate motion.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Segment {
@@ -490,23 +492,13 @@ impl PlateMotion {
     }
 
     /// Appends the velocity at `t_s = (s + 1 - 1e-6) dt` for every step `s` in `steps` to `out`:
-    /// [`PlateMotion::velocity`] at each, the item found once for the whole run of steps (the
-    /// simulator's table of a block of steps; the sample a hair before each step's end puts a
-    /// program boundary on a step end in the step before it, whatever the rounding).
+    /// the simulator's table of a block of steps (the sample a hair before each step's end puts a
+    /// program boundary on a step end in the step before it, whatever the rounding). Equal to
+    /// [`PlateMotion::velocity`] at each `t_s` to a few units in the last place of the amplitude,
+    /// its sines carried from step to step by rotation (see [`table`]), and the same to the bit
+    /// however the steps are split into calls.
     pub fn velocities_into(&self, steps: std::ops::Range<usize>, dt: f64, out: &mut Vec<[f64; 3]>) {
-        let t_of = |s: usize| ((s + 1) as f64 - 1e-6) * dt;
-        let mut i = self
-            .starts
-            .partition_point(|&s| s <= t_of(steps.start))
-            .saturating_sub(1);
-        out.reserve(steps.len());
-        for s in steps {
-            let t = t_of(s);
-            while i + 1 < self.starts.len() && self.starts[i + 1] <= t {
-                i += 1;
-            }
-            out.push(self.velocity_in(i, t));
-        }
+        table::fill(self, steps, dt, out);
     }
 
     /// Start time of each item [s].
