@@ -13,6 +13,7 @@
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
+use crate::sim::{simd, Simd};
 
 /// Harmonics and axes of a wrench phasor.
 const H: usize = 3;
@@ -36,94 +37,160 @@ fn turn(theta: f64) -> (f64, f64) {
     let t2 = theta * theta;
     let cm1 = t2 * (-0.5 + t2 * (1.0 / 24.0 + t2 * (-1.0 / 720.0 + t2 * (1.0 / 40320.0))));
     let s = theta
-        * (1.0 + t2 * (-1.0 / 6.0 + t2 * (1.0 / 120.0 + t2 * (-1.0 / 5040.0 + t2 / 362880.0))));
+        * (1.0
+            + t2 * (-1.0 / 6.0
+                + t2 * (1.0 / 120.0 + t2 * (-1.0 / 5040.0 + t2 * (1.0 / 362880.0)))));
     (cm1, s)
 }
 
 /// Samples in flight at once in the series path.
 const LANES: usize = 8;
 
-/// Largest squared distance of a corner from home when the plate is at `(x, y)`, turned by
-/// `theta` (`cm1 = cos theta - 1`, `sn = sin theta`).
-#[inline(always)]
-fn corner_max(cm1: f64, sn: f64, x: f64, y: f64, corners: &[[f64; 2]]) -> f64 {
-    let mut best = 0.0f64;
-    for &[kx, ky] in corners {
-        let dx = cm1 * kx - sn * ky + x;
-        let dy = sn * kx + cm1 * ky + y;
-        let d2 = dx * dx + dy * dy;
-        best = if d2 > best { d2 } else { best };
-    }
-    best
-}
-
 /// Samples per block of the pose, formed axis by axis over contiguous samples (vectorised).
-const BLOCK: usize = 256;
+const BLOCK: usize = 128;
+/// Pulses taken through each block of samples together: the block's responses (18 KiB) are read
+/// from memory once for all of them, not once per pulse.
+const GROUP: usize = 8;
 
-/// Largest squared corner distance of one pulse whose wrench phasors are `(wr, wi)` (`[h][a]`),
-/// and the largest `|theta|` met.
+/// For each pulse of a group whose wrench phasors are `(wr, wi)` (`[pulse][h][a]`), the largest
+/// squared corner distance and the largest `|theta|` met, into `out`: compiled for the widest
+/// vectors the CPU has ([`simd`]; the same arithmetic, so the same bits, in every build).
 fn farthest(
     wr: &[f64],
     wi: &[f64],
     g: &Responses,
     corners: &[[f64; 2]],
     exact: bool,
-) -> (f64, f64) {
+    out: &mut [(f64, f64)],
+) {
+    match simd() {
+        // SAFETY: `simd()` names a build only when the CPU has its features.
+        #[cfg(target_arch = "x86_64")]
+        Simd::Avx512 => unsafe { farthest_avx512(wr, wi, g, corners, exact, out) },
+        #[cfg(target_arch = "x86_64")]
+        Simd::Avx2 => unsafe { farthest_avx2(wr, wi, g, corners, exact, out) },
+        _ => farthest_in(wr, wi, g, corners, exact, out),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn farthest_avx512(
+    wr: &[f64],
+    wi: &[f64],
+    g: &Responses,
+    corners: &[[f64; 2]],
+    exact: bool,
+    out: &mut [(f64, f64)],
+) {
+    farthest_in(wr, wi, g, corners, exact, out);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn farthest_avx2(
+    wr: &[f64],
+    wi: &[f64],
+    g: &Responses,
+    corners: &[[f64; 2]],
+    exact: bool,
+    out: &mut [(f64, f64)],
+) {
+    farthest_in(wr, wi, g, corners, exact, out);
+}
+
+#[inline(always)]
+fn farthest_in(
+    wr: &[f64],
+    wi: &[f64],
+    g: &Responses,
+    corners: &[[f64; 2]],
+    exact: bool,
+    out: &mut [(f64, f64)],
+) {
     let t = g.samples;
-    let (mut best, mut widest) = (0.0f64, 0.0f64);
+    out.fill((0.0, 0.0));
     let mut pose = [[0.0; BLOCK]; A];
     let mut start = 0;
     while start < t {
         let len = BLOCK.min(t - start);
-        for (a, p) in pose.iter_mut().enumerate() {
-            let p = &mut p[..len];
-            p.fill(0.0);
-            for h in 0..H {
-                let k = (h * A + a) * t + start;
-                let (re, im) = (&g.re[k..k + len], &g.im[k..k + len]);
-                let (cr, ci) = (wr[h * A + a], wi[h * A + a]);
-                for ((v, r), i) in p.iter_mut().zip(re).zip(im) {
-                    *v += cr * r - ci * i;
+        for (p, (best, widest)) in out.iter_mut().enumerate() {
+            let (wr, wi) = (&wr[p * H * A..][..H * A], &wi[p * H * A..][..H * A]);
+            for (a, v) in pose.iter_mut().enumerate() {
+                let v = &mut v[..len];
+                v.fill(0.0);
+                for h in 0..H {
+                    let k = (h * A + a) * t + start;
+                    let (re, im) = (&g.re[k..k + len], &g.im[k..k + len]);
+                    let (cr, ci) = (wr[h * A + a], wi[h * A + a]);
+                    for ((v, r), i) in v.iter_mut().zip(re).zip(im) {
+                        *v += cr * r - ci * i;
+                    }
                 }
             }
-        }
-        let [x, y, theta] = &pose;
-        if exact {
-            for s in 0..len {
-                widest = widest.max(theta[s].abs());
-                let (sn, c) = theta[s].sin_cos();
-                best = best.max(corner_max(c - 1.0, sn, x[s], y[s], corners));
-            }
-        } else {
-            // in lanes, so that the series and the corners vectorise
-            let mut far = [0.0f64; LANES];
-            let mut wide = [0.0f64; LANES];
-            let whole = len / LANES * LANES;
-            for s0 in (0..whole).step_by(LANES) {
-                for l in 0..LANES {
-                    let s = s0 + l;
-                    let (cm1, sn) = turn(theta[s]);
-                    let (w, f) = (theta[s].abs(), corner_max(cm1, sn, x[s], y[s], corners));
-                    wide[l] = if w > wide[l] { w } else { wide[l] };
-                    far[l] = if f > far[l] { f } else { far[l] };
-                }
-            }
-            for s in whole..len {
-                let (cm1, sn) = turn(theta[s]);
-                widest = widest.max(theta[s].abs());
-                best = best.max(corner_max(cm1, sn, x[s], y[s], corners));
-            }
-            best = far.iter().fold(best, |m, &v| m.max(v));
-            widest = wide.iter().fold(widest, |m, &v| m.max(v));
+            scan(&pose, len, corners, exact, best, widest);
         }
         start += len;
     }
-    (best, widest)
+}
+
+/// The farthest corner and the widest angle over the first `len` samples of `pose`, folded into
+/// `best` and `widest`: the turn of every sample first, then each corner over all samples
+/// (contiguous loops that vectorise).
+#[inline(always)]
+fn scan(
+    pose: &[[f64; BLOCK]; A],
+    len: usize,
+    corners: &[[f64; 2]],
+    exact: bool,
+    best: &mut f64,
+    widest: &mut f64,
+) {
+    let [x, y, theta] = pose;
+    let (mut cm1, mut sn, mut far) = ([0.0f64; BLOCK], [0.0f64; BLOCK], [0.0f64; BLOCK]);
+    if exact {
+        for s in 0..len {
+            let (sin, cos) = theta[s].sin_cos();
+            (cm1[s], sn[s]) = (cos - 1.0, sin);
+        }
+    } else {
+        for s in 0..len {
+            (cm1[s], sn[s]) = turn(theta[s]);
+        }
+    }
+    for &[kx, ky] in corners {
+        for s in 0..len {
+            let dx = cm1[s] * kx - sn[s] * ky + x[s];
+            let dy = sn[s] * kx + cm1[s] * ky + y[s];
+            let d2 = dx * dx + dy * dy;
+            far[s] = if d2 > far[s] { d2 } else { far[s] };
+        }
+    }
+    *best = most(&far[..len], *best);
+    let mut wide = [0.0f64; BLOCK];
+    for s in 0..len {
+        wide[s] = theta[s].abs();
+    }
+    *widest = most(&wide[..len], *widest);
+}
+
+/// The largest of `v` and `start`, in lanes (so that it vectorises).
+#[inline(always)]
+fn most(v: &[f64], start: f64) -> f64 {
+    let mut lanes = [start; LANES];
+    let mut chunks = v.chunks_exact(LANES);
+    for c in &mut chunks {
+        for l in 0..LANES {
+            lanes[l] = if c[l] > lanes[l] { c[l] } else { lanes[l] };
+        }
+    }
+    let tail = chunks.remainder().iter().fold(start, |m, &x| m.max(x));
+    lanes.iter().fold(tail, |m, &x| m.max(x))
 }
 
 /// Largest distance [m] any of `corners` moves from home under each of `n` pulses, whose wrench
 /// phasors are `w_re`, `w_im` (`(n, 3, 3)` row-major: pulse, harmonic, axis), through the unit
-/// responses `g`. In parallel over the pulses; each result depends on its pulse alone.
+/// responses `g`. In parallel over groups of pulses; each result depends on its pulse alone.
 pub fn corner_excursions(
     w_re: &[f64],
     w_im: &[f64],
@@ -165,20 +232,31 @@ pub fn corner_excursions(
             format!("must be finite; got {bad}"),
         ));
     }
-    Ok(w_re
-        .par_chunks(H * A)
-        .zip(w_im.par_chunks(H * A))
-        .with_min_len(8)
-        .map(|(wr, wi)| {
-            let (best, widest) = farthest(wr, wi, g, corners, false);
-            let best = if widest > SERIES {
-                farthest(wr, wi, g, corners, true).0
-            } else {
-                best
-            };
-            best.sqrt()
-        })
-        .collect())
+    let n = w_re.len() / (H * A);
+    let mut out = vec![(0.0, 0.0); n];
+    out.par_chunks_mut(GROUP)
+        .zip(
+            w_re.par_chunks(H * A * GROUP)
+                .zip(w_im.par_chunks(H * A * GROUP)),
+        )
+        .for_each(|(out, (wr, wi))| {
+            farthest(wr, wi, g, corners, false, out);
+            // a pulse that turns the plate beyond the series' range: again with `sin_cos`
+            for (p, o) in out.iter_mut().enumerate() {
+                if o.1 > SERIES {
+                    let one = p * H * A..(p + 1) * H * A;
+                    farthest(
+                        &wr[one.clone()],
+                        &wi[one],
+                        g,
+                        corners,
+                        true,
+                        std::slice::from_mut(o),
+                    );
+                }
+            }
+        });
+    Ok(out.into_iter().map(|(best, _)| best.sqrt()).collect())
 }
 
 #[cfg(test)]
@@ -227,10 +305,10 @@ mod tests {
             samples,
         };
         let corners = [[-0.2, -0.2], [0.2, -0.2], [0.2, 0.2], [-0.2, 0.2]];
-        let n = 40;
-        // amplitudes from small (angles of a milliradian) to large (beyond the series' range)
+        let n = 43; // five whole groups of pulses and a part of one
+                    // amplitudes from small (angles of a milliradian) to large (beyond the series' range)
         let w_re: Vec<f64> = (0..9 * n)
-            .map(|i| (1.3 * i as f64).cos() * 10f64.powf((i / 9) as f64 / 8.0))
+            .map(|i| (1.3 * i as f64).cos() * 10f64.powf((i / 9) as f64 / 8.6))
             .collect();
         let w_im: Vec<f64> = (0..9 * n).map(|i| (0.7 * i as f64).sin()).collect();
         let got = corner_excursions(&w_re, &w_im, &g, &corners).unwrap();
@@ -243,7 +321,9 @@ mod tests {
                 "{i}: {} vs {want}",
                 got[i]
             );
-            large += usize::from(farthest(wr, wi, &g, &corners, false).1 > SERIES);
+            let mut series = [(0.0, 0.0)];
+            farthest(wr, wi, &g, &corners, false, &mut series);
+            large += usize::from(series[0].1 > SERIES);
         }
         assert!(
             large > 0 && large < n,
