@@ -182,6 +182,9 @@ def generate(
     n_shapes = 0
 
     fraction: list[float] = []  # of the largest amplitude the drive allows
+    fixed: list[bool] = []  # shapes that do not follow the parts
+    keys: list[tuple[object, ...]] = []  # each spec's key in ``cache``
+    sized_at: list[FloatArray] = []  # where each spec is sized
 
     def add(
         kind: str,
@@ -194,10 +197,21 @@ def generate(
         part: float = 1.0,
     ) -> None:
         nonlocal n_shapes
+        # shapes at a part are sized at its position rounded to 5 mm (their reach changes by well
+        # under 2 % over that), so they too are mostly found in the cache from cycle to cycle;
+        # shapes that do not follow the parts (aligned centres lie on a fixed lattice) exactly
+        cx, cy = float(c[0]), float(c[1])
+        fix = family in ("translation", "rotation", "aligned-rotation")
+        at = (round(cx, 9), round(cy, 9)) if fix else (round(cx / 0.005) * 0.005, round(cy / 0.005) * 0.005)
+        where = np.array(at)
+        prefix = (kind, *at, round(float(d[0]), 9), round(float(d[1]), 9), rho)
         for f in freqs:
             specs.append((kind, family, c, d, rho, f, on))
             shape.append(n_shapes)
             fraction.append(part)
+            fixed.append(fix)
+            keys.append((*prefix, f, on))
+            sized_at.append(where)
         n_shapes += 1
 
     for on in on_times:
@@ -251,24 +265,11 @@ def generate(
     sustain = on_arr - 2 * attack
     force = np.full(k, np.nan)
     reach = np.full(k, np.nan)
-    keys: list[tuple[object, ...]] = []
-    sized_at: list[FloatArray] = []
-    # shapes that do not follow the parts (aligned centres lie on a fixed lattice)
-    fixed = np.array([s[1] in ("translation", "rotation", "aligned-rotation") for s in specs], dtype=bool)
-    for i, (kind, _, c, d, rho, f, t) in enumerate(specs):
-        # shapes at a part are sized at its position rounded to 5 mm (their reach changes by well
-        # under 2 % over that), so they too are mostly found in the cache from cycle to cycle
-        cx, cy = float(c[0]), float(c[1])
-        at = (
-            (round(cx, 9), round(cy, 9))
-            if fixed[i]
-            else (round(cx / 0.005) * 0.005, round(cy / 0.005) * 0.005)
-        )
-        key = (kind, *at, round(float(d[0]), 9), round(float(d[1]), 9), rho, f, t)
-        keys.append(key)
-        sized_at.append(np.array(at))
-        if cache is not None and key in cache:
-            force[i], reach[i] = cache[key]
+    if cache is not None:
+        for i, key in enumerate(keys):
+            hit = cache.get(key)
+            if hit is not None:
+                force[i], reach[i] = hit
     todo = np.nonzero(np.isnan(force))[0]
     if len(todo):
         ph = np.stack([_unit_phasors(specs[i][0], sized_at[i], specs[i][3], specs[i][4]) for i in todo])
@@ -285,9 +286,10 @@ def generate(
     # per shape, the frequency with the largest amplitude (ties: the higher frequency)
     shape_a = np.array(shape)
     keep = np.zeros(len(specs), dtype=bool)
-    for shape_j in range(n_shapes):
-        idx = np.nonzero(shape_a == shape_j)[0]
-        keep[idx[np.argmax(scale[idx] * (1 + 1e-9 * freq[idx]))]] = True
+    # sorted by shape, then largest first (a stable sort: the first of equals, as argmax takes)
+    order = np.lexsort((-(scale * (1 + 1e-9 * freq)), shape_a))
+    first = np.r_[True, shape_a[order][1:] != shape_a[order][:-1]] if len(order) else order
+    keep[order[first]] = True
     pulses: list[Pulse] = []
     for i, (kind, _, c, d, rho, f, _t) in enumerate(specs):
         if not keep[i]:
