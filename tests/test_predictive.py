@@ -348,7 +348,8 @@ def test_the_end_of_a_sort_does_not_stall_against_the_edge() -> None:
 
     even = Even({"red": -1, "blue": 1}, margin=0.08, spacing=0.046, max_step=0.025)
     kw = {"mu": 0.3, "part_radius": CHIP, "edge_weight": 3.0, "lookahead": None, "aligned": 0}
-    assert PredictivePlanner(limits, pairs=None, **kw).plan_task(state, even) == []
+    # (one pulse with that cost and a steep edge penalty refused every candidate while jets
+    # ramped over 6 periods; with 4 one jet gains even so, so that contrast is gone)
     # two pulses see past it even then: the second puts back what the first nudges
     assert len(PredictivePlanner(limits, **kw).plan_task(state, even)) == 1
     # and so does the sort's own cost, whose pull on a part not yet over its line outweighs the

@@ -1,6 +1,7 @@
 """Candidate pulses for the predictive planner, each at the largest amplitude the drive allows.
 
-Families (all enveloped, 3 drive periods of attack and decay; jets 6, for their 2/3 harmonic):
+Families (all enveloped, 3 drive periods of attack and decay; jets 4 and fine jets 6, for their
+2/3 harmonic):
 
 * **translations** along ``directions`` evenly spread directions: the Coulomb pump (chapter 3),
   ``v (cos wt - cos(2wt)/2)``, the same force on every part;
@@ -258,7 +259,13 @@ def generate(
             for on in aligned_on_times:
                 add("rotation", "aligned-rotation", c, np.array([float(sense), 0.0]), 0.0, on, frequencies)
     k = len(specs)
-    attack = np.array([(6.0 if s[0] == "jet" else 3.0) / s[5] for s in specs])
+    # drive periods of attack (and decay): 3 for translations and rotations; jets 4, long enough
+    # for their 2/3 harmonic to ramp without much drift and short enough to leave a 0.35 s jet
+    # most of its time at full amplitude (bowtie: 62.5 -> 57.8 s a loop); the gentle fine jets,
+    # which place a part to the millimetre, keep 6 (less drift for the planner to predict)
+    attack = np.array(
+        [((6.0 if s[1] == "fine-jet" else 4.0) if s[0] == "jet" else 3.0) / s[5] for s in specs]
+    )
     freq = np.array([s[5] for s in specs])
     on_arr = np.array([s[6] for s in specs])
     attack = np.minimum(attack, on_arr / 2)
