@@ -126,10 +126,12 @@ pub struct Edges {
     pub weight: f64,
     /// Penalty of a lost part.
     pub lost: f64,
+    /// A part within this of an edge [m] counts as lost too (the prediction's margin of error).
+    pub guard: f64,
 }
 
 /// Edge penalty of each layout `q (L, M, 2)` (`m` parts a layout) into `out (L,)`: `lost` per
-/// part off the plate or NaN, else `weight` times, per coordinate, its depth in the band plus
+/// part within `guard` of an edge, off the plate or NaN, else `weight` times, per coordinate, its depth in the band plus
 /// five times its depth in the band's outer half.
 pub fn edge_penalty(edges: &Edges, q: &[[f64; 2]], m: usize, out: &mut [f64]) -> Result<()> {
     if m == 0 || q.len() != out.len() * m {
@@ -144,15 +146,16 @@ pub fn edge_penalty(edges: &Edges, q: &[[f64; 2]], m: usize, out: &mut [f64]) ->
         band,
         weight,
         lost,
+        guard,
     } = *edges;
-    let (inner, outer) = (half - band, half - 0.5 * band);
+    let (inner, outer, keep) = (half - band, half - 0.5 * band, half - guard);
     out.par_iter_mut()
         .zip(q.par_chunks(m))
         .for_each(|(o, layout)| {
             let (mut gone, mut over) = (0.0, 0.0);
             for p in layout {
                 let (ax, ay) = (p[0].abs(), p[1].abs());
-                if !(ax <= half && ay <= half) {
+                if !(ax <= keep && ay <= keep) {
                     gone += 1.0; // NaN fails both comparisons
                     continue;
                 }
@@ -209,6 +212,7 @@ mod tests {
             band: 0.04,
             weight: 2.0,
             lost: 1.0,
+            guard: 0.005,
         };
         let q = [
             [0.0, 0.0],
@@ -217,8 +221,9 @@ mod tests {
             [0.25, 0.0],
             [f64::NAN, 0.0],
             [0.19, 0.19],
+            [0.0, 0.197],
         ];
-        let mut out = vec![0.0; 6];
+        let mut out = vec![0.0; 7];
         edge_penalty(&edges, &q, 1, &mut out).unwrap();
         let want = [
             0.0,
@@ -227,6 +232,7 @@ mod tests {
             1.0,
             1.0,
             2.0 * 2.0 * (0.03 + 0.05),
+            1.0, // within the guard
         ];
         for (a, b) in out.iter().zip(want) {
             assert!((a - b).abs() < 1e-12, "{out:?} against {want:?}");

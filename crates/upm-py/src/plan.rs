@@ -62,6 +62,7 @@ pub fn edge_penalty<'py>(
     band: f64,
     weight: f64,
     lost: f64,
+    guard: f64,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let (l, m) = (q.shape()[0], q.shape()[1]);
     if q.shape()[2] != 2 {
@@ -76,6 +77,7 @@ pub fn edge_penalty<'py>(
         band,
         weight,
         lost,
+        guard,
     };
     let out = detached(py, || {
         let mut out = vec![0.0; l];

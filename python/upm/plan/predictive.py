@@ -106,8 +106,10 @@ class PredictivePlanner:
     use : float
         Fraction of the force and stroke headroom a candidate may use.
     edge : float
-        Parts predicted closer than this to a plate edge [m] are penalised; beyond the edge, a
-        part counts as lost (``lost_cost`` [m of task cost]).
+        Parts predicted closer than this to a plate edge [m] are penalised; within ``guard`` [m]
+        of the edge or beyond it, a part counts as lost (``lost_cost`` [m of task cost]): a
+        prediction is off by a millimetre or two (the median step error), so a pulse predicted to
+        leave a part at the very edge may drop it.
     edge_weight : float
         The penalty per metre a part is predicted inside that band [m of cost per m]; the band's
         outer half counts five times more. A low weight lets a pulse nudge parts already near an
@@ -147,8 +149,9 @@ class PredictivePlanner:
         on_times: Sequence[float] = (0.2, 0.4, 0.8),
         use: float = 0.9,
         edge: float = 0.035,
+        guard: float = 0.008,
         edge_weight: float = 1.0,
-        lost_cost: float = 1.0,
+        lost_cost: float = 10.0,
         min_gain: float = 1e-4,
         rerank: int = 4,
         adapt: bool = True,
@@ -186,6 +189,9 @@ class PredictivePlanner:
                 raise ParameterError(f"{name} must be an integer >= 0; got {count!r}")
         self.aligned = int(aligned)
         self.edge = float(edge)
+        if not (isinstance(guard, (int, float)) and 0 <= guard < self.edge):
+            raise ParameterError(f"guard must be >= 0 and below edge ({self.edge:g} m); got {guard!r}")
+        self.guard = float(guard)
         self.edge_weight = float(edge_weight)
         self.lost_cost = float(lost_cost)
         self.min_gain = float(min_gain)
@@ -301,11 +307,12 @@ class PredictivePlanner:
     # -- scoring --------------------------------------------------------------------------------
     def _penalty(self, q: FloatArray, overlaps: bool = True) -> FloatArray:
         """Edge and overlap penalties ``(K,)`` [m of cost] for predicted positions ``(K, M, 2)``."""
-        # lost_cost per part off the plate; inside the edge band edge_weight per metre, and five
-        # times more in its outer half (the extension: upm_core::plan::edge_penalty)
+        # lost_cost per part within guard of an edge or off the plate; inside the edge band
+        # edge_weight per metre, and five times more in its outer half (the extension:
+        # upm_core::plan::edge_penalty)
         out: FloatArray = _core.edge_penalty(
             np.ascontiguousarray(q, dtype=np.float64), self.limits.size / 2, self.edge, self.edge_weight,
-            self.lost_cost,
+            self.lost_cost, self.guard,
         )  # fmt: skip
         if overlaps and self.part_radius is not None and q.shape[1] > 1:
             i, j = np.triu_indices(q.shape[1], 1)
