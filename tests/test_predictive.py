@@ -13,7 +13,7 @@ from upm.board import protocol
 from upm.board.emulator import BoardEmulator
 from upm.control.tasks import State
 from upm.drive import DriveLimits, StrokeError, flexures
-from upm.plan import PredictivePlanner, aligned_centres, generate
+from upm.plan import PredictivePlanner, aligned_centres, generate, predictive
 from upm.plant import Channel, Envelope, SimulatedUPM
 from upm.pulses import Pulse
 from upm.waveforms import Harmonics
@@ -259,6 +259,30 @@ def test_the_planner_picks_the_obviously_best_pulse() -> None:
     assert best == 2 and gain[2] > 0 and gain[0] < 0
     # nothing to gain at the goal: no pulse
     assert planner.choose(task, _state([[0.03, 0.0]], ("p",)), pulses)[0] is None
+
+
+def test_a_pulse_that_leaves_a_part_at_the_edge_is_not_played() -> None:
+    # six parts to move 10 cm along x, a free one 30 mm from the right edge: a translation
+    # along x gains most but leaves the free part under a millimetre from the edge, where a
+    # prediction's error drops it; a rotation about the free part gains less and keeps it
+    limits = SimulatedUPM().limits
+    half = limits.size / 2
+    pos = np.array([[-0.05, y] for y in (-0.1, -0.06, -0.02, 0.02, 0.06, 0.1)] + [[half - 0.03, 0.1]])
+    steps = np.array([[0.1, 0.0]] * 6 + [[np.nan, np.nan]])
+    pulses = [
+        Pulse.translation((1.0, 0.0), Harmonics([0.3, -0.15], [0.0, 0.0], 25.0), 0.12, 0.2, 0.12),
+        Pulse.rotation((half - 0.03, 0.1), Harmonics([3.0, -1.5], [0.0, 0.0], 35.0), 0.1, 0.2, 0.1),
+    ]
+    kw = {"mu": 0.3, "lookahead": None, "pairs": None, "aligned": 0}
+    guarded = PredictivePlanner(limits, **kw)
+    final, _ = guarded.predict(pulses, pos)
+    assert 0 < half - final[0, -1, 0] < guarded.guard  # on the plate, within the guard
+    assert half - final[1, -1, 0] > 0.02
+    view, goal = predictive._View(pos), predictive._Steps(pos + steps)
+    best, gain, _ = PredictivePlanner(limits, guard=0.0, **kw).choose(goal, view, pulses)
+    assert best == 0 and gain[0] > gain[1] > 0  # without the guard the translation wins
+    best, gain, _ = guarded.choose(goal, view, pulses)
+    assert best == 1 and gain[0] < -1.0  # with it, the part counts as lost
 
 
 def test_a_pulse_is_scored_with_the_best_second_pulse_after_it() -> None:
