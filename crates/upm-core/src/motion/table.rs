@@ -140,51 +140,6 @@ impl Phasors {
         self.slow.advance();
         self.ramp.advance();
     }
-
-    /// The plate velocity in `item`'s `stretch` at local time `local` from the phasors.
-    #[inline]
-    fn velocity(&self, item: &Item, stretch: Stretch, local: f64) -> [f64; 3] {
-        let e = match stretch {
-            Stretch::Off => return [0.0; 3],
-            Stretch::Hold => 1.0,
-            Stretch::Attack | Stretch::Decay => 0.5 - 0.5 * self.ramp.c,
-        };
-        let (c1, s1) = (self.wave.c, self.wave.s);
-        let u = match &item.segment {
-            Segment::Translation {
-                direction: d,
-                wave: Waveform::Harmonics(h),
-            } => {
-                let v = h.omega_scale().1 * h.value_of(c1, s1);
-                [d[0] * v, d[1] * v, 0.0]
-            }
-            Segment::Rotation {
-                center: c,
-                wave: Waveform::Harmonics(h),
-            } => {
-                let w = h.omega_scale().1 * h.value_of(c1, s1);
-                [w * c[1], -w * c[0], w]
-            }
-            Segment::Jet {
-                center: c,
-                direction: d,
-                rho,
-                amplitude,
-                ..
-            } => {
-                let g = c1 - (c1 - s1) * (c1 + s1); // cos(w t) - cos(2 w t)
-                let w = 2.0 * amplitude / rho * self.slow.s;
-                let (tx, ty) = (amplitude * d[0], amplitude * d[1]);
-                [tx * g + w * c[1], ty * g - w * c[0], w]
-            }
-            other => other.velocity(local),
-        };
-        if item.envelope.is_some() {
-            u.map(|x| e * x)
-        } else {
-            u
-        }
-    }
 }
 
 /// The sample time of step `s`: a hair before the step's end.
@@ -238,31 +193,144 @@ pub(super) fn fill(motion: &PlateMotion, steps: Range<usize>, dt: f64, out: &mut
     while !anchor.is_multiple_of(RESEED) && motion.place(anchor - 1, dt) == (i, stretch) {
         anchor -= 1;
     }
-    let local_at = |i: usize, s: usize| sample_time(s, dt) - motion.starts[i];
     let mut ph = Phasors::new(&motion.items[i], stretch, dt);
-    ph.seed(&motion.items[i], stretch, local_at(i, anchor));
+    ph.seed(
+        &motion.items[i],
+        stretch,
+        sample_time(anchor, dt) - motion.starts[i],
+    );
     for _ in anchor..first {
         ph.advance();
     }
-    for s in steps {
-        let t = sample_time(s, dt);
-        if s != first {
+    let mut s = first;
+    // run after run of steps in one stretch, each with its segment's arithmetic chosen once
+    loop {
+        let item = &motion.items[i];
+        let run = Run {
+            motion,
+            i,
+            stretch,
+            end: steps.end,
+            dt,
+        };
+        let next = match (&item.segment, stretch) {
+            (_, Stretch::Off) => run.go(&mut ph, &mut s, out, |_, _| [0.0; 3]),
+            (
+                Segment::Translation {
+                    direction: d,
+                    wave: Waveform::Harmonics(h),
+                },
+                _,
+            ) => {
+                let scale = h.omega_scale().1;
+                run.go(&mut ph, &mut s, out, |ph, _| {
+                    let v = scale * h.value_of(ph.wave.c, ph.wave.s);
+                    [d[0] * v, d[1] * v, 0.0]
+                })
+            }
+            (
+                Segment::Rotation {
+                    center: c,
+                    wave: Waveform::Harmonics(h),
+                },
+                _,
+            ) => {
+                let scale = h.omega_scale().1;
+                run.go(&mut ph, &mut s, out, |ph, _| {
+                    let w = scale * h.value_of(ph.wave.c, ph.wave.s);
+                    [w * c[1], -w * c[0], w]
+                })
+            }
+            (
+                Segment::Jet {
+                    center: c,
+                    direction: d,
+                    rho,
+                    amplitude,
+                    ..
+                },
+                _,
+            ) => {
+                let k = 2.0 * amplitude / rho;
+                let (tx, ty) = (amplitude * d[0], amplitude * d[1]);
+                run.go(&mut ph, &mut s, out, |ph, _| {
+                    let (c1, s1) = (ph.wave.c, ph.wave.s);
+                    let g = c1 - (c1 - s1) * (c1 + s1); // cos(w t) - cos(2 w t)
+                    let w = k * ph.slow.s;
+                    [tx * g + w * c[1], ty * g - w * c[0], w]
+                })
+            }
+            (other, _) => run.go(&mut ph, &mut s, out, |_, local| other.velocity(local)),
+        };
+        let Some((j, now)) = next else {
+            return;
+        };
+        (i, stretch) = (j, now);
+        ph = Phasors::new(&motion.items[i], stretch, dt);
+        ph.seed(
+            &motion.items[i],
+            stretch,
+            sample_time(s, dt) - motion.starts[i],
+        );
+    }
+}
+
+/// A run of steps within one stretch of one item.
+struct Run<'a> {
+    motion: &'a PlateMotion,
+    i: usize,
+    stretch: Stretch,
+    end: usize,
+    dt: f64,
+}
+
+impl Run<'_> {
+    /// Appends the velocity of steps `s..` while they stay in the run's stretch, from the
+    /// segment's velocity `u(phasors, local time)` (the envelope applied here), and returns the
+    /// item and stretch of the step that leaves it (`s` then that step), or `None` at `end`.
+    #[inline(always)]
+    fn go(
+        &self,
+        ph: &mut Phasors,
+        s: &mut usize,
+        out: &mut Vec<[f64; 3]>,
+        u: impl Fn(&Phasors, f64) -> [f64; 3],
+    ) -> Option<(usize, Stretch)> {
+        let (motion, i, stretch) = (self.motion, self.i, self.stretch);
+        let item = &motion.items[i];
+        let start = motion.starts[i];
+        let envelope = item.envelope.is_some();
+        let mut t = sample_time(*s, self.dt);
+        loop {
+            let v = u(ph, t - start);
+            out.push(match stretch {
+                Stretch::Off => [0.0; 3],
+                Stretch::Hold => v, // the envelope's 1, exactly
+                _ if !envelope => v,
+                Stretch::Attack | Stretch::Decay => {
+                    let e = 0.5 - 0.5 * ph.ramp.c;
+                    v.map(|x| e * x)
+                }
+            });
+            *s += 1;
+            if *s >= self.end {
+                return None;
+            }
+            t = sample_time(*s, self.dt);
             let mut j = i;
             while j + 1 < motion.starts.len() && motion.starts[j + 1] <= t {
                 j += 1;
             }
             let now = motion.stretch(j, t);
             if (j, now) != (i, stretch) {
-                (i, stretch) = (j, now);
-                ph = Phasors::new(&motion.items[i], stretch, dt);
-                ph.seed(&motion.items[i], stretch, t - motion.starts[i]);
-            } else if s.is_multiple_of(RESEED) {
-                ph.seed(&motion.items[i], stretch, t - motion.starts[i]);
+                return Some((j, now));
+            }
+            if s.is_multiple_of(RESEED) {
+                ph.seed(item, stretch, t - start);
             } else {
                 ph.advance();
             }
         }
-        out.push(ph.velocity(&motion.items[i], stretch, t - motion.starts[i]));
     }
 }
 
