@@ -471,12 +471,19 @@ class SortTask:
         the plate's width at both weights."""
         q = _at(state, positions)
         side = self._side(state)
-        x = side * q[..., 0]
-        near = np.maximum(self.line + self.clear - x, 0.0)
-        far = np.maximum(self.line + 0.5 * self.past - x, 0.0)
-        left = self.NEAR * near + self.FAR * far
-        left = np.where(np.isfinite(left), left, (self.NEAR + self.FAR) * 2 * self.half)
-        out: FloatArray = np.sum(np.where(side != 0, left, 0.0), axis=-1)
+        on = side != 0
+        # in place where it can be: a planner scores (K, R, M) layouts at once, and every fresh
+        # array of that size costs its page faults
+        x = q[..., on, 0] * side[on]  # the labelled parts' way along their sides
+        near = np.subtract(self.line + self.clear, x)
+        np.maximum(near, 0.0, out=near)
+        far = np.subtract(self.line + 0.5 * self.past, x, out=x)
+        np.maximum(far, 0.0, out=far)
+        near *= self.NEAR
+        far *= self.FAR
+        near += far
+        near[~np.isfinite(near)] = (self.NEAR + self.FAR) * 2 * self.half
+        out: FloatArray = np.sum(near, axis=-1)
         return out
 
     def done(self, state: State) -> bool:
