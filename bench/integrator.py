@@ -171,6 +171,28 @@ def per_call(motion: upm.PlateMotion, dt: float) -> None:
     print(f"  numpy writing the same positions, velocities and stuck flags: {floor:.1f} ns per part")
 
 
+def batch_times(quick: bool) -> None:
+    """Batches of small worlds (the predictive planner's rollouts: enveloped jets, 8 parts each)
+    against one world of as many parts on the first of those motions, per part-step on every
+    core."""
+    rng = np.random.default_rng(6)
+    b, m = (100, 8) if quick else (500, 8)
+    pulses = [
+        upm.Pulse.jet(tuple(rng.uniform(-0.1, 0.1, 2)), (0.6, 0.8), 0.06, 0.3, 50.0, 0.12, 0.11, 0.12)
+        for _ in range(b)
+    ]
+    motions = [p.motion(rest=False) for p in pulses]
+    pos = rng.uniform(-0.1, 0.1, (m, 2))
+    dt, duration = 1 / (24 * 100), 0.35
+    steps = round(duration / dt)
+    kw = dict(duration=duration, dt=dt, mu=MU, record_every=2**40)
+    batch = best_of(lambda: upm.simulate_batch(motions, pos, **kw)) * 1e9 / (b * m * steps)
+    one = rng.uniform(-0.1, 0.1, (b * m, 2))
+    world = best_of(lambda: upm.simulate(motions[0], one, **kw)) * 1e9 / (b * m * steps)
+    print(f"\n{b} worlds x {m} parts (enveloped jets), every core: {batch:.2f} ns per part-step; one world of"
+          f" {b * m} parts: {world:.2f}; the batch costs {batch / world:.1f}x")  # fmt: skip
+
+
 def disk_times(dt: float, quick: bool) -> None:
     """Disks on a rotating plate, one thread: upm against the Numba port of the disk step as it
     stood when the speed issue was filed (``numba_peer.disks_serial``), both from rest on the
@@ -246,6 +268,7 @@ def main() -> None:
     if not numba:
         print("(no Numba peer: pip install 'upm[bench]')")
     per_call(motion, dt)
+    batch_times(quick=args.quick)
     disk_times(dt, quick=args.quick)
 
     recording(motion, dt, rng, quick=args.quick)
