@@ -15,6 +15,8 @@ use crate::waveform::Waveform;
 
 mod table;
 
+use table::{about, along, jet, Stretch};
+
 /// One kind of plate motion.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Segment {
@@ -73,17 +75,28 @@ impl Envelope {
         self.attack + self.sustain + self.decay
     }
 
+    /// Which stretch `t` [s] falls in (outside `[0, duration]`: `Off`).
+    #[inline]
+    fn stretch(&self, t: f64) -> Stretch {
+        if t < 0.0 || t > self.duration() {
+            Stretch::Off
+        } else if t < self.attack {
+            Stretch::Attack
+        } else if t <= self.attack + self.sustain {
+            Stretch::Hold
+        } else {
+            Stretch::Decay
+        }
+    }
+
     /// `e(t)` alone (one cosine on the ramps, none on the hold).
     #[inline]
     fn value(&self, t: f64) -> f64 {
-        if t < 0.0 || t > self.duration() {
-            0.0
-        } else if t < self.attack {
-            0.5 - 0.5 * (PI * t / self.attack).cos()
-        } else if t <= self.attack + self.sustain {
-            1.0
-        } else {
-            0.5 - 0.5 * (PI * (self.duration() - t) / self.decay).cos()
+        match self.stretch(t) {
+            Stretch::Off => 0.0,
+            Stretch::Attack => 0.5 - 0.5 * (PI * t / self.attack).cos(),
+            Stretch::Hold => 1.0,
+            Stretch::Decay => 0.5 - 0.5 * (PI * (self.duration() - t) / self.decay).cos(),
         }
     }
 
@@ -95,15 +108,14 @@ impl Envelope {
                 0.5 * PI / len * (PI * s / len).sin(),
             )
         };
-        if t < 0.0 || t > self.duration() {
-            (0.0, 0.0)
-        } else if t < self.attack {
-            ramp(t, self.attack)
-        } else if t <= self.attack + self.sustain {
-            (1.0, 0.0)
-        } else {
-            let (e, d) = ramp(self.duration() - t, self.decay);
-            (e, -d)
+        match self.stretch(t) {
+            Stretch::Off => (0.0, 0.0),
+            Stretch::Attack => ramp(t, self.attack),
+            Stretch::Hold => (1.0, 0.0),
+            Stretch::Decay => {
+                let (e, d) = ramp(self.duration() - t, self.decay);
+                (e, -d)
+            }
         }
     }
 }
@@ -152,11 +164,11 @@ impl Segment {
         match self {
             Segment::Translation { direction: d, wave } => {
                 let (v, a) = (wave.velocity(t), wave.acceleration(t));
-                ([d[0] * v, d[1] * v, 0.0], [d[0] * a, d[1] * a, 0.0])
+                (along(d, v), along(d, a))
             }
             Segment::Rotation { center: c, wave } => {
                 let (w, a) = (wave.velocity(t), wave.acceleration(t));
-                ([w * c[1], -w * c[0], w], [a * c[1], -a * c[0], a])
+                (about(c, w), about(c, a))
             }
             Segment::Jet {
                 center: c,
@@ -203,14 +215,8 @@ impl Segment {
     #[inline]
     fn velocity(&self, t: f64) -> [f64; 3] {
         match self {
-            Segment::Translation { direction: d, wave } => {
-                let v = wave.velocity(t);
-                [d[0] * v, d[1] * v, 0.0]
-            }
-            Segment::Rotation { center: c, wave } => {
-                let w = wave.velocity(t);
-                [w * c[1], -w * c[0], w]
-            }
+            Segment::Translation { direction: d, wave } => along(d, wave.velocity(t)),
+            Segment::Rotation { center: c, wave } => about(c, wave.velocity(t)),
             Segment::Jet {
                 center: c,
                 direction: d,
@@ -220,10 +226,8 @@ impl Segment {
             } => {
                 let x = omega * t;
                 let (s1, c1) = x.sin_cos();
-                let g = c1 - (c1 - s1) * (c1 + s1); // cos(w t) - cos(2 w t)
                 let w = 2.0 * amplitude / rho * (2.0 * x / 3.0).sin();
-                let (tx, ty) = (amplitude * d[0], amplitude * d[1]);
-                [tx * g + w * c[1], ty * g - w * c[0], w]
+                jet(c, (amplitude * d[0], amplitude * d[1]), c1, s1, w)
             }
             Segment::Rest => [0.0; 3],
             Segment::Samples { .. } => self.at(t).0,

@@ -9,6 +9,9 @@
 //! gathers stays within a few units in the last place of the amplitude. Where each phasor is
 //! seeded depends on the step's index alone, never on how the steps are split into calls, so
 //! the table is the same to the bit for any block size or thread count.
+//!
+//! The velocity formulas of a translation, a rotation and a jet, and the stretches of an item's
+//! envelope, live here once for both this table and [`PlateMotion::velocity`].
 
 use std::f64::consts::PI;
 use std::ops::Range;
@@ -19,9 +22,9 @@ use crate::waveform::Waveform;
 /// Steps between exact evaluations of every phasor.
 const RESEED: usize = 32;
 
-/// Where a step falls within an item: the factor the envelope applies there.
+/// Where a time falls within an item: the factor its envelope applies there.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Stretch {
+pub(super) enum Stretch {
     /// Before the program, past the item's duration or outside its envelope: the plate rests.
     Off,
     /// The envelope's rising ramp.
@@ -30,6 +33,26 @@ enum Stretch {
     Hold,
     /// The envelope's falling ramp.
     Decay,
+}
+
+/// `u` of a translation along `d` at speed `v`.
+#[inline]
+pub(super) fn along(d: &[f64; 2], v: f64) -> [f64; 3] {
+    [d[0] * v, d[1] * v, 0.0]
+}
+
+/// `u` of a rotation about `c` at rate `w`.
+#[inline]
+pub(super) fn about(c: &[f64; 2], w: f64) -> [f64; 3] {
+    [w * c[1], -w * c[0], w]
+}
+
+/// `u` of a jet about `c` from the cosine and sine of its phase `w t` (`c1`, `s1`) and its
+/// spin `w = 2A/rho sin(2wt/3)`; `(tx, ty) = A d`.
+#[inline]
+pub(super) fn jet(c: &[f64; 2], (tx, ty): (f64, f64), c1: f64, s1: f64, w: f64) -> [f64; 3] {
+    let g = c1 - (c1 - s1) * (c1 + s1); // cos(w t) - cos(2 w t)
+    [tx * g + w * c[1], ty * g - w * c[0], w]
 }
 
 /// `e^{i x}` for a phase `x` that grows by `step` every time step.
@@ -162,13 +185,8 @@ impl PlateMotion {
         if t < 0.0 || item.duration.is_some_and(|d| local >= d) {
             return Stretch::Off;
         }
-        match item.envelope {
-            None => Stretch::Hold,
-            Some(env) if local < 0.0 || local > env.duration() => Stretch::Off,
-            Some(env) if local < env.attack => Stretch::Attack,
-            Some(env) if local <= env.attack + env.sustain => Stretch::Hold,
-            Some(_) => Stretch::Decay,
-        }
+        item.envelope
+            .map_or(Stretch::Hold, |env| env.stretch(local))
     }
 
     /// The item and stretch of step `s`.
@@ -224,8 +242,7 @@ pub(super) fn fill(motion: &PlateMotion, steps: Range<usize>, dt: f64, out: &mut
             ) => {
                 let scale = h.omega_scale().1;
                 run.go(&mut ph, &mut s, out, |ph, _| {
-                    let v = scale * h.value_of(ph.wave.c, ph.wave.s);
-                    [d[0] * v, d[1] * v, 0.0]
+                    along(d, scale * h.value_of(ph.wave.c, ph.wave.s))
                 })
             }
             (
@@ -237,8 +254,7 @@ pub(super) fn fill(motion: &PlateMotion, steps: Range<usize>, dt: f64, out: &mut
             ) => {
                 let scale = h.omega_scale().1;
                 run.go(&mut ph, &mut s, out, |ph, _| {
-                    let w = scale * h.value_of(ph.wave.c, ph.wave.s);
-                    [w * c[1], -w * c[0], w]
+                    about(c, scale * h.value_of(ph.wave.c, ph.wave.s))
                 })
             }
             (
@@ -252,12 +268,9 @@ pub(super) fn fill(motion: &PlateMotion, steps: Range<usize>, dt: f64, out: &mut
                 _,
             ) => {
                 let k = 2.0 * amplitude / rho;
-                let (tx, ty) = (amplitude * d[0], amplitude * d[1]);
+                let scaled = (amplitude * d[0], amplitude * d[1]);
                 run.go(&mut ph, &mut s, out, |ph, _| {
-                    let (c1, s1) = (ph.wave.c, ph.wave.s);
-                    let g = c1 - (c1 - s1) * (c1 + s1); // cos(w t) - cos(2 w t)
-                    let w = k * ph.slow.s;
-                    [tx * g + w * c[1], ty * g - w * c[0], w]
+                    jet(c, scaled, ph.wave.c, ph.wave.s, k * ph.slow.s)
                 })
             }
             (other, _) => run.go(&mut ph, &mut s, out, |_, local| other.velocity(local)),
