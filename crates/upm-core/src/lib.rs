@@ -21,6 +21,8 @@
 //! * [`solve`]: the sequencing-rotations and displacement-field solvers (SVD, bounded, ordered).
 //! * [`parallel`]: deterministic batches on rayon.
 //! * [`stroke`]: the largest plate-corner excursion of many pulses at once.
+//! * [`ppod`]: velocity fields (drift and asymptotic) of a plate that moves out of its plane
+//!   ([`motion::spatial`], docs/spec.md §10).
 #![deny(missing_docs)]
 
 pub mod actuation;
@@ -34,6 +36,7 @@ pub mod mchip;
 pub mod motion;
 pub mod parallel;
 pub mod plan;
+pub mod ppod;
 pub(crate) mod quadrature;
 pub(crate) mod roots;
 pub mod sim;

@@ -1,6 +1,6 @@
 //! Binding of plate motion programs and the point-part integrator.
 
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use upm_core::motion::PlateMotion as CoreMotion;
@@ -64,6 +64,41 @@ impl PlateMotion {
             py,
             CoreMotion::jet(center, direction, rho, amplitude, frequency),
         )
+    }
+
+    /// Harmonic accelerations of the six axes `(x, y, z, rx, ry, rz)`: each a list of
+    /// `(harmonic, amplitude, phase)` terms `A sin(k w t + p)`.
+    #[staticmethod]
+    fn spatial(py: Python<'_>, frequency: f64, terms: [Vec<(u32, f64, f64)>; 6]) -> PyResult<Self> {
+        let terms = terms.map(|axis| {
+            axis.into_iter()
+                .map(|(harmonic, amplitude, phase)| upm_core::motion::Term {
+                    harmonic,
+                    amplitude,
+                    phase,
+                })
+                .collect()
+        });
+        let sp = core(py, upm_core::motion::Spatial::new(frequency, terms))?;
+        Ok(PlateMotion {
+            inner: CoreMotion::spatial(sp),
+        })
+    }
+
+    /// Whether the plate moves out of its plane.
+    fn is_spatial(&self) -> bool {
+        self.inner.is_spatial()
+    }
+
+    /// `(z'', alpha'', beta'')` (N, 3) at times `t (N,)`.
+    fn normal<'py>(
+        &self,
+        py: Python<'py>,
+        t: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let a: Vec<[f64; 3]> = t.as_array().iter().map(|&s| self.inner.normal(s)).collect();
+        let n = a.len();
+        PyArray1::from_vec(py, a.concat()).reshape([n, 3])
     }
 
     #[staticmethod]
@@ -145,7 +180,7 @@ impl PlateMotion {
 }
 
 /// The stacked trajectory of `b` worlds as NumPy arrays: its buffers become the arrays as they
-/// are, no copy: `(t, positions, velocities, stuck, angles, spins, left_time)`.
+/// are, no copy: `(t, positions, velocities, stuck, angles, spins, left_time, flight)`.
 fn to_arrays<'py>(
     py: Python<'py>,
     run: Trajectory,
@@ -165,6 +200,7 @@ fn to_arrays<'py>(
     let angles = PyArray1::from_vec(py, run.angles).reshape([b, rows, m])?;
     let spins = PyArray1::from_vec(py, run.spins).reshape([b, rows, m])?;
     let left = PyArray1::from_vec(py, left).reshape([b, m])?;
+    let flight = PyArray1::from_vec(py, run.flight).reshape([b, m])?;
     PyTuple::new(
         py,
         [
@@ -175,6 +211,7 @@ fn to_arrays<'py>(
             angles.into_any(),
             spins.into_any(),
             left.into_any(),
+            flight.into_any(),
         ],
     )
 }

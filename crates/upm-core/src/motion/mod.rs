@@ -13,8 +13,10 @@ use std::f64::consts::{PI, TAU};
 use crate::error::{finite, positive, Error, Result};
 use crate::waveform::Waveform;
 
+pub mod spatial;
 mod table;
 
+pub use spatial::{Spatial, Term};
 use table::{about, along, jet, Stretch};
 
 /// One kind of plate motion.
@@ -49,6 +51,9 @@ pub enum Segment {
     },
     /// The plate at rest.
     Rest,
+    /// Harmonic accelerations of all six axes (docs/spec.md §10): the plate may move out of its
+    /// plane, changing the normal force on the parts.
+    Spatial(Box<Spatial>),
     /// Measured or synthesised samples, linearly interpolated: `t` strictly increasing from 0.
     Samples {
         /// Sample times [s], starting at 0.
@@ -190,6 +195,7 @@ impl Segment {
                 )
             }
             Segment::Rest => ([0.0; 3], [0.0; 3]),
+            Segment::Spatial(sp) => sp.at(t),
             Segment::Samples { t: ts, u } => {
                 let n = ts.len();
                 if t <= ts[0] || t >= ts[n - 1] {
@@ -230,6 +236,7 @@ impl Segment {
                 jet(c, (amplitude * d[0], amplitude * d[1]), c1, s1, w)
             }
             Segment::Rest => [0.0; 3],
+            Segment::Spatial(sp) => sp.at(t).0,
             Segment::Samples { .. } => self.at(t).0,
         }
     }
@@ -241,6 +248,7 @@ impl Segment {
                 Some(wave.period())
             }
             Segment::Jet { omega, .. } => Some(3.0 * TAU / omega),
+            Segment::Spatial(sp) => Some(sp.period()),
             Segment::Rest | Segment::Samples { .. } => None,
         }
     }
@@ -252,6 +260,7 @@ impl Segment {
                 wave.max_frequency()
             }
             Segment::Jet { omega, .. } => 2.0 * omega / TAU,
+            Segment::Spatial(sp) => sp.max_frequency(),
             Segment::Rest => 0.0,
             Segment::Samples { t, .. } => {
                 let h = t
@@ -315,6 +324,11 @@ impl PlateMotion {
             omega: TAU * positive("frequency", frequency)?,
         };
         Ok(Self::single(segment, None))
+    }
+
+    /// Harmonic accelerations of the six axes (docs/spec.md §10), repeating forever.
+    pub fn spatial(motion: Spatial) -> Self {
+        Self::single(Segment::Spatial(Box::new(motion)), None)
     }
 
     /// The plate at rest for `duration` [s].

@@ -167,7 +167,7 @@ impl Phasors {
 
 /// The sample time of step `s`: a hair before the step's end.
 #[inline]
-fn sample_time(s: usize, dt: f64) -> f64 {
+pub(super) fn sample_time(s: usize, dt: f64) -> f64 {
     ((s + 1) as f64 - 1e-6) * dt
 }
 

@@ -28,6 +28,7 @@
 
 pub mod contact;
 pub mod kernel;
+pub mod lift;
 mod parts;
 mod points;
 mod record;
@@ -92,6 +93,8 @@ pub struct Trajectory {
     pub spins: Vec<f64>,
     /// Time each part's centre left the plate [s], if it did.
     pub left_plate: Vec<Option<f64>>,
+    /// Time each part spent in flight [s] (0 on a plate that stays in its plane), `(parts,)`.
+    pub flight: Vec<f64>,
 }
 
 impl Config {
@@ -177,6 +180,10 @@ struct DiskState {
     hold: f64,
     /// Its place among all parts.
     index: usize,
+    /// Height above the plate and its rate, on a plate that moves out of its plane ([`lift`]).
+    air: [f64; 2],
+    /// Steps spent in flight.
+    flight: usize,
 }
 
 impl DiskState {
@@ -196,6 +203,8 @@ impl DiskState {
             slide: parts.mu(i) * cfg.g * cfg.dt,
             hold: parts.mu_s(i) * cfg.g * cfg.dt,
             index: i,
+            air: [0.0; 2],
+            flight: 0,
         }
     }
 
@@ -272,6 +281,25 @@ impl DiskState {
         self.take(self.friction(u), s, cfg)
     }
 
+    /// Step `s` (0-based) on a plate that moves out of its plane, `nz` its `(z'', alpha'',
+    /// beta'')`: the normal force at the centroid scales the friction force and torque limits,
+    /// and the disk flies (keeping its velocity and spin) while it is negative ([`lift::fly`]).
+    fn step_spatial(&mut self, u: [f64; 3], nz: &[f64; 3], s: usize, cfg: &Config) -> bool {
+        if !self.active {
+            return false;
+        }
+        let n = cfg.g + crate::motion::spatial::normal_at(nz, self.p);
+        let [h, hv] = &mut self.air;
+        if lift::fly(n, cfg.dt, h, hv) {
+            self.flight += 1;
+            return self.take((self.v, self.spin, false), s, cfg);
+        }
+        let (surface, free, spin) = self.relative(u);
+        let r = n / cfg.g;
+        let st = crate::disk::implicit_step(free, spin, self.slide * r, self.hold * r, self.stuck);
+        self.take(self.absolute(surface, u[2], st), s, cfg)
+    }
+
     /// Takes step `s` (0-based) to the velocity, spin and stuck flag `next`; whether the disk
     /// left the plate in it.
     fn take(&mut self, (v, spin, stuck): ([f64; 2], f64, bool), s: usize, cfg: &Config) -> bool {
@@ -288,7 +316,23 @@ const DISK_GROUP: usize = 32;
 /// outer loop: consecutive disks are independent, so their long dependency chains overlap in the
 /// out-of-order core (one disk's steps are a single chain), and the sliding solves of a step run
 /// side by side ([`crate::disk::lanes::slide_many`]).
-fn run_disks(disks: &mut [DiskState], table: &[[f64; 3]], first: usize, cfg: &Config, rec: &Rec) {
+fn run_disks(
+    disks: &mut [DiskState],
+    table: &[[f64; 3]],
+    normals: &[[f64; 3]],
+    first: usize,
+    cfg: &Config,
+    rec: &Rec,
+) {
+    if !normals.is_empty() {
+        disks.par_iter_mut().for_each(|d| {
+            for (k, (&u, nz)) in table.iter().zip(normals).enumerate() {
+                d.step_spatial(u, nz, first + k, cfg);
+                d.record_step(Some(first + k), rec);
+            }
+        });
+        return;
+    }
     disks.par_chunks_mut(DISK_GROUP).for_each(|group| {
         for (k, &u) in table.iter().enumerate() {
             step_group(group, u, first + k, cfg);
@@ -345,6 +389,8 @@ struct World<'a> {
     contact: Option<contact::ContactWorld>,
     rec: Rec,
     table: Vec<[f64; 3]>,
+    /// The out-of-plane accelerations of the block's steps (empty for a planar motion).
+    normals: Vec<[f64; 3]>,
 }
 
 /// Simulates `parts` (points and disks) on a plate driven by `motion`.
@@ -407,6 +453,7 @@ where
                 angles: all.angles[r.clone()].to_vec(),
                 spins: all.spins[r].to_vec(),
                 left_plate: all.left_plate[w * m..(w + 1) * m].to_vec(),
+                flight: all.flight[w * m..(w + 1) * m].to_vec(),
             }
         })
         .collect())
@@ -448,6 +495,18 @@ where
                 e
             }
         })?;
+    }
+    let spatial = motions
+        .iter()
+        .map(PlateMotion::is_spatial)
+        .collect::<Vec<_>>();
+    if contacts.is_some() && spatial.iter().any(|&s| s) {
+        return Err(Error::parameter(
+            "contacts",
+            "are not supported on a plate that moves out of its plane (parts may lift off); \
+             simulate without contacts",
+        )
+        .into());
     }
     let rows = recorded_rows(steps, cfg.record_every);
     // Points only: the points are the parts, in order (no index to map them through).
@@ -495,11 +554,12 @@ where
         let rec = recorder.rec(b, steps, cfg.record_every);
         worlds.push(World {
             motion,
-            points: points::Points::new(parts, index, cfg, u0),
+            points: points::Points::new(parts, index, cfg, u0, spatial[b]),
             contact: contacts.map(|c| contact::ContactWorld::new(&disks, &disk_mass, c, cfg)),
             disks,
             rec,
             table: Vec::with_capacity(block),
+            normals: Vec::with_capacity(if spatial[b] { block } else { 0 }),
         });
     }
     recorder.times(0, 0, steps, cfg.record_every, cfg.dt);
@@ -516,13 +576,17 @@ where
             w.table.clear();
             // Sampled a hair before each step's end (see `velocities_into`).
             w.motion.velocities_into(first..end, cfg.dt, &mut w.table);
-            let (table, rec) = (&w.table, &w.rec);
+            if w.motion.is_spatial() {
+                w.normals.clear();
+                w.motion.normals_into(first..end, cfg.dt, &mut w.normals);
+            }
+            let (table, normals, rec) = (&w.table, &w.normals, &w.rec);
             let (points, disks, contact) = (&mut w.points, &mut w.disks, &mut w.contact);
             rayon::join(
-                || points.run(table, first, cfg, rec, index),
+                || points.run(table, normals, first, cfg, rec, index),
                 || match contact {
                     Some(c) => c.run(disks, table, first, cfg, rec),
-                    None => run_disks(disks, table, first, cfg, rec),
+                    None => run_disks(disks, table, normals, first, cfg, rec),
                 },
             );
         });
@@ -531,16 +595,25 @@ where
         first = end;
     }
     let mut left = vec![None; motions.len() * m];
-    for (w, left) in worlds.iter().zip(left.chunks_mut(m.max(1))) {
+    let mut flight = vec![0.0; motions.len() * m];
+    for ((w, left), flight) in worlds
+        .iter()
+        .zip(left.chunks_mut(m.max(1)))
+        .zip(flight.chunks_mut(m.max(1)))
+    {
         for (j, l) in w.points.left(cfg.dt).enumerate() {
             left[index.map_or(j, |ix| ix[j])] = l;
         }
+        for (j, f) in w.points.flight(cfg.dt).enumerate() {
+            flight[index.map_or(j, |ix| ix[j])] = f;
+        }
         for d in &w.disks {
             left[d.index] = d.left;
+            flight[d.index] = d.flight as f64 * cfg.dt;
         }
     }
     drop(worlds);
     // SAFETY: every row of every world was written: row 0 before the first block, and every
     // recorded step's row by the chunk or disk that owns each part, in the block of that step.
-    Ok(unsafe { recorder.finish(left) })
+    Ok(unsafe { recorder.finish(left, flight) })
 }

@@ -7,6 +7,7 @@ use rayon::prelude::*;
 use crate::buffer::{recycle, scratch};
 
 use super::kernel::{self, Lanes, NEVER};
+use super::lift::{self, Air};
 use super::record::Rec;
 use super::{half_side, moves_with_plate, off_plate, Config, PartsView};
 
@@ -25,10 +26,15 @@ pub(super) struct Points {
     left: Vec<f64>,
     slide: Vec<f64>, // mu g dt
     hold: Vec<f64>,  // mu_s g dt
+    /// Height above the plate, its rate and the steps spent in flight, on a plate that moves out
+    /// of its plane (empty otherwise).
+    h: Vec<f64>,
+    hv: Vec<f64>,
+    flight: Vec<f64>,
 }
 
-/// One chunk: its first point's place among the world's points and its arrays.
-type Chunk<'a> = (usize, Lanes<'a>);
+/// One chunk: its first point's place among the world's points, its arrays and its air state.
+type Chunk<'a> = (usize, Lanes<'a>, Option<Air<'a>>);
 
 impl Points {
     /// The parts `index` of `parts` (all of them with `None`), under the plate velocity `u0` at
@@ -38,6 +44,7 @@ impl Points {
         index: Option<&[usize]>,
         cfg: &Config,
         u0: [f64; 3],
+        spatial: bool,
     ) -> Self {
         let n = index.map_or(parts.len(), <[usize]>::len);
         let at = |j: usize| index.map_or(j, |ix| ix[j]);
@@ -52,7 +59,16 @@ impl Points {
             left: scratch(n),
             slide: scratch(n),
             hold: scratch(n),
+            h: Vec::new(),
+            hv: Vec::new(),
+            flight: Vec::new(),
         };
+        if spatial {
+            for v in [&mut p.h, &mut p.hv, &mut p.flight] {
+                *v = scratch(n);
+                v.resize(n, 0.0);
+            }
+        }
         let scale = cfg.g * cfg.dt;
         // Each array in one pass over slices (vectorised when the points are all the parts).
         match index {
@@ -120,6 +136,8 @@ impl Points {
             &mut self.left[..],
         );
         let (mut slide, mut hold) = (&self.slide[..], &self.hold[..]);
+        let spatial = !self.h.is_empty();
+        let (mut h, mut hv, mut flight) = (&mut self.h[..], &mut self.hv[..], &mut self.flight[..]);
         let mut start = 0;
         while !x.is_empty() {
             let k = CHUNK_PARTS.min(x.len());
@@ -147,7 +165,12 @@ impl Points {
                     head
                 },
             };
-            out.push((start, lanes));
+            let air = spatial.then(|| Air {
+                h: take(&mut h, k),
+                hv: take(&mut hv, k),
+                flight: take(&mut flight, k),
+            });
+            out.push((start, lanes, air));
             start += k;
         }
         out
@@ -159,33 +182,56 @@ impl Points {
         if let Some(row) = rec.row(s) {
             self.chunks()
                 .par_iter()
-                .for_each(|(start, l)| write(l, *start, row, rec, index));
+                .for_each(|(start, l, _)| write(l, *start, row, rec, index));
         }
     }
 
     /// Advances every point through one block: `table[k]` is the plate velocity at the end of
-    /// step `first + k` (0-based). The kernel runs each chunk through the block in segments that
-    /// end at recorded steps, and the chunk records itself there.
+    /// step `first + k` (0-based) and `normals[k]` its out-of-plane acceleration (empty for a
+    /// plate that stays in its plane). The kernel runs each chunk through the block in segments
+    /// that end at recorded steps, and the chunk records itself there.
     pub(super) fn run(
         &mut self,
         table: &[[f64; 3]],
+        normals: &[[f64; 3]],
         first: usize,
         cfg: &Config,
         rec: &Rec,
         index: Option<&[usize]>,
     ) {
         let half = half_side(cfg);
-        self.chunks().into_par_iter().for_each(|(start, mut l)| {
-            let mut done = 0;
-            while done < table.len() {
-                let end = (rec.next_after(first + done) - first).min(table.len());
-                kernel::run(&table[done..end], first + done, cfg.dt, half, &mut l);
-                done = end;
-                if let Some(row) = rec.row(first + done) {
-                    write(&l, start, row, rec, index);
+        self.chunks()
+            .into_par_iter()
+            .for_each(|(start, mut l, mut air)| {
+                let mut done = 0;
+                while done < table.len() {
+                    let end = (rec.next_after(first + done) - first).min(table.len());
+                    let (t, dt) = (&table[done..end], cfg.dt);
+                    match air.as_mut() {
+                        None => kernel::run(t, first + done, dt, half, &mut l),
+                        Some(a) => {
+                            let steps = lift::Steps {
+                                u: t,
+                                normals: &normals[done..end],
+                                first: first + done,
+                                dt,
+                                half,
+                                g: cfg.g,
+                            };
+                            lift::run(&steps, &mut l, a)
+                        }
+                    }
+                    done = end;
+                    if let Some(row) = rec.row(first + done) {
+                        write(&l, start, row, rec, index);
+                    }
                 }
-            }
-        });
+            });
+    }
+
+    /// The time each point spent in flight [s], in the points' order (empty on a planar plate).
+    pub(super) fn flight(&self, dt: f64) -> impl Iterator<Item = f64> + '_ {
+        self.flight.iter().map(move |&k| k * dt)
     }
 
     /// The time each point left the plate, in the points' order.
@@ -208,6 +254,9 @@ impl Drop for Points {
             &mut self.left,
             &mut self.slide,
             &mut self.hold,
+            &mut self.h,
+            &mut self.hv,
+            &mut self.flight,
         ] {
             recycle(std::mem::take(v));
         }

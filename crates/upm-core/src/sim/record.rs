@@ -72,6 +72,7 @@ impl Recorder {
             angles: buffer::zeroed(cells, "the angles")?,
             spins: buffer::zeroed(cells, "the spins")?,
             left_plate: Vec::new(),
+            flight: Vec::new(),
         };
         buffer::reserve(&mut out.t, rows, "the recorded times")?;
         buffer::reserve(&mut out.positions, cells, "the positions")?;
@@ -104,17 +105,22 @@ impl Recorder {
         }
     }
 
-    /// The stacked trajectory (`left_plate` is `(worlds, parts)`), once every `(row, part)` of
+    /// The stacked trajectory (`left_plate` and `flight` are `(worlds, parts)`), once every `(row, part)` of
     /// every world has been written through its [`Rec`].
     ///
     /// # Safety
     /// Every cell of every row of every world must have been written.
-    pub(super) unsafe fn finish(mut self, left_plate: Vec<Option<f64>>) -> Trajectory {
+    pub(super) unsafe fn finish(
+        mut self,
+        left_plate: Vec<Option<f64>>,
+        flight: Vec<f64>,
+    ) -> Trajectory {
         let cells = self.worlds * self.rows * self.m;
         self.out.positions.set_len(cells);
         self.out.velocities.set_len(cells);
         self.out.stuck.set_len(cells);
         self.out.left_plate = left_plate;
+        self.out.flight = flight;
         self.out
     }
 

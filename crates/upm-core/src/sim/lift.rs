@@ -1,0 +1,206 @@
+//! Point parts on a plate that moves out of its plane (docs/spec.md §10): the normal force
+//! `N = m (g + a_z)` varies over the plate and the cycle, and a part flies while `g + a_z < 0`.
+//!
+//! The step is the exact implicit Coulomb step of [`super`] with `mu g dt` replaced by
+//! `mu (g + a_z) dt` (and `mu_s` alike), `a_z` taken at the part's position at the start of the
+//! step and the sample time of the plate's velocity. A part whose normal force would be negative
+//! leaves the plate: its horizontal velocity is kept, and its height above the plate surface
+//! `h` follows `h'' = -(g + a_z)` (the part falls at `g`, the surface under it accelerates at
+//! `a_z`), integrated by semi-implicit Euler; when `h` returns to zero it lands without bounce
+//! and friction acts again from the next step. With `a_z = 0` the step is the planar one.
+//!
+//! [`step`] is the one home of this update: the chunk runner below calls it for every part
+//! (in tiles the compiler vectorises: it is branch-free), the disks take its flight half
+//! ([`fly`]) and [`crate::ppod`] takes it for the drift field. The vector builds differ from the
+//! portable one only in instruction width (no fused operations), so every build gives the same
+//! bits.
+
+use super::kernel::{Lanes, Simd};
+use crate::motion::spatial::normal_at;
+
+/// One part's state in the step.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct State {
+    /// Position [m].
+    pub p: [f64; 2],
+    /// Velocity [m/s].
+    pub v: [f64; 2],
+    /// Moving with the plate surface (static friction holds it).
+    pub stuck: bool,
+    /// Height of the part above the plate surface [m] (0: on it).
+    pub h: f64,
+    /// Rate of `h` [m/s].
+    pub hv: f64,
+}
+
+/// The flight half of a step under the normal acceleration `n = g + a_z` [m/s²]: when the part
+/// is in the air (`h > 0`) or leaves now (`n < 0`), `(h, hv)` advance and the part is airborne
+/// for this step (it lands, `h = hv = 0`, when `h` reaches 0). Returns whether it flew.
+#[inline(always)]
+pub fn fly(n: f64, dt: f64, h: &mut f64, hv: &mut f64) -> bool {
+    let flying = (*h > 0.0) | (n < 0.0);
+    let rate = *hv - n * dt;
+    let height = *h + rate * dt;
+    let landed = height <= 0.0;
+    *hv = if flying && !landed { rate } else { 0.0 };
+    *h = if flying && !landed { height } else { 0.0 };
+    flying
+}
+
+/// One step of a point part: `u` the plate's in-plane velocity `(u1, u2, u3)` at the step's
+/// end, `n = g + a_z` at the part, `slide = mu g dt`, `hold = mu_s g dt`, `inv_g = 1 / g`.
+/// Branch-free, so tiles of parts vectorise. Returns whether the part flew.
+#[inline(always)]
+pub fn step(
+    s: &mut State,
+    u: [f64; 3],
+    n: f64,
+    inv_g: f64,
+    slide: f64,
+    hold: f64,
+    dt: f64,
+) -> bool {
+    let [x, y] = s.p;
+    let [vx, vy] = s.v;
+    let flew = fly(n, dt, &mut s.h, &mut s.hv);
+    let (sx, sy) = (u[0] - u[2] * y, u[1] + u[2] * x);
+    let (wx, wy) = (vx - sx, vy - sy);
+    let wn = (wx * wx + wy * wy).sqrt();
+    let r = n * inv_g;
+    let (sl, ho) = (slide * r, hold * r);
+    let stick = (wn <= sl) | (s.stuck & (wn <= ho));
+    let keep = if stick { 0.0 } else { 1.0 - sl / wn };
+    let (cx, cy) = (sx + wx * keep, sy + wy * keep);
+    let (nvx, nvy) = if flew { (vx, vy) } else { (cx, cy) };
+    s.p = [x + 0.5 * (vx + nvx) * dt, y + 0.5 * (vy + nvy) * dt];
+    s.v = [nvx, nvy];
+    s.stuck = stick & !flew;
+    flew
+}
+
+/// The air state of a chunk's parts: height, its rate, and steps spent in flight.
+pub(super) struct Air<'a> {
+    pub h: &'a mut [f64],
+    pub hv: &'a mut [f64],
+    pub flight: &'a mut [f64],
+}
+
+/// Parts per tile (the state of a tile stays in registers through the steps).
+const TILE: usize = 16;
+
+/// A segment of steps: the plate's in-plane velocities `u` and out-of-plane accelerations
+/// `(z'', alpha'', beta'')` at each step, the steps already done, the step, half the plate's
+/// side (a part whose centre passes it is frozen) and gravity.
+pub(super) struct Steps<'t> {
+    pub u: &'t [[f64; 3]],
+    pub normals: &'t [[f64; 3]],
+    pub first: usize,
+    pub dt: f64,
+    pub half: f64,
+    pub g: f64,
+}
+
+/// Advances every part of `l` through `steps`, as [`super::kernel::run`] does in the plane.
+pub(super) fn run(steps: &Steps, l: &mut Lanes, air: &mut Air) {
+    assert_eq!(steps.u.len(), steps.normals.len(), "one normal per step");
+    match super::kernel::simd() {
+        // SAFETY: simd() only reports builds the CPU has.
+        #[cfg(target_arch = "x86_64")]
+        Simd::Avx512 => unsafe { run_avx512(steps, l, air) },
+        #[cfg(target_arch = "x86_64")]
+        Simd::Avx2 => unsafe { run_avx2(steps, l, air) },
+        _ => run_tiles(steps, l, air),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn run_avx512(steps: &Steps, l: &mut Lanes, air: &mut Air) {
+    run_tiles(steps, l, air)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn run_avx2(steps: &Steps, l: &mut Lanes, air: &mut Air) {
+    run_tiles(steps, l, air)
+}
+
+#[inline(always)]
+fn run_tiles(steps: &Steps, l: &mut Lanes, air: &mut Air) {
+    let n = l.x.len();
+    let mut at = 0;
+    while at < n {
+        let w = TILE.min(n - at);
+        let mut t = Tile::default();
+        for j in 0..w {
+            let i = at + j;
+            (t.x[j], t.y[j], t.vx[j], t.vy[j]) = (l.x[i], l.y[i], l.vx[i], l.vy[i]);
+            (t.stuck[j], t.h[j], t.hv[j]) = (l.stuck[i], air.h[i], air.hv[i]);
+            (t.slide[j], t.hold[j]) = (l.slide[i], l.hold[i]);
+            (t.active[j], t.left[j]) = (l.active[i], l.left[i]);
+        }
+        t.run(steps);
+        for j in 0..w {
+            let i = at + j;
+            (l.x[i], l.y[i], l.vx[i], l.vy[i]) = (t.x[j], t.y[j], t.vx[j], t.vy[j]);
+            (l.stuck[i], air.h[i], air.hv[i]) = (t.stuck[j], t.h[j], t.hv[j]);
+            air.flight[i] += t.flown[j];
+            (l.active[i], l.left[i]) = (t.active[j], t.left[j]);
+        }
+        at += w;
+    }
+}
+
+/// A tile of parts in registers, structure of arrays (flags 0 or 1); the lanes past a chunk's
+/// end are inactive.
+#[derive(Default)]
+struct Tile {
+    x: [f64; TILE],
+    y: [f64; TILE],
+    vx: [f64; TILE],
+    vy: [f64; TILE],
+    stuck: [f64; TILE],
+    h: [f64; TILE],
+    hv: [f64; TILE],
+    slide: [f64; TILE],
+    hold: [f64; TILE],
+    active: [f64; TILE],
+    left: [f64; TILE],
+    flown: [f64; TILE],
+}
+
+impl Tile {
+    /// Every step of `steps`, every lane, branch-free (the compiler vectorises across lanes):
+    /// a part off the plate keeps its state.
+    #[inline(always)]
+    fn run(&mut self, steps: &Steps) {
+        let inv_g = 1.0 / steps.g;
+        for (k, (&u, nz)) in steps.u.iter().zip(steps.normals).enumerate() {
+            let now = (steps.first + k + 1) as f64;
+            for j in 0..TILE {
+                let mut s = State {
+                    p: [self.x[j], self.y[j]],
+                    v: [self.vx[j], self.vy[j]],
+                    stuck: self.stuck[j] > 0.0,
+                    h: self.h[j],
+                    hv: self.hv[j],
+                };
+                let n = steps.g + normal_at(nz, s.p);
+                let flew = step(&mut s, u, n, inv_g, self.slide[j], self.hold[j], steps.dt);
+                let on = self.active[j] > 0.0;
+                let out = on & ((s.p[0].abs() > steps.half) | (s.p[1].abs() > steps.half));
+                let keep = |new: f64, old: f64| if on { new } else { old };
+                self.x[j] = keep(s.p[0], self.x[j]);
+                self.y[j] = keep(s.p[1], self.y[j]);
+                self.vx[j] = keep(s.v[0], self.vx[j]);
+                self.vy[j] = keep(s.v[1], self.vy[j]);
+                self.stuck[j] = keep(if s.stuck { 1.0 } else { 0.0 }, self.stuck[j]);
+                self.h[j] = keep(s.h, self.h[j]);
+                self.hv[j] = keep(s.hv, self.hv[j]);
+                self.flown[j] += if on & flew { 1.0 } else { 0.0 };
+                self.left[j] = if out { now } else { self.left[j] };
+                self.active[j] = if out { 0.0 } else { self.active[j] };
+            }
+        }
+    }
+}

@@ -1,0 +1,90 @@
+//! Binding of the velocity fields of a plate that moves out of its plane (`upm_core::ppod`).
+
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyTuple;
+use upm_core::ppod::{self, DriftConfig, FieldPoint};
+
+use crate::errors::batch_on;
+use crate::motion::PlateMotion;
+use crate::pairs;
+
+/// Points per task: the unit of parallel work and of the Ctrl-C check.
+const CHUNK: usize = 16;
+
+/// `(velocity (M, 2), max_accel (M,), lift (M,), work (M,), converged (M,))`.
+fn arrays<'py>(py: Python<'py>, out: Vec<Vec<FieldPoint>>) -> PyResult<Bound<'py, PyTuple>> {
+    let all: Vec<FieldPoint> = out.into_iter().flatten().collect();
+    let m = all.len();
+    let v = PyArray1::from_iter(py, all.iter().flat_map(|f| f.v)).reshape([m, 2])?;
+    let accel = PyArray1::from_iter(py, all.iter().map(|f| f.max_accel));
+    let lift = PyArray1::from_iter(py, all.iter().map(|f| f.lift));
+    let work = PyArray1::from_iter(py, all.iter().map(|f| f.work as u64));
+    let ok = PyArray1::from_iter(py, all.iter().map(|f| f.converged));
+    PyTuple::new(
+        py,
+        [
+            v.into_any(),
+            accel.into_any(),
+            lift.into_any(),
+            work.into_any(),
+            ok.into_any(),
+        ],
+    )
+}
+
+/// The drift field at `points (M, 2)`.
+#[pyfunction]
+#[pyo3(signature = (motion, points, *, mu, mu_s, g, steps, tol, max_periods, threads=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn drift_field<'py>(
+    py: Python<'py>,
+    motion: PyRef<'py, PlateMotion>,
+    points: PyReadonlyArray2<'py, f64>,
+    mu: f64,
+    mu_s: f64,
+    g: f64,
+    steps: usize,
+    tol: f64,
+    max_periods: usize,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let p = pairs(py, "points", &points)?;
+    let m = motion.inner.clone();
+    let cfg = DriftConfig {
+        mu,
+        mu_s,
+        g,
+        steps,
+        tol,
+        max_periods,
+    };
+    let out = batch_on(py, p.len().div_ceil(CHUNK), threads, |c| {
+        ppod::drift(&m, &p[c * CHUNK..((c + 1) * CHUNK).min(p.len())], &cfg)
+    })?;
+    arrays(py, out)
+}
+
+/// The asymptotic field at `points (M, 2)`.
+#[pyfunction]
+#[pyo3(signature = (motion, points, *, g, samples, threads=None))]
+pub fn asymptotic_field<'py>(
+    py: Python<'py>,
+    motion: PyRef<'py, PlateMotion>,
+    points: PyReadonlyArray2<'py, f64>,
+    g: f64,
+    samples: usize,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let p = pairs(py, "points", &points)?;
+    let m = motion.inner.clone();
+    let out = batch_on(py, p.len().div_ceil(CHUNK), threads, |c| {
+        ppod::asymptotic(
+            &m,
+            &p[c * CHUNK..((c + 1) * CHUNK).min(p.len())],
+            g,
+            samples,
+        )
+    })?;
+    arrays(py, out)
+}
