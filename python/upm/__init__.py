@@ -27,6 +27,7 @@ from ._errors import (
 )
 from .drive import DriveLimits, StrokeError
 from .feeding import feed_rate, force_table, mean_force, theorem1_force
+from .field_design import FieldDesign, design_field
 from .fields import average_field, jet_field, rotation_curl, rotation_field
 from .motion import PlateMotion
 from .plan import (
@@ -37,6 +38,15 @@ from .plan import (
     plan_to_motion,
     sustain_for_displacement,
     trim_rests,
+)
+from .ppod import (
+    PPOD_FIELDS,
+    PPOD_SEQUENCES,
+    FieldResult,
+    asymptotic_field,
+    divergence_curl,
+    drift_field,
+    field_angle,
 )
 from .pulses import Pulse
 from .sim import Disk, Point, SimResult, simulate, simulate_batch
@@ -56,12 +66,16 @@ from .sweeps import sweep
 from .waveforms import BangBang, Harmonics, TwoHarmonic, Waveform
 
 __all__ = [
+    "PPOD_FIELDS",
+    "PPOD_SEQUENCES",
     "BangBang",
     "BoardError",
     "ConvergenceError",
     "Disk",
     "DisplacementPlan",
     "DriveLimits",
+    "FieldDesign",
+    "FieldResult",
     "Harmonics",
     "InternalError",
     "MissingExtraError",
@@ -83,10 +97,15 @@ __all__ = [
     "Waveform",
     "__version__",
     "actuation",
+    "asymptotic_field",
     "average_field",
     "build_info",
     "corner_centers",
+    "design_field",
+    "divergence_curl",
+    "drift_field",
     "feed_rate",
+    "field_angle",
     "flow_error",
     "force_table",
     "grid_centers",

@@ -12,6 +12,7 @@ __all__ = [
     "__version__",
     "_panic_for_test",
     "apply_rays",
+    "asymptotic_field",
     "average_field",
     "axis_response",
     "bang_bang_efficiency",
@@ -23,6 +24,7 @@ __all__ = [
     "corner_excursions",
     "coverage_centroids",
     "disk_friction",
+    "drift_field",
     "edge_penalty",
     "flow_error",
     "force_table",
@@ -97,6 +99,10 @@ class PlateMotion:
         frequency: float,
     ) -> PlateMotion: ...
     @staticmethod
+    def spatial(frequency: float, terms: list[list[tuple[int, float, float]]]) -> PlateMotion: ...
+    def is_spatial(self) -> bool: ...
+    def normal(self, t: _F) -> _F: ...
+    @staticmethod
     def rest(duration: float) -> PlateMotion: ...
     @staticmethod
     def from_samples(t: _F, u: _F) -> PlateMotion: ...
@@ -136,8 +142,26 @@ def simulate(
     contact_iterations: int = 4,
     world_mu: _F | None = None,
     world_mu_s: _F | None = None,
-) -> tuple[_F, _F, _F, NDArray[np.bool_], _F, _F, _F]: ...
+) -> tuple[_F, _F, _F, NDArray[np.bool_], _F, _F, _F, _F]: ...
 def simd_info() -> tuple[str, list[str]]: ...
+
+_Field = tuple[_F, _F, _F, NDArray[np.uint64], NDArray[np.bool_]]
+
+def drift_field(
+    motion: PlateMotion,
+    points: _F,
+    *,
+    mu: float,
+    mu_s: float,
+    g: float,
+    steps: int,
+    tol: float,
+    max_periods: int,
+    threads: int | None = None,
+) -> _Field: ...
+def asymptotic_field(
+    motion: PlateMotion, points: _F, *, g: float, samples: int, threads: int | None = None
+) -> _Field: ...
 
 _I = NDArray[np.int64]
 _Solved = tuple[_F, _I, _F, _F, _F, _F, _F, _I, _F]

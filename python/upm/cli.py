@@ -276,6 +276,10 @@ def _main(argv: list[str]) -> int:
 
             for name, (summary, _) in MCHIP.items():
                 print(f"{name:12s} {'chapter 2':14s} {summary}")
+            from .ppod_demos import DEMOS as PPOD
+
+            for name, (summary, _) in PPOD.items():
+                print(f"{name:14s} {'6-DOF plate':12s} {summary}")
             return 0
         if args.name.startswith("mchip-"):
             from .mchip_demos import run_mchip_demo
@@ -286,11 +290,21 @@ def _main(argv: list[str]) -> int:
                 print(f"upm demo: {error}", file=sys.stderr)
                 return 2
             return 0
+        if args.name == "ppod" or args.name.startswith("ppod-"):
+            from .ppod_demos import run_ppod_demo
+
+            try:
+                run_ppod_demo(args.name, args.out, quick=args.quick)
+            except UpmError as error:
+                print(f"upm demo: {error}", file=sys.stderr)
+                return 2
+            return 0
         from .demos import DEMOS, run_demo
         from .mchip_demos import DEMOS as MCHIP
+        from .ppod_demos import DEMOS as PPOD
 
         if args.name not in DEMOS:
-            every = ["feeding", "list", *sorted(DEMOS), *sorted(MCHIP)]
+            every = ["feeding", "list", *sorted(DEMOS), *sorted(MCHIP), *sorted(PPOD)]
             print(f"upm demo: no demo {args.name!r}; the demos: {', '.join(every)}", file=sys.stderr)
             return 2
         try:

@@ -85,6 +85,58 @@ class PlateMotion:
         return cls(_core.PlateMotion.jet(*args), ("jet", *args))
 
     @classmethod
+    def harmonic(
+        cls,
+        frequency: float,
+        *,
+        x: Sequence[Sequence[float]] = (),
+        y: Sequence[Sequence[float]] = (),
+        z: Sequence[Sequence[float]] = (),
+        rx: Sequence[Sequence[float]] = (),
+        ry: Sequence[Sequence[float]] = (),
+        rz: Sequence[Sequence[float]] = (),
+    ) -> PlateMotion:
+        """Harmonic accelerations of the plate's six axes, repeating forever (docs/ppod.md).
+
+        Each axis is a list of ``(harmonic, amplitude, phase)`` terms ``A sin(k w t + p)`` with
+        ``w = 2 pi frequency``: ``x, y, z`` in m/s², ``rx, ry, rz`` (about the x, y and z axes
+        through the plate's centre) in rad/s². The velocities are their zero-mean integrals.
+        ``z``, ``rx`` and ``ry`` move the plate out of its plane: the normal force on a part at
+        ``(x, y)`` becomes ``m (g + z'' + y rx'' - x ry'')`` and the part flies while it is
+        negative. Small motions only: at most 0.05 rad and 1 cm per term.
+
+        >>> import upm
+        >>> m = upm.PlateMotion.harmonic(20.0, x=[(1, 15.0, 0.0)], z=[(1, 5.0, 4.712)])
+        >>> m.is_spatial
+        True
+        """
+        axes = {"x": x, "y": y, "z": z, "rx": rx, "ry": ry, "rz": rz}
+        terms = [_terms(name, value) for name, value in axes.items()]
+        f = real("frequency", frequency, low=0.0, low_open=True)
+        recipe = ("harmonic", f, *(tuple(t) for t in terms))
+        return cls(_core.PlateMotion.spatial(f, terms), recipe)
+
+    @classmethod
+    def ppod(cls, name: str) -> PlateMotion:
+        """A field of the PPOD2 library (docs/ppod.md; Vose, Umbanhowar and Lynch): ``"Sink"``,
+        ``"Source"``, ``"Whirlpool"``, ``"Centrifuge"``, ``"TransX"``, ... (``upm.PPOD_FIELDS``
+        lists them all)."""
+        from .ppod import library_motion
+
+        return library_motion(name)
+
+    @property
+    def is_spatial(self) -> bool:
+        """Whether the plate moves out of its plane (vertical or rocking vibration)."""
+        return bool(self._inner.is_spatial())
+
+    def normal_acceleration(self, t: ArrayLike) -> np.ndarray:
+        """The out-of-plane accelerations ``(z'', rx'', ry'')`` at times ``t`` [s]: shape
+        ``(*t.shape, 3)`` (zero for a plate that stays in its plane)."""
+        ts = as_float("t", t)
+        return self._inner.normal(np.ascontiguousarray(ts.reshape(-1))).reshape(*ts.shape, 3)
+
+    @classmethod
     def rest(cls, duration: float) -> PlateMotion:
         """The plate at rest for ``duration`` [s]."""
         seconds = real("duration", duration)
@@ -180,9 +232,34 @@ class PlateMotion:
         return f"PlateMotion({what}; duration={'forever' if d is None else f'{d:g} s'})"
 
 
+def _terms(axis: str, value: Any) -> list[tuple[int, float, float]]:
+    """An axis's ``(harmonic, amplitude, phase)`` terms, checked."""
+    try:
+        rows = [tuple(t) for t in value]
+    except TypeError:
+        raise ParameterError(
+            f"{axis} must be a list of (harmonic, amplitude, phase) terms; got {value!r}"
+        ) from None
+    out = []
+    for j, row in enumerate(rows):
+        if len(row) != 3:
+            raise ParameterError(
+                f"{axis}[{j}] must be (harmonic, amplitude, phase); got {row!r} ({len(row)} values)"
+            )
+        k, a, p = row
+        integral = isinstance(k, (int, np.integer)) or (isinstance(k, float) and k.is_integer())
+        if isinstance(k, bool) or not integral or not 1 <= int(k) <= 64:
+            raise ParameterError(f"{axis}[{j}]: harmonic must be an integer 1..64; got {k!r}")
+        out.append((int(k), real(f"{axis}[{j}] amplitude", a), real(f"{axis}[{j}] phase", p)))
+    return out
+
+
 def _rebuild(recipe: tuple[Any, ...]) -> PlateMotion:
     """The motion ``recipe`` describes, built again through the public constructors."""
     kind, *args = recipe
+    if kind == "harmonic":
+        f, *axes = args
+        return PlateMotion.harmonic(f, **dict(zip(("x", "y", "z", "rx", "ry", "rz"), axes, strict=True)))
     if kind == "raw_translation":  # built straight from coefficients (upm.sweep's fast path)
         d, cos, sin, f = args
         inner = _core.PlateMotion.translation(d, _core.WaveformBatch.harmonics(cos, sin, f))
@@ -216,6 +293,11 @@ def _describe(recipe: tuple[Any, ...]) -> str:
         return "sequence[" + ", ".join(_describe(m._recipe) if m._recipe else "..." for m in args[0]) + "]"
     if kind == "from_samples":
         return f"from_samples({len(args[0])} samples)"
+    if kind == "harmonic":
+        named = [
+            f"{n}={list(a)}" for n, a in zip(("x", "y", "z", "rx", "ry", "rz"), args[1:], strict=True) if a
+        ]
+        return f"harmonic({args[0]:g} Hz, {', '.join(named)})"
     if kind == "raw_translation":
         return f"translation({args[0]}, {args[1].shape[-1]} harmonics at {float(args[3][0]):g} Hz)"
     shown = ", ".join(repr(a) if not isinstance(a, float) else f"{a:g}" for a in args)

@@ -101,6 +101,9 @@ def field(
     kind: str | Any,
     extent: ArrayLike,
     *,
+    motion: Any = None,
+    mu: float = 0.3,
+    measured: bool = True,
     center: ArrayLike = (0.0, 0.0),
     direction: ArrayLike = (0.0, 1.0),
     rho: float = 1.0,
@@ -110,15 +113,19 @@ def field(
     resolution: int = 21,
     ax: Any = None,
 ) -> Figure:
-    """Quiver plot of an average force field / (mu m g), as in Figs. 4.7 and 6.2.
+    """Quiver plot of an average force field / (mu m g), as in Figs. 4.7 and 6.2, or of the velocity
+    fields of a plate that moves out of its plane (docs/ppod.md).
 
     Parameters
     ----------
-    kind : "rotation", "jet", "plan" or a PlateMotion
+    kind : "rotation", "jet", "plan", a PlateMotion, or "drift", "asymptotic", "both"
         ``"rotation"``: the unit tangential field about ``center``; ``"jet"``: the jet (6.4) at
         ``center`` along ``direction`` with ``rho``; ``"plan"``: the superposition
         ``(1/N) sum_j k_j R90(P - C_j)/|P - C_j|`` of ``strengths`` about ``centers`` (4.9);
-        a :class:`upm.PlateMotion`: its :func:`upm.average_field`.
+        a :class:`upm.PlateMotion`: its :func:`upm.average_field`. ``"drift"``,
+        ``"asymptotic"``: the velocity field of the periodic ``motion`` (:func:`upm.drift_field`
+        at ``mu``, :func:`upm.asymptotic_field`); ``"both"``: the two side by side. With
+        ``measured``, the mean velocity of simulated parts (red) is drawn on the drift.
     extent : (xmin, ymin, xmax, ymax)
         The plotted square of the plate [m], sampled on ``resolution x resolution`` arrows.
     parts, centers : array_like (K, 2), optional
@@ -127,6 +134,8 @@ def field(
     from .fields import average_field, jet_field, rotation_field
     from .motion import PlateMotion
 
+    if isinstance(kind, str) and kind in ("drift", "asymptotic", "both"):
+        return _velocity_field(kind, extent, motion, mu, measured, resolution, ax)
     plt = _pyplot()
     x0, y0, x1, y1 = as_float("extent", extent).reshape(4)
     gx, gy = np.meshgrid(np.linspace(x0, x1, resolution), np.linspace(y0, y1, resolution))
@@ -164,6 +173,62 @@ def field(
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title(f"Force / $\\mu m g$: {title}")
+    figure: Figure = fig
+    return figure
+
+
+def _velocity_field(
+    kind: str, extent: ArrayLike, motion: Any, mu: float, measured: bool, resolution: int, ax: Any
+) -> Figure:
+    """The drift and/or asymptotic velocity field of ``motion`` (see :func:`field`)."""
+    from .motion import PlateMotion
+    from .ppod import asymptotic_field, drift_field, field_angle
+    from .sim import simulate
+
+    if not isinstance(motion, PlateMotion):
+        raise ParameterError(f"kind={kind!r} needs motion=, a periodic upm.PlateMotion; got {motion!r}")
+    plt = _pyplot()
+    x0, y0, x1, y1 = as_float("extent", extent).reshape(4)
+    n = min(resolution, 15)
+    gx, gy = np.meshgrid(np.linspace(x0, x1, n), np.linspace(y0, y1, n))
+    points = np.stack([gx, gy], axis=-1)
+    shown = ["drift", "asymptotic"] if kind == "both" else [kind]
+    titles = {"drift": f"drift, $\\mu$ = {mu:g}", "asymptotic": "asymptotic"}
+    if ax is None:
+        fig, axes = plt.subplots(
+            1, len(shown), figsize=(5.0 * len(shown), 5.0), layout="constrained", squeeze=False
+        )
+        axes = list(axes[0])
+    else:
+        fig, axes = ax.figure, [ax] * len(shown)
+    computed = {}
+    spacing = (x1 - x0) / max(n - 1, 1)
+    for axis, name in zip(axes, shown, strict=True):
+        result = drift_field(motion, points, mu=mu) if name == "drift" else asymptotic_field(motion, points)
+        computed[name] = result
+        v = result.velocity * 1e3
+        top = max(float(np.max(np.hypot(v[..., 0], v[..., 1]))), 1e-9)
+        arrows = dict(angles="xy", scale_units="xy", scale=top / (0.9 * spacing))  # longest: 0.9 spacing
+        axis.quiver(gx, gy, v[..., 0], v[..., 1], np.hypot(v[..., 0], v[..., 1]), cmap="viridis", pivot="mid",
+                    **arrows)  # fmt: skip
+        title = titles[name]
+        if name == "drift" and measured:
+            t_end = 1.0
+            pick = points[::2, ::2].reshape(-1, 2)
+            dt = 1.0 / (400.0 * max(motion.max_frequency, 1.0))
+            r = simulate(motion, pick, duration=t_end, dt=dt, mu=mu, record_every=10**9)
+            moved = (r.positions[-1] - r.positions[0]) / t_end * 1e3
+            label = "simulated parts, mean over 1 s"
+            tip = dict(color="red", pivot="mid", width=0.004, label=label)
+            axis.quiver(pick[:, 0], pick[:, 1], moved[:, 0], moved[:, 1], **tip, **arrows)
+            axis.legend(loc="upper right", fontsize=8)
+        axis.set_aspect("equal")
+        axis.set_xlabel("x [m]")
+        axis.set_ylabel("y [m]")
+        axis.set_title(f"Velocity field [mm/s]: {title}")
+    if len(computed) == 2:
+        angle = np.nanmedian(np.abs(field_angle(computed["drift"], computed["asymptotic"])))
+        fig.suptitle(f"median angle between drift and asymptotic: {angle:.0f}°")
     figure: Figure = fig
     return figure
 

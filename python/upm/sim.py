@@ -73,6 +73,9 @@ class SimResult:
     """Parts whose centre left the square plate, ``(M,)``; they stop being simulated."""
     left_time: NDArray[np.float64]
     """When each part left the plate [s] (NaN: it did not), ``(M,)``."""
+    flight_time: NDArray[np.float64]
+    """Time each part spent in the air [s], ``(M,)``: non-zero only on a plate that moves out of its
+    plane hard enough that the normal force vanishes (docs/ppod.md)."""
 
     def __repr__(self) -> str:
         lead = self.positions.shape[:-3]
@@ -106,17 +109,27 @@ class SimResult:
     def load(cls, path: str | Path) -> SimResult:
         """A result written by :meth:`save`."""
         with np.load(Path(path), allow_pickle=False) as data:
-            missing = [f.name for f in fields(cls) if f.name not in data.files]
-            if missing:
-                raise ParameterError(f"{path} is not a saved SimResult: it lacks {missing}")
-            return cls(**{f.name: data[f.name] for f in fields(cls)})
+            arrays = {f.name: data[f.name] for f in fields(cls) if f.name in data.files}
+        if "flight_time" not in arrays and "left_time" in arrays:  # saved before flight times existed
+            arrays["flight_time"] = np.zeros_like(arrays["left_time"])
+        missing = [f.name for f in fields(cls) if f.name not in arrays]
+        if missing:
+            raise ParameterError(f"{path} is not a saved SimResult: it lacks {missing}")
+        return cls(**arrays)
 
     def to_xarray(self) -> Any:
         """The result as a labelled :class:`xarray.Dataset` (dimensions ``world`` for a batch,
         ``time``, ``part``, ``axis``; units in each variable's ``attrs``). Needs the ``sweep`` extra."""
         xr = need("xarray", "sweep", "SimResult.to_xarray")
         lead = ("world",) if self.positions.ndim == 4 else ()
-        units = {"positions": "m", "velocities": "m/s", "angles": "rad", "spins": "rad/s", "left_time": "s"}
+        units = {
+            "positions": "m",
+            "velocities": "m/s",
+            "angles": "rad",
+            "spins": "rad/s",
+            "left_time": "s",
+            "flight_time": "s",
+        }
         dims = {
             "positions": (*lead, "time", "part", "axis"),
             "velocities": (*lead, "time", "part", "axis"),
@@ -125,6 +138,7 @@ class SimResult:
             "spins": (*lead, "time", "part"),
             "left_plate": (*lead, "part"),
             "left_time": (*lead, "part"),
+            "flight_time": (*lead, "part"),
         }
         variables = {
             name: (dim, getattr(self, name), {"units": units[name]} if name in units else {})
@@ -424,11 +438,11 @@ def simulate(
     """
     contact = _contact(parts, plate_size, contacts, restitution, part_friction, walls, walls_move_with_plate,
                        contact_iterations)  # fmt: skip
-    t, pos, vel, stuck, angles, spins, left = _run(
+    t, pos, vel, stuck, angles, spins, left, flight = _run(
         [motion], parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact,
         _progress(progress),
     )  # fmt: skip
-    return SimResult(t, pos[0], vel[0], stuck[0], angles[0], spins[0], ~np.isnan(left[0]), left[0])
+    return SimResult(t, pos[0], vel[0], stuck[0], angles[0], spins[0], ~np.isnan(left[0]), left[0], flight[0])
 
 
 def simulate_batch(
@@ -472,11 +486,11 @@ def simulate_batch(
     if friction is not None:  # every world in the same parallel run, each with its own rows
         mu, mu_s = friction[0][0], friction[1][0]
         worlds = (np.ascontiguousarray(friction[0]), np.ascontiguousarray(friction[1]))
-    t, pos, vel, stuck, angles, spins, left = _run(
+    t, pos, vel, stuck, angles, spins, left, flight = _run(
         ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact, _progress(progress),
         worlds=worlds,
     )  # fmt: skip
-    return SimResult(t, pos, vel, stuck, angles, spins, ~np.isnan(left), left)
+    return SimResult(t, pos, vel, stuck, angles, spins, ~np.isnan(left), left, flight)
 
 
 def _progress(progress: Any) -> Callable[[float], object] | None:
