@@ -223,6 +223,24 @@ def disk_times(dt: float, quick: bool) -> None:
           f" (final positions agree to {diff:.1e} m)")  # fmt: skip
 
 
+def spatial_times(quick: bool) -> None:
+    """The lift-off step (a plate that moves out of its plane, docs/ppod.md) against the planar
+    step on the same in-plane motion: a circular translation at 20 Hz alone, and with the PPOD
+    Sink's rocking (the normal force varies over the plate, parts lift off at its corners)."""
+    n, steps = (2_000, 2000) if quick else (20_000, 4000)
+    pos = np.random.default_rng(7).uniform(-0.1, 0.1, (n, 2))
+    planar = upm.PlateMotion.harmonic(20.0, x=[(1, 10.0, 0.0)], y=[(1, 10.0, np.pi / 2)])
+    spatial = upm.PlateMotion.ppod("Sink")
+    dt = 0.05 / 400
+    kw = dict(duration=steps * dt, dt=dt, mu=MU, mu_s=MU_S, record_every=steps)
+    ns = 1e9 / (n * steps)
+    print(f"\nout-of-plane plate (the PPOD Sink), {n:,} parts x {steps} steps, ns per part-step:")
+    for th in sorted({1, os.cpu_count() or 1}):
+        flat = best_of(lambda th=th: upm.simulate(planar, pos, threads=th, **kw)) * ns
+        lift = best_of(lambda th=th: upm.simulate(spatial, pos, threads=th, **kw)) * ns
+        print(f"  {th} thread(s): planar {flat:.2f}, out of plane {lift:.2f}: {lift / flat:.2f}x planar")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="smaller problems")
@@ -270,6 +288,7 @@ def main() -> None:
     per_call(motion, dt)
     batch_times(quick=args.quick)
     disk_times(dt, quick=args.quick)
+    spatial_times(quick=args.quick)
 
     recording(motion, dt, rng, quick=args.quick)
 
