@@ -7,7 +7,12 @@ Tasks (each over ``--seeds`` seeds; medians and maxima):
 * ``sort10``: 10 chips (Fig. 4.9);
 * ``goto6``: 6 pennies to random goals, all within 3 mm;
 * ``bowtie``: 3 pennies equidistant around the figure-eight (Figs. 6.4-6.5: about a minute a loop);
-* ``mu0.21``, ``mu0.39``: sort8 on plates whose friction is 0.21 and 0.39, the planner told 0.3.
+* ``mu0.21``, ``mu0.39``: sort8 on plates whose friction is 0.21 and 0.39, the planner told 0.3;
+* ``gather8``: 8 pennies into a pile of 4 cm radius off the centre (not in the default list).
+
+Planner ``fields`` (:class:`upm.control.FieldPlanner`, docs/ppod.md) plays velocity fields of a
+plate that moves out of its plane: the simulated plate follows them exactly (no motors, no stroke
+model) and its parts are points, since contacts with lift-off are not modelled.
 
 Columns: done (of the seeds), plate time to finish [s], parts lost, largest plate-corner excursion
 [mm], median predicted-vs-achieved step error [mm] (predictive planner), median planning time per
@@ -51,6 +56,8 @@ def planner(name: str, radius: float) -> Any:
         return PredictivePlanner(LIMITS, mu=0.3, part_radius=radius)
     if name == "jets":
         return control.JetPlanner(mu=0.3, amplitude=0.1, rho=0.03, limits=LIMITS)
+    if name == "fields":  # a 6-DOF plate: velocity fields, no stroke model (docs/ppod.md)
+        return control.FieldPlanner(mu=0.3)
     if name == "rotations":
         centers = np.vstack([upm.ring_centers(8, 0.07), upm.ring_centers(16, 0.18, phase=0.2)])
         return control.RotationsPlanner(centers, cycle=4.0, limits=LIMITS)
@@ -69,6 +76,9 @@ def setup(task: str, seed: int) -> tuple[np.ndarray, list[str], float, Any, int,
         labels = ["red"] * (n // 2) + ["blue"] * (n - n // 2)
         job = control.SortTask({"red": -1, "blue": 1}, margin=0.08, spacing=0.046, max_step=0.025)
         return parts, labels, CHIP, job, 60 * max(1, n // 8), mu
+    if task == "gather8":  # into a pile of 4 cm radius off the centre
+        parts = scatter(rng, 8, 0.12, 0.04)
+        return parts, ["penny"] * 8, PENNY, control.GatherTask((0.04, -0.03), radius=0.04), 60, mu
     if task == "goto6":
         parts = scatter(rng, 6, 0.12, 0.04)
         goals = scatter(rng, 6, 0.12, 0.04)
@@ -84,13 +94,22 @@ def setup(task: str, seed: int) -> tuple[np.ndarray, list[str], float, Any, int,
 
 def run(task: str, name: str, seed: int) -> dict[str, float]:
     parts, labels, radius, job, cycles, mu = setup(task, seed)
+    # Fields need a plate that moves out of its plane: the simulated plate follows them exactly
+    # (ideal device) and the parts are points (contacts with lift-off are not modelled).
+    spatial = name == "fields"
     plant = SimulatedUPM(
-        plate=LIMITS.plate, axes=LIMITS.axes, parts=parts, seed=seed, part_radius=radius, mu=mu
+        plate=LIMITS.plate,
+        axes=LIMITS.axes,
+        parts=parts,
+        seed=seed,
+        part_radius=None if spatial else radius,
+        mu=mu,
     )
     plan = planner(name, radius)
-    if name == "predictive":
+    if name in ("predictive", "fields"):
         cycles *= 4  # one pulse a cycle
-    loop = control.Loop(plant, plant.camera(labels, seed=seed), plan, job, part_radius=radius)
+    device = control.SimulatedDevice(plant, ideal=True) if spatial else plant
+    loop = control.Loop(device, plant.camera(labels, seed=seed), plan, job, part_radius=radius)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         start = time.perf_counter()
@@ -105,7 +124,7 @@ def run(task: str, name: str, seed: int) -> dict[str, float]:
         "done": float(log.done and plant.fallen == 0),
         "time": float(log.meta["plate_time"]),
         "lost": float(plant.fallen),
-        "stroke": 1000 * plant.max_excursion,
+        "stroke": float("nan") if spatial else 1000 * plant.max_excursion,
         "step_error": 1000 * float(np.median(errs)) if errs else float("nan"),
         "planning": 1000 * float(np.median(log.planning)),
         "undone": float(np.sum(np.maximum(de, 0))) / gained if gained else float("nan"),

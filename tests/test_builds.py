@@ -42,7 +42,7 @@ out = {"simd": upm.build_info()["simd"]}
 for th in (1, 2):
     r = upm.simulate(m, pos, threads=th, **kw)
     left = np.nan_to_num(r.left_time, nan=-1.0).tolist()
-    out[th] = [r.positions.tobytes().hex(), r.stuck.tolist(), r.flight_time.tolist(), left]
+    out[th] = [r.positions.tolist(), r.stuck.tolist(), r.flight_time.tolist(), left]
 print(json.dumps(out))
 """
 
@@ -53,13 +53,19 @@ def _run(build: str, script: str = RUN) -> dict:
     return json.loads(out.stdout)
 
 
-def test_the_out_of_plane_step_is_bitwise_the_same_on_every_build_and_thread_count() -> None:
+def test_every_build_of_the_out_of_plane_step_matches_the_portable_one() -> None:
+    # bitwise the same for any thread count on one build; within rounding across builds (the
+    # AVX-512 build's refined reciprocal square root), with the same decisions and flights
     reference = _run("portable", SPATIAL)
     assert reference["1"] == reference["2"]
     assert max(reference["1"][2]) > 0  # parts flew
     for build in upm.build_info()["available"][1:]:
         got = _run(build, SPATIAL)
-        assert got["simd"] == build and got["1"] == reference["1"] and got["2"] == reference["1"]
+        assert got["simd"] == build and got["1"] == got["2"]
+        pos, stuck, flight, left = got["1"]
+        assert np.abs(np.array(pos) - np.array(reference["1"][0])).max() < 1e-12
+        assert stuck == reference["1"][1] and left == reference["1"][3]
+        assert np.allclose(flight, reference["1"][2], rtol=0, atol=1e-9)
 
 
 def test_build_info_reports_the_chosen_build() -> None:

@@ -76,7 +76,7 @@ class Pulse:
     are in seconds; ``frequency`` [Hz] is the base frequency of the drive.
     """
 
-    kind: Literal["rotation", "translation", "jet", "rest"]
+    kind: Literal["rotation", "translation", "jet", "field", "rest"]
     center: tuple[float, float]
     frequency: float
     attack: float
@@ -89,6 +89,8 @@ class Pulse:
     """Unit feeding direction of a jet or a translation."""
     rho: float = 0.0
     amplitude: float = 0.0
+    plate_motion: PlateMotion | None = None
+    """The harmonic 6-axis motion of a field pulse (:meth:`field`)."""
 
     # -- builders ------------------------------------------------------------------------------
     @classmethod
@@ -164,6 +166,33 @@ class Pulse:
         )
 
     @classmethod
+    def field(
+        cls,
+        motion: PlateMotion,
+        attack: float,
+        sustain: float,
+        decay: float,
+        rest: float = 0.0,
+        center: ArrayLike = (0.0, 0.0),
+    ) -> Pulse:
+        """A velocity field (docs/ppod.md): ``motion`` from :meth:`PlateMotion.harmonic`,
+        :meth:`PlateMotion.ppod` or :func:`upm.design_field`, under the envelope. ``center`` [m]
+        only labels the pulse (a designed field's centre). A field that moves the plate out of its
+        plane plays on a 6-DOF plate only: the simulated plate's ideal device
+        (``SimulatedDevice(plant, ideal=True)``); :meth:`channels` refuses it."""
+        recipe = getattr(motion, "_recipe", None)
+        if not isinstance(motion, PlateMotion) or recipe is None or recipe[0] != "harmonic":
+            raise ParameterError("motion must be a upm.PlateMotion built by PlateMotion.harmonic or .ppod")
+        cx, cy = vector("center", center, 2)
+        return cls(
+            "field",
+            (float(cx), float(cy)),
+            float(recipe[1]),
+            *cls._times(attack, sustain, decay, rest),
+            plate_motion=motion,
+        )
+
+    @classmethod
     def pause(cls, seconds: float) -> Pulse:
         """The plate at rest for ``seconds``."""
         return cls("rest", (0.0, 0.0), 1.0, 0.0, 0.0, 0.0, _finite("seconds", seconds, strict=True))
@@ -195,7 +224,10 @@ class Pulse:
         """The pulse as a plate motion (enveloped, then its rest when ``rest``)."""
         if self.kind == "rest":
             return PlateMotion.rest(self.rest)
-        if self.kind == "rotation":
+        if self.kind == "field":
+            assert self.plate_motion is not None
+            base = self.plate_motion
+        elif self.kind == "rotation":
             assert self.waveform is not None
             base = PlateMotion.rotation(self.center, self.waveform)
         elif self.kind == "translation":
@@ -218,6 +250,17 @@ class Pulse:
             return np.array([rate * cy, -rate * cx, rate])
 
         if self.kind == "rest":
+            return out
+        if self.kind == "field":
+            assert self.plate_motion is not None
+            w = 2 * math.pi * self.frequency
+            _, _, *axes = self.plate_motion._recipe  # type: ignore[misc]
+            for k, axis in zip((0, 1, 2), (axes[0], axes[1], axes[5]), strict=True):
+                for harmonic, amplitude, phase in axis:
+                    if float(harmonic) not in out:
+                        raise ParameterError(f"a field pulse plays harmonics 1 and 2 only; got {harmonic}")
+                    # A sin(k w t + p) integrates to Re(-(A / (k w)) e^{i p} e^{i k w t})
+                    out[float(harmonic)][k] += -amplitude / (harmonic * w) * np.exp(1j * phase)
             return out
         if self.kind in ("rotation", "translation"):
             assert self.waveform is not None
@@ -246,6 +289,11 @@ class Pulse:
         inertial plate (5.10), or ``axes`` (x, y, rotation; 5.26) to precompensate the suspension.
         ``ParameterError`` when a motor's peak force would exceed ``limit`` [N].
         """
+        if self.kind == "field" and self.plate_motion is not None and self.plate_motion.is_spatial:
+            raise ParameterError(
+                "this field pulse moves the plate out of its plane: the four in-plane motors cannot play "
+                "it; play it on a 6-DOF plate (upm.control.SimulatedDevice(plant, ideal=True))"
+            )
         w = 2 * math.pi * self.frequency
         inertia = (plate.mass, plate.mass, plate.inertia)
         share = motor_sharing(plate.lever)

@@ -12,16 +12,26 @@ Needs OpenCV and SciPy (``pip install 'upm[control]'``).
 
 from __future__ import annotations
 
-from ..plan import DisplacementPlanner, FixedPlanner, JetPlanner, Planner, PredictivePlanner, RotationsPlanner
+from ..plan import (
+    DisplacementPlanner,
+    FieldPlanner,
+    FixedPlanner,
+    JetPlanner,
+    Planner,
+    PredictivePlanner,
+    RotationsPlanner,
+)
 from .devices import BoardDevice, Device, SimulatedDevice, as_device
 from .loop import LoadedLog, Log, Loop, load_log
-from .tasks import GotoTask, SortTask, State, Task, TrajectoryTask, WatchTask
+from .tasks import GatherTask, GotoTask, SortTask, State, Task, TrajectoryTask, WatchTask
 
 __all__ = [
     "BoardDevice",
     "Device",
     "DisplacementPlanner",
+    "FieldPlanner",
     "FixedPlanner",
+    "GatherTask",
     "GotoTask",
     "JetPlanner",
     "LoadedLog",

@@ -17,11 +17,11 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._arrays import as_float
+from .._arrays import as_float, point
 from .._errors import ParameterError, ShapeError
 from ..drive import PLATE_SIZE
 
-__all__ = ["GotoTask", "SortTask", "State", "Task", "TrajectoryTask", "WatchTask"]
+__all__ = ["GatherTask", "GotoTask", "SortTask", "State", "Task", "TrajectoryTask", "WatchTask"]
 
 FloatArray = NDArray[np.float64]
 
@@ -495,6 +495,46 @@ class SortTask:
         if self.expected is None:
             self.expected = len(sorted_)
         return bool(len(sorted_) and len(sorted_) >= self.expected and np.all(sorted_ <= 0.0))
+
+
+class GatherTask:
+    """Every part into a pile: within ``radius`` [m] of ``center`` (what a sink does without sensing,
+    docs/ppod.md). Steps point at the centre, ``gain`` of the way beyond ``radius / 2``, at most
+    ``max_step``; lost parts (NaN) are not done."""
+
+    def __init__(
+        self,
+        center: ArrayLike = (0.0, 0.0),
+        *,
+        radius: float = 0.04,
+        gain: float = 0.8,
+        max_step: float = 0.03,
+    ) -> None:
+        self.center = np.asarray(point("center", center), dtype=np.float64)
+        for name, v in (("radius", radius), ("gain", gain), ("max_step", max_step)):
+            if not (math.isfinite(v) and v > 0):
+                raise ParameterError(f"{name} must be finite and > 0; got {v!r}")
+        self.radius, self.gain, self.max_step = float(radius), float(gain), float(max_step)
+
+    def errors(self, state: State) -> FloatArray:
+        d = state.positions - self.center
+        out: FloatArray = np.maximum(np.hypot(d[:, 0], d[:, 1]) - self.radius, 0.0)
+        return out
+
+    def cost(self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0) -> FloatArray:
+        """Sum of the parts' distances beyond ``radius`` from the centre [m] (a lost part: 1 m)."""
+        q = _at(state, positions)
+        return _distance_sum(q, np.broadcast_to(self.center, q.shape), self.radius)
+
+    def steps(self, state: State) -> FloatArray:
+        d = self.center - state.positions
+        r = np.hypot(d[:, 0], d[:, 1])
+        want = np.maximum(r - 0.5 * self.radius, 0.0) / np.maximum(r, 1e-300)
+        return _clip(np.where(np.isfinite(d), d * (self.gain * want)[:, None], 0.0), self.max_step)
+
+    def done(self, state: State) -> bool:
+        e = self.errors(state)
+        return bool(len(e) and np.all(np.isfinite(state.positions)) and np.all(e <= 0.0))
 
 
 class WatchTask:

@@ -7,6 +7,8 @@
 * :mod:`~upm.plan.predictive`: :class:`PredictivePlanner`, receding-horizon sampling on the
   batched simulator within the drive's force and stroke; its candidate families
   (:mod:`~upm.plan.candidates`) and long-pulse look-ahead (:mod:`~upm.plan.macros`);
+* :mod:`~upm.plan.fields`: :class:`FieldPlanner`, velocity fields of a plate that moves out of
+  its plane (docs/ppod.md);
 * :mod:`~upm.plan.sizing`: sizing one pulse against the integrator, shared by all;
 * :mod:`~upm.plan.fixed`: the :class:`Planner` protocol and :class:`FixedPlanner`.
 
@@ -18,6 +20,7 @@ from __future__ import annotations
 
 from .candidates import Candidates, aligned_centres, generate
 from .displacements import DisplacementPlanner, plan_pulses, plan_to_motion, sustain_for_displacement
+from .fields import FieldPlanner
 from .fixed import FixedPlanner, Planner
 from .jets import JetPlanner, jet_plan, jet_pulses
 from .macros import MacroTable
@@ -28,6 +31,7 @@ from .sizing import trim_rests
 __all__ = [
     "Candidates",
     "DisplacementPlanner",
+    "FieldPlanner",
     "FixedPlanner",
     "JetPlanner",
     "MacroTable",

@@ -17,7 +17,7 @@ const TILE: usize = 8;
 /// first omitted term is `35 e^4 / 128 < 2^-53.8`. `q r` is formed first so that `r^2` cannot
 /// overflow for tiny `q`. Lanes with `q = 0` give NaN (their parts stick; the caller masks them).
 #[inline(always)]
-unsafe fn rsqrt(q: __m512d) -> __m512d {
+pub(in crate::sim) unsafe fn rsqrt(q: __m512d) -> __m512d {
     let r = _mm512_rsqrt14_pd(q);
     let e = _mm512_fnmadd_pd(_mm512_mul_pd(q, r), r, _mm512_set1_pd(1.0));
     let p = _mm512_fmadd_pd(e, _mm512_set1_pd(5.0 / 16.0), _mm512_set1_pd(3.0 / 8.0));
@@ -35,7 +35,7 @@ pub(super) unsafe fn rsqrt_lanes(q: [f64; 8]) -> [f64; 8] {
 }
 
 /// Lanes `0..k` of eight.
-fn first_lanes(k: usize) -> __mmask8 {
+pub(in crate::sim) fn first_lanes(k: usize) -> __mmask8 {
     if k >= 8 {
         0xff
     } else {

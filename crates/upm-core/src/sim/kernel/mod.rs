@@ -23,7 +23,7 @@
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 #[cfg(target_arch = "x86_64")]
-mod avx512;
+pub(super) mod avx512;
 
 /// Step count of a part that never left the plate.
 pub(super) const NEVER: f64 = f64::INFINITY;
