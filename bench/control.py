@@ -10,9 +10,9 @@ Tasks (each over ``--seeds`` seeds; medians and maxima):
 * ``mu0.21``, ``mu0.39``: sort8 on plates whose friction is 0.21 and 0.39, the planner told 0.3;
 * ``gather8``: 8 pennies into a pile of 4 cm radius off the centre (not in the default list).
 
-Planner ``fields`` (:class:`upm.control.FieldPlanner`, docs/ppod.md) plays velocity fields of a
-plate that moves out of its plane: the simulated plate follows them exactly (no motors, no stroke
-model) and its parts are points, since contacts with lift-off are not modelled.
+Planner ``fields`` (:class:`upm.control.FieldPlanner`, docs/ppod.md) plays velocity fields on the
+six-actuator plate (:class:`upm.control.SimulatedDevice6`: each actuator's force and stroke
+checked, 5 % gain errors); its parts are points, since contacts with lift-off are not modelled.
 
 Columns: done (of the seeds), plate time to finish [s], parts lost, largest plate-corner excursion
 [mm], median predicted-vs-achieved step error [mm] (predictive planner), median planning time per
@@ -94,8 +94,8 @@ def setup(task: str, seed: int) -> tuple[np.ndarray, list[str], float, Any, int,
 
 def run(task: str, name: str, seed: int) -> dict[str, float]:
     parts, labels, radius, job, cycles, mu = setup(task, seed)
-    # Fields need a plate that moves out of its plane: the simulated plate follows them exactly
-    # (ideal device) and the parts are points (contacts with lift-off are not modelled).
+    # Fields need a plate that moves out of its plane: the six-actuator plate (force and stroke
+    # limits, 5 % actuator gain errors) and point parts (contacts with lift-off are not modelled).
     spatial = name == "fields"
     plant = SimulatedUPM(
         plate=LIMITS.plate,
@@ -108,7 +108,7 @@ def run(task: str, name: str, seed: int) -> dict[str, float]:
     plan = planner(name, radius)
     if name in ("predictive", "fields"):
         cycles *= 4  # one pulse a cycle
-    device = control.SimulatedDevice(plant, ideal=True) if spatial else plant
+    device = control.SimulatedDevice6(plant, seed=seed) if spatial else plant
     loop = control.Loop(device, plant.camera(labels, seed=seed), plan, job, part_radius=radius)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -21,7 +21,7 @@ from ..plan import (
     PredictivePlanner,
     RotationsPlanner,
 )
-from .devices import BoardDevice, Device, SimulatedDevice, as_device
+from .devices import BoardDevice, Device, SimulatedDevice, SimulatedDevice6, as_device
 from .loop import LoadedLog, Log, Loop, load_log
 from .tasks import GatherTask, GotoTask, SortTask, State, Task, TrajectoryTask, WatchTask
 
@@ -41,6 +41,7 @@ __all__ = [
     "PredictivePlanner",
     "RotationsPlanner",
     "SimulatedDevice",
+    "SimulatedDevice6",
     "SortTask",
     "State",
     "Task",
