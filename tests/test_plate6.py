@@ -83,7 +83,7 @@ def test_a_calibration_error_changes_the_motion_and_the_estimate_sees_it() -> No
     p = Plate6()
     m = upm.PlateMotion.ppod("Sink")
     same = p.achieved(m, np.ones(6))
-    f, want = axis_terms(m)
+    _, want = axis_terms(m)
     assert np.allclose(axis_terms(same)[1][1], want[1])
     off = p.achieved(m, [1.1, 1, 1, 1, 1, 1])
     assert not np.allclose(axis_terms(off)[1][1], want[1])

@@ -281,20 +281,13 @@ def _main(argv: list[str]) -> int:
             for name, (summary, _) in PPOD.items():
                 print(f"{name:14s} {'6-DOF plate':12s} {summary}")
             return 0
-        if args.name.startswith("mchip-"):
-            from .mchip_demos import run_mchip_demo
+        if args.name.startswith("mchip-") or args.name == "ppod" or args.name.startswith("ppod-"):
+            from ._experiments import run_named
+            from .mchip_demos import DEMOS as MCHIP_TABLE
+            from .ppod_demos import DEMOS as PPOD_TABLE
 
             try:
-                run_mchip_demo(args.name, args.out, quick=args.quick)
-            except UpmError as error:
-                print(f"upm demo: {error}", file=sys.stderr)
-                return 2
-            return 0
-        if args.name == "ppod" or args.name.startswith("ppod-"):
-            from .ppod_demos import run_ppod_demo
-
-            try:
-                run_ppod_demo(args.name, args.out, quick=args.quick)
+                run_named({**MCHIP_TABLE, **PPOD_TABLE}, args.name, args.out, args.quick, verbose=True)
             except UpmError as error:
                 print(f"upm demo: {error}", file=sys.stderr)
                 return 2

@@ -3,8 +3,6 @@ each writing plots and ``metrics.json`` to ``out/mchip-NAME/``. Needs matplotlib
 
 from __future__ import annotations
 
-import json
-import time
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
@@ -13,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from ._errors import ParameterError
+from ._experiments import run_named
 from .mchip import Design, Drive, MChipResult, conveyor_fit, free_swing, simulate
 
 # The thesis's part (Fig. 2.3): 1.15 x 0.4 x 0.25 mm; the demos give it a mass of their own.
@@ -379,17 +378,4 @@ def run_mchip_demo(
     name: str, out: Path | str = "out", quick: bool = False, verbose: bool = True
 ) -> dict[str, Any]:
     """Run M-Chip experiment ``name`` (see :data:`DEMOS`); write ``out/name/`` and return the metrics."""
-    if name not in DEMOS:
-        raise ParameterError(f"demo must be one of {sorted(DEMOS)}; got {name!r}")
-    summary, fn = DEMOS[name]
-    folder = Path(out) / name
-    folder.mkdir(parents=True, exist_ok=True)
-    started = time.perf_counter()
-    metrics = fn(quick, folder)
-    metrics["wall_time_s"] = time.perf_counter() - started
-    (folder / "metrics.json").write_text(json.dumps(metrics, indent=1, default=float))
-    if verbose:
-        print(f"upm demo {name}: {summary}")
-        print(json.dumps(metrics, indent=1, default=float))
-        print(f"  wrote {folder}")
-    return metrics
+    return run_named(DEMOS, name, out, quick, verbose)

@@ -9,15 +9,13 @@ side with the measured motion of simulated parts.
 
 from __future__ import annotations
 
-import json
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ._errors import ParameterError
+from ._experiments import run_named
 from .field_design import design_field
 from .motion import PlateMotion
 from .ppod import PPOD_FIELDS, PPOD_SEQUENCES, asymptotic_field, divergence_curl, drift_field, field_angle
@@ -164,17 +162,4 @@ def run_ppod_demo(
     name: str, out: Path | str = "out", quick: bool = False, verbose: bool = True
 ) -> dict[str, Any]:
     """Run 6-DOF plate demo ``name`` (see :data:`DEMOS`); write ``out/name/`` and return the metrics."""
-    if name not in DEMOS:
-        raise ParameterError(f"demo must be one of {sorted(DEMOS)}; got {name!r}")
-    summary, fn = DEMOS[name]
-    folder = Path(out) / name
-    folder.mkdir(parents=True, exist_ok=True)
-    started = time.perf_counter()
-    metrics = fn(quick, folder)
-    metrics["wall_time_s"] = time.perf_counter() - started
-    (folder / "metrics.json").write_text(json.dumps(metrics, indent=1, default=float))
-    if verbose:
-        print(f"upm demo {name}: {summary}")
-        print(json.dumps(metrics, indent=1, default=float))
-        print(f"  wrote {folder}")
-    return metrics
+    return run_named(DEMOS, name, out, quick, verbose)

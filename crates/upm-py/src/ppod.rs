@@ -12,6 +12,21 @@ use crate::pairs;
 /// Points per task: the unit of parallel work and of the Ctrl-C check.
 const CHUNK: usize = 16;
 
+/// `field` on the points in chunks of [`CHUNK`], in parallel, Ctrl-C checked between chunks.
+fn chunked<F>(
+    py: Python<'_>,
+    p: &[[f64; 2]],
+    threads: Option<usize>,
+    field: F,
+) -> PyResult<Vec<Vec<FieldPoint>>>
+where
+    F: Fn(&[[f64; 2]]) -> upm_core::Result<Vec<FieldPoint>> + Sync + Send,
+{
+    batch_on(py, p.len().div_ceil(CHUNK), threads, |c| {
+        field(&p[c * CHUNK..((c + 1) * CHUNK).min(p.len())])
+    })
+}
+
 /// `(velocity (M, 2), max_accel (M,), lift (M,), work (M,), converged (M,))`.
 fn arrays<'py>(py: Python<'py>, out: Vec<Vec<FieldPoint>>) -> PyResult<Bound<'py, PyTuple>> {
     let all: Vec<FieldPoint> = out.into_iter().flatten().collect();
@@ -59,9 +74,7 @@ pub fn drift_field<'py>(
         tol,
         max_periods,
     };
-    let out = batch_on(py, p.len().div_ceil(CHUNK), threads, |c| {
-        ppod::drift(&m, &p[c * CHUNK..((c + 1) * CHUNK).min(p.len())], &cfg)
-    })?;
+    let out = chunked(py, &p, threads, |q| ppod::drift(&m, q, &cfg))?;
     arrays(py, out)
 }
 
@@ -78,13 +91,6 @@ pub fn asymptotic_field<'py>(
 ) -> PyResult<Bound<'py, PyTuple>> {
     let p = pairs(py, "points", &points)?;
     let m = motion.inner.clone();
-    let out = batch_on(py, p.len().div_ceil(CHUNK), threads, |c| {
-        ppod::asymptotic(
-            &m,
-            &p[c * CHUNK..((c + 1) * CHUNK).min(p.len())],
-            g,
-            samples,
-        )
-    })?;
+    let out = chunked(py, &p, threads, |q| ppod::asymptotic(&m, q, g, samples))?;
     arrays(py, out)
 }

@@ -43,6 +43,16 @@ pub(in crate::sim) fn first_lanes(k: usize) -> __mmask8 {
     }
 }
 
+/// Records step `step` (1-based count) in `left` for the lanes of `off` of the vector at `at`.
+#[inline]
+pub(in crate::sim) fn mark_left(off: __mmask8, left: &mut [f64], at: usize, step: usize) {
+    for b in 0..8 {
+        if off >> b & 1 == 1 {
+            left[at + b] = step as f64;
+        }
+    }
+}
+
 /// The AVX-512 build of [`super::run`].
 ///
 /// # Safety
@@ -145,11 +155,7 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
                     & a;
                 if off != 0 {
                     act[j] &= !off;
-                    for b in 0..8 {
-                        if off >> b & 1 == 1 {
-                            s.left[at(j) + b] = (first + k + 1) as f64;
-                        }
-                    }
+                    mark_left(off, s.left, at(j), first + k + 1);
                 }
             } else {
                 (x[j], y[j], vx[j], vy[j], stuck[j]) = (nx, ny, nvx, nvy, stick);

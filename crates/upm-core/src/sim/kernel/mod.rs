@@ -194,22 +194,23 @@ fn run_portable(table: &[[f64; 3]], first: usize, dt: f64, half: f64, s: &mut La
     }
 }
 
+/// Deterministic pseudo-random numbers in [-1, 1) (the kernels' tests).
+#[cfg(test)]
+pub(super) fn noise(seed: u64, n: usize) -> Vec<f64> {
+    let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
+    (0..n)
+        .map(|_| {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Deterministic pseudo-random numbers in [-1, 1).
-    fn noise(seed: u64, n: usize) -> Vec<f64> {
-        let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
-        (0..n)
-            .map(|_| {
-                s = s
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-            })
-            .collect()
-    }
 
     /// A chunk's arrays: x, y, vx, vy, stuck, active, slide, hold, and the step counts of leaving.
     #[derive(Clone)]

@@ -7,7 +7,7 @@
 use std::arch::x86_64::*;
 
 use super::{Air, Steps};
-use crate::sim::kernel::avx512::{first_lanes, rsqrt};
+use crate::sim::kernel::avx512::{first_lanes, mark_left, rsqrt};
 use crate::sim::kernel::Lanes;
 
 /// Vectors per tile: 64 parts, enough to hide the step's dependency chain (8 measured best of 2,
@@ -130,11 +130,7 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
                 & a;
             if off != 0 {
                 act[j] &= !off;
-                for b in 0..8 {
-                    if off >> b & 1 == 1 {
-                        l.left[at(j) + b] = (steps.first + k + 1) as f64;
-                    }
-                }
+                mark_left(off, l.left, at(j), steps.first + k + 1);
             }
         }
     }

@@ -207,19 +207,7 @@ impl Tile {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Deterministic numbers in [-1, 1).
-    fn noise(seed: u64, n: usize) -> Vec<f64> {
-        let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(7);
-        (0..n)
-            .map(|_| {
-                s = s
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-            })
-            .collect()
-    }
+    use crate::sim::kernel::noise;
 
     /// `n` parts: positions, velocities around the stick threshold, a third stuck, a fifth in
     /// the air, every seventh off the plate; and a plate whose normal force crosses zero.
