@@ -326,11 +326,6 @@ impl PlateMotion {
         Ok(Self::single(segment, None))
     }
 
-    /// Harmonic accelerations of the six axes (docs/spec.md §10), repeating forever.
-    pub fn spatial(motion: Spatial) -> Self {
-        Self::single(Segment::Spatial(Box::new(motion)), None)
-    }
-
     /// The plate at rest for `duration` [s].
     pub fn rest(duration: f64) -> Result<Self> {
         Ok(Self::single(

@@ -152,6 +152,11 @@ pub fn normal_at(a: &[f64; 3], p: [f64; 2]) -> f64 {
 }
 
 impl super::PlateMotion {
+    /// Harmonic accelerations of the six axes, repeating forever.
+    pub fn spatial(motion: Spatial) -> Self {
+        Self::single(super::Segment::Spatial(Box::new(motion)), None)
+    }
+
     /// Whether any item moves the plate out of its plane (then the normal force varies).
     pub fn is_spatial(&self) -> bool {
         self.items

@@ -281,25 +281,6 @@ impl DiskState {
         self.take(self.friction(u), s, cfg)
     }
 
-    /// Step `s` (0-based) on a plate that moves out of its plane, `nz` its `(z'', alpha'',
-    /// beta'')`: the normal force at the centroid scales the friction force and torque limits,
-    /// and the disk flies (keeping its velocity and spin) while it is negative ([`lift::fly`]).
-    fn step_spatial(&mut self, u: [f64; 3], nz: &[f64; 3], s: usize, cfg: &Config) -> bool {
-        if !self.active {
-            return false;
-        }
-        let n = cfg.g + crate::motion::spatial::normal_at(nz, self.p);
-        let [h, hv] = &mut self.air;
-        if lift::fly(n, cfg.dt, h, hv) {
-            self.flight += 1;
-            return self.take((self.v, self.spin, false), s, cfg);
-        }
-        let (surface, free, spin) = self.relative(u);
-        let r = n / cfg.g;
-        let st = crate::disk::implicit_step(free, spin, self.slide * r, self.hold * r, self.stuck);
-        self.take(self.absolute(surface, u[2], st), s, cfg)
-    }
-
     /// Takes step `s` (0-based) to the velocity, spin and stuck flag `next`; whether the disk
     /// left the plate in it.
     fn take(&mut self, (v, spin, stuck): ([f64; 2], f64, bool), s: usize, cfg: &Config) -> bool {
@@ -325,13 +306,7 @@ fn run_disks(
     rec: &Rec,
 ) {
     if !normals.is_empty() {
-        disks.par_iter_mut().for_each(|d| {
-            for (k, (&u, nz)) in table.iter().zip(normals).enumerate() {
-                d.step_spatial(u, nz, first + k, cfg);
-                d.record_step(Some(first + k), rec);
-            }
-        });
-        return;
+        return lift::run_disks(disks, table, normals, first, cfg, rec);
     }
     disks.par_chunks_mut(DISK_GROUP).for_each(|group| {
         for (k, &u) in table.iter().enumerate() {

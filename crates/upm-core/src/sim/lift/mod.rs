@@ -204,6 +204,46 @@ impl Tile {
     }
 }
 
+impl super::DiskState {
+    /// Step `s` (0-based) on a plate that moves out of its plane, `nz` its `(z'', alpha'',
+    /// beta'')`: the normal force at the centroid scales the friction force and torque limits,
+    /// and the disk flies (keeping its velocity and spin) while it is negative ([`fly`]).
+    fn step_spatial(&mut self, u: [f64; 3], nz: &[f64; 3], s: usize, cfg: &super::Config) -> bool {
+        if !self.active {
+            return false;
+        }
+        let n = cfg.g + normal_at(nz, self.p);
+        let [h, hv] = &mut self.air;
+        if fly(n, cfg.dt, h, hv) {
+            self.flight += 1;
+            return self.take((self.v, self.spin, false), s, cfg);
+        }
+        let (surface, free, spin) = self.relative(u);
+        let r = n / cfg.g;
+        let st = crate::disk::implicit_step(free, spin, self.slide * r, self.hold * r, self.stuck);
+        self.take(self.absolute(surface, u[2], st), s, cfg)
+    }
+}
+
+/// The disks of a world on a plate that moves out of its plane through one block (each disk on
+/// its own: the out-of-plane step has no grouped solve), recording as they go.
+pub(super) fn run_disks(
+    disks: &mut [super::DiskState],
+    table: &[[f64; 3]],
+    normals: &[[f64; 3]],
+    first: usize,
+    cfg: &super::Config,
+    rec: &super::Rec,
+) {
+    use rayon::prelude::*;
+    disks.par_iter_mut().for_each(|d| {
+        for (k, (&u, nz)) in table.iter().zip(normals).enumerate() {
+            d.step_spatial(u, nz, first + k, cfg);
+            d.record_step(Some(first + k), rec);
+        }
+    });
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
