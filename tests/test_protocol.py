@@ -163,9 +163,11 @@ def test_errors_are_board_errors():
         frame = bytearray(p.encode(p.Pulse(1), 1)[:-1])
         frame[3] ^= 0x10
         p.decode_frame(bytes(frame))
-    body = struct.pack("<BBHH", 2, 0x14, 0, 0)
-    with pytest.raises(p.ProtocolError, match="version 2"):
+    body = struct.pack("<BBHH", 3, 0x14, 0, 0)
+    with pytest.raises(p.ProtocolError, match="version 3"):
         p.decode_frame(cobs_reference(body + struct.pack("<H", crc16_ccitt_false(body))))
+    with pytest.raises(p.ProtocolError, match="version must be one of"):
+        p.encode(p.Stop(), 0, version=3)
     with pytest.raises(p.ProtocolError, match="payload"):
         p.encode(p.Samples(0, ((0, 0, 0, 0),) * 200), 0)
     decoder = p.Decoder()
@@ -175,7 +177,7 @@ def test_errors_are_board_errors():
 @pytest.mark.parametrize(
     ("message", "seq", "match"),
     [
-        (p.SetChannel(7, 1.0, 35.0), 1, r"channel must be 0..3"),
+        (p.SetChannel(7, 1.0, 35.0), 1, r"channel must be 0..3 .* or 0..5 on a six-axis board"),
         (p.SetChannel(0, math.nan, 35.0), 1, r"SetChannel.amplitude must be a finite number"),
         (p.SetChannel(0, 1.0, -35.0), 1, r"SetChannel.frequency must be > 0"),
         (p.SetChannel(0, 1e39, 35.0), 1, r"within float32"),
@@ -197,3 +199,24 @@ def test_encode_refuses_what_the_wire_cannot_carry(message, seq, match):
     # Before: struct.error, or a frame with channel 7, NaN or a negative frequency on the wire.
     with pytest.raises(p.ProtocolError, match=match):
         p.encode(message, seq)
+
+
+def test_version_2_frames_and_samples6_against_the_independent_encoder():
+    # SAMPLES6 (0x21): first u32, count u16, then 9 int16 per sample, in a version-2 frame
+    rows = ((1, -2, 3, -4, 5, -6, 7, -8, 1023), (-1024, 0, 0, 0, 0, 0, 0, 0, 9))
+    payload = struct.pack("<IH", 77, 2) + struct.pack("<18h", *[v for r in rows for v in r])
+    body = struct.pack("<BBHH", 2, 0x21, 513, len(payload)) + payload
+    want = cobs_reference(body + struct.pack("<H", crc16_ccitt_false(body))) + b"\x00"
+    assert p.encode(p.Samples6(77, rows), 513, version=2) == want
+    assert p.decode_frame(want[:-1]) == (513, p.Samples6(77, rows))
+    # a version-2 SET_CHANNEL for actuator 5; version-1 frames still decode
+    seq, m = p.decode_frame(p.encode(p.SetChannel(5, 1.0, 20.0), 9, version=2)[:-1])
+    assert seq == 9 and m == p.SetChannel(5, 1.0, 20.0)
+    # a host's first HELLO offers version 2 in a version-1 frame, which every board reads
+    hello = struct.pack("<BIfffIH", 2, 0, 0, 0, 0, 0, 0)
+    body = struct.pack("<BBHH", 1, 0x01, 7, len(hello)) + hello
+    assert (
+        p.encode(p.Hello(2), 7) == cobs_reference(body + struct.pack("<H", crc16_ccitt_false(body))) + b"\x00"
+    )
+    with pytest.raises(p.ProtocolError, match="must be 9 integers"):
+        p.encode(p.Samples6(0, ((0, 0, 0, 0),)), 0)

@@ -22,7 +22,9 @@ harmonic acceleration from sampled readings by least squares.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -209,6 +211,45 @@ class Plate6:
         for k, s in sorted(terms.items()):
             real_acc = self.accelerations(g * np.asarray(self.forces(s), dtype=np.complex128))
             for name, a in zip(AXES, real_acc, strict=True):
+                if abs(a) > 1e-12:
+                    axes[name].append((k, float(abs(a)), float(np.angle(a))))
+        return PlateMotion.harmonic(f, **axes)
+
+    def channels(self, motion: PlateMotion) -> list[dict[str, float]]:
+        """The six actuator channels playing the harmonic ``motion``, as the board's SET_CHANNEL
+        fields (``amplitude = 1`` N, force ``h1 cos(wt + p1) + h2 cos(2wt + p2)``; protocol
+        version 2, docs/protocol.md). Harmonics 1 and 2 only."""
+        f, terms = axis_terms(motion)
+        if any(k not in (1, 2) for k in terms):
+            raise ParameterError(f"a board channel plays harmonics 1 and 2; the motion has {sorted(terms)}")
+        out = []
+        forces = {k: np.asarray(self.forces(s)) for k, s in terms.items()}
+        for i in range(6):
+            ch = {"amplitude": 1.0, "frequency": f, "h1_amplitude": 0.0, "h1_phase": 0.0,
+                  "h2_amplitude": 0.0, "h2_phase": 0.0, "h23_amplitude": 0.0, "h23_phase": 0.0}  # fmt: skip
+            for k, fk in forces.items():
+                # Im(F e^{ikwt}) = |F| sin(kwt + arg F) = |F| cos(kwt + arg F - pi/2)
+                ch[f"h{k}_amplitude"] = float(abs(fk[i]))
+                ch[f"h{k}_phase"] = float(np.angle(fk[i]) - math.pi / 2)
+            out.append(ch)
+        return out
+
+    def motion_of_channels(self, channels: Sequence[Any]) -> PlateMotion:
+        """The harmonic motion six channels (objects with ``amplitude``, ``frequency``,
+        ``h1_amplitude``, ``h1_phase``, ``h2_amplitude``, ``h2_phase`` as in SET_CHANNEL) give the
+        plate: the inverse of :meth:`channels`. They must share one frequency."""
+        if len(channels) != 6:
+            raise ParameterError(f"a six-actuator plate has 6 channels; got {len(channels)}")
+        f = float(channels[0].frequency)
+        if any(not math.isclose(float(c.frequency), f, rel_tol=1e-6) for c in channels):
+            raise ParameterError("the six channels must share one frequency")
+        axes: dict[str, list[tuple[int, float, float]]] = {a: [] for a in AXES}
+        for k in (1, 2):
+            amp = np.array([c.amplitude * getattr(c, f"h{k}_amplitude") for c in channels])
+            phase = np.array([getattr(c, f"h{k}_phase") for c in channels])
+            force = amp * np.exp(1j * (phase + math.pi / 2))
+            acc = np.asarray(self.accelerations(force), dtype=np.complex128)
+            for name, a in zip(AXES, acc, strict=True):
                 if abs(a) > 1e-12:
                     axes[name].append((k, float(abs(a)), float(np.angle(a))))
         return PlateMotion.harmonic(f, **axes)

@@ -1,4 +1,8 @@
-"""``Board``: the host driver for protocol v1 over any pyserial URL (``docs/protocol.md``).
+"""``Board``: the host driver for protocol v1 and v2 over any pyserial URL (``docs/protocol.md``).
+
+The handshake offers version 2 and falls back to 1 when the board refuses it (NACK VERSION);
+on a six-axis board (version 2, :data:`~upm.board.protocol.CAP_SIX_AXIS`) channels 0..5 drive the
+six actuators and :meth:`Board.samples` returns nine accelerometer channels.
 
 A reader thread decodes everything the board sends (replies, samples, pulse completions, status)
 and a heartbeat thread keeps the board's watchdog fed. Commands carry sequence numbers and are
@@ -74,6 +78,8 @@ class Board:
         self.first_sample: int | None = None
         self.gaps = 0
         self.info: p.Hello | None = None
+        self.version = 1
+        """The protocol version agreed with the board in HELLO."""
         self._seq = 0
         self._open = True
         self._error: BaseException | None = None
@@ -112,7 +118,7 @@ class Board:
                 if self.first_sample is None:
                     self.first_sample = message.first
                 self._next_sample = message.first + len(message.values)
-                self._chunks.append(np.array(message.values, dtype=np.int16).reshape(-1, 4))
+                self._chunks.append(np.array(message.values, dtype=np.int16).reshape(-1, message.WIDTH))
             elif isinstance(message, p.PulseDone):
                 self._done[message.id] = message.sample
             elif isinstance(message, p.Status):
@@ -136,7 +142,9 @@ class Board:
             if seq is None:
                 self._seq = (self._seq + 1) & 0xFFFF
                 seq = self._seq
-            frame = p.encode(message, seq)  # a message the wire cannot carry: ProtocolError, unsent
+            # a message the wire cannot carry: ProtocolError, unsent; HELLO always in version 1
+            version = 1 if isinstance(message, p.Hello) else self.version
+            frame = p.encode(message, seq, version=version)
             try:
                 self._port.write(frame)
             except Exception as error:
@@ -175,20 +183,38 @@ class Board:
 
     # -- commands --------------------------------------------------------------------------
     def hello(self) -> p.Hello:
-        """Handshake; returns the board's version, capabilities and limits."""
-        self._hello = None
-        for _ in range(self.retries + 1):
-            self._write(p.Hello(p.VERSION))
-            reply = self._wait(lambda: self._hello, "HELLO")
-            if reply is not None:
-                if reply.sample_rate == 0:
-                    raise BoardError(
-                        f"{self.url!r} answered HELLO with a host's HELLO: an echo (loopback), not a board"
-                    )
-                if reply.version != p.VERSION:
-                    raise VersionMismatch(f"the board speaks protocol {reply.version}; this host {p.VERSION}")
-                return reply  # type: ignore[no-any-return]
-        raise BoardTimeout(f"no HELLO from {self.url!r}: is a board (or `upm emulate`) there?")
+        """Handshake; returns the board's version, capabilities and limits. Offers the highest
+        version this host speaks, then the next lower one each time the board answers NACK VERSION."""
+        offers = sorted(p.VERSIONS, reverse=True)
+        while offers:
+            offer = offers[0]
+            self._hello = None
+            for _ in range(self.retries + 1):
+                seq = self._write(p.Hello(offer))
+                reply = self._wait(lambda seq=seq: self._hello or self._replies.pop(seq, None), "HELLO")
+                if isinstance(reply, p.Nack) and reply.code == p.NackCode.VERSION:
+                    break
+                if isinstance(reply, p.Hello):
+                    if reply.sample_rate == 0:
+                        raise BoardError(
+                            f"{self.url!r} answered HELLO with a host's HELLO: "
+                            "an echo (loopback), not a board"
+                        )
+                    if reply.version not in p.VERSIONS:
+                        raise VersionMismatch(
+                            f"the board speaks protocol {reply.version}; this host {p.VERSIONS}"
+                        )
+                    self.version = int(reply.version)
+                    return reply
+            else:
+                raise BoardTimeout(f"no HELLO from {self.url!r}: is a board (or `upm emulate`) there?")
+            offers.pop(0)
+        raise VersionMismatch(f"the board refused every protocol version this host speaks {p.VERSIONS}")
+
+    @property
+    def six_axis(self) -> bool:
+        """Whether the board drives a six-actuator plate (version 2, six channels, SAMPLES6)."""
+        return self.info is not None and self.version >= 2 and bool(self.info.capabilities & p.CAP_SIX_AXIS)
 
     def set_channel(
         self,
@@ -200,12 +226,16 @@ class Board:
         h2: tuple[float, float] = (1.0, math.pi / 2),
         h23: tuple[float, float] = (0.0, 0.0),
     ) -> None:
-        """Motor ``channel`` (0..3 = X1, X2, Y1, Y2): force ``amplitude [h1 cos(wt + p1) +
-        h2 cos(2wt + p2) + h23 cos(2wt/3 + p23)]``; default the thesis's ``cos wt - sin 2wt`` (5.9).
-        Checked against the board's limits before sending."""
+        """Motor ``channel`` (0..3 = X1, X2, Y1, Y2; 0..5 the actuators of a six-axis board):
+        force ``amplitude [h1 cos(wt + p1) + h2 cos(2wt + p2) + h23 cos(2wt/3 + p23)]``; default
+        the thesis's ``cos wt - sin 2wt`` (5.9). Checked against the board's limits before sending."""
         info = self.info
         message = p.SetChannel(channel, amplitude, frequency, *h1, *h2, *h23)
-        message.check()  # types, finiteness, channel 0..3, frequency > 0 (ProtocolError)
+        message.check()  # types, finiteness, channel 0..5, frequency > 0 (ProtocolError)
+        if channel > (5 if self.six_axis else 3):
+            raise BoardError(
+                f"channel {channel} does not exist on this board (0..{5 if self.six_axis else 3})"
+            )
         peak = abs(amplitude) * (abs(h1[0]) + abs(h2[0]) + abs(h23[0]))
         if info is not None and not peak <= info.max_amplitude:
             raise BoardError(f"amplitude peak {peak:g} exceeds the board's limit {info.max_amplitude:g}")
@@ -264,12 +294,13 @@ class Board:
         raise BoardTimeout(f"no STATUS from {self.url!r} after {self.retries} requests")
 
     def samples(self) -> tuple[int | None, NDArray[np.int16]]:
-        """Everything received since the last call: ``(index of the first sample, (T, 4) counts)``."""
+        """Everything received since the last call: ``(index of the first sample, (T, 4) counts)``
+        (``(T, 9)`` from a six-axis board: three 3-axis accelerometers)."""
         with self._changed:
             chunks, self._chunks = self._chunks, []
             first, self.first_sample = self.first_sample, None
         if not chunks:
-            return first, np.zeros((0, 4), dtype=np.int16)
+            return first, np.zeros((0, 9 if self.six_axis else 4), dtype=np.int16)
         return first, np.concatenate(chunks)
 
     # -- lifetime --------------------------------------------------------------------------

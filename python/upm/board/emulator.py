@@ -1,4 +1,9 @@
-"""A board that speaks protocol v1 (``docs/protocol.md``) and drives ``upm.plant.SimulatedUPM``.
+"""A board that speaks protocol v1 and v2 (``docs/protocol.md``) and drives ``upm.plant.SimulatedUPM``.
+
+With ``plate6=`` (``upm emulate --axes 6``) it is a six-axis board (version 2): six actuator
+channels drive a :class:`upm.plate6.Plate6`, its three 3-axis accelerometers stream in SAMPLES6,
+and the parts (points) follow the plate's motion out of its plane. A host that says version 1
+gets a four-channel board of version 1.
 
 ``BoardEmulator`` is the board's logic, free of I/O: feed it received bytes and the time, and it
 returns the bytes to send (replies, 5 kHz accelerometer samples, PULSE_DONE, watchdog STATUS).
@@ -34,14 +39,17 @@ from typing import Any
 
 import numpy as np
 
+from .._errors import ParameterError
 from ..actuation import Plate
 from ..drive import flexures
 from ..plant import Channel, Envelope, SimulatedUPM
+from ..plate6 import Plate6
 from . import protocol as p
 
 __all__ = ["BoardEmulator", "CameraServer", "Faults", "Limits", "main", "serve"]
 
 SAMPLES_PER_FRAME = 127
+SAMPLES6_PER_FRAME = 56  # nine int16 a sample within the 1024-byte payload
 
 
 @dataclass(frozen=True)
@@ -76,14 +84,24 @@ class BoardEmulator:
         limits: Limits = Limits(),
         watchdog_ms: int = 250,
         faults: Faults = Faults(),
+        plate6: Plate6 | None = None,
+        max_version: int = p.VERSION,
     ) -> None:
         self.plant = plant if plant is not None else SimulatedUPM()
+        if plate6 is not None and self.plant.part_radius is not None:
+            raise ParameterError("a six-axis board moves point parts: give the plant part_radius=None")
+        if max_version not in p.VERSIONS:
+            raise ParameterError(f"max_version must be one of {p.VERSIONS}; got {max_version!r}")
+        self.plate6, self.max_version = plate6, max_version
+        self.link = 1  # the version agreed in HELLO
+        self.motion6: Any = None  # the enveloped motion of a six-axis pulse
+        self._noise = np.random.default_rng(self.plant.seed)
         self.limits = limits
         self.watchdog = watchdog_ms / 1000.0
         self.faults = faults
         self._rng = random.Random(faults.seed)
         self.decoder = p.Decoder()
-        self.channels = [Channel() for _ in range(4)]
+        self.channels = [Channel() for _ in range(6 if plate6 is not None else 4)]
         self.envelope = Envelope()
         self.state = p.State.IDLE
         self.flags = 0
@@ -94,7 +112,7 @@ class BoardEmulator:
         self.pulse: tuple[int, int, int] | None = None  # (id, first sample, last sample)
         self.pulse_velocity: list[np.ndarray] = []
         self.idle_from = 0  # sample at which the plate was last left to move freely
-        self.plant.excursion(self.channels, self.envelope)  # loads the plate model before any command
+        self.plant.excursion(self.channels[:4], self.envelope)  # loads the plate model before any command
         # Colliding disks (part_radius set) settle in a thread after a pulse, as they can take
         # seconds to simulate, while the board keeps answering; PULSE_DONE goes out when they have.
         self.settling: tuple[threading.Thread, int] | None = None
@@ -104,7 +122,7 @@ class BoardEmulator:
     # -- replies ---------------------------------------------------------------------------
     def _send(self, message: p.Message) -> bytes:
         self._seq = (self._seq + 1) & 0xFFFF
-        frame = p.encode(message, self._seq)
+        frame = p.encode(message, self._seq, version=self.link)
         f = self.faults
         if f.drop and self._rng.random() < f.drop:
             return b""
@@ -120,16 +138,25 @@ class BoardEmulator:
 
     def _hello(self) -> p.Hello:
         lim = self.limits
-        return p.Hello(p.VERSION, 0b1, lim.max_amplitude, lim.min_frequency, lim.max_frequency,
+        caps = 0b1 | (p.CAP_SIX_AXIS if self.six else 0)
+        return p.Hello(self.link, caps, lim.max_amplitude, lim.min_frequency, lim.max_frequency,
                        int(self.plant.sample_rate), round(self.watchdog * 1000))  # fmt: skip
+
+    @property
+    def six(self) -> bool:
+        """Whether the link runs the six-axis board (a version-2 host on a board with ``plate6``)."""
+        return self.plate6 is not None and self.link >= 2
 
     def _check(self, message: p.Message) -> p.NackCode | None:
         lim = self.limits
         if isinstance(message, p.Hello):
-            return None if message.version == p.VERSION else p.NackCode.VERSION
+            ok = message.version in p.VERSIONS and message.version <= self.max_version
+            return None if ok else p.NackCode.VERSION
         if isinstance(message, p.SetChannel):
-            if not 0 <= message.channel <= 3:
+            if not 0 <= message.channel <= (5 if self.six else 3):
                 return p.NackCode.BAD_CHANNEL
+            if self.six and message.h23_amplitude != 0:
+                return p.NackCode.OUT_OF_LIMITS  # the six-axis plate plays harmonics 1 and 2
             harmonics = (message.h1_amplitude, message.h2_amplitude, message.h23_amplitude)
             peak = abs(message.amplitude) * sum(abs(h) for h in harmonics)
             values = (message.amplitude, message.frequency, *harmonics)
@@ -145,13 +172,45 @@ class BoardEmulator:
             return p.NackCode.OUT_OF_LIMITS
         if isinstance(message, p.Pulse) and self.state == p.State.PULSING:
             return p.NackCode.BAD_STATE
+        if isinstance(message, p.Pulse) and self.six:
+            return self._check6()
         if isinstance(message, p.Pulse):
             self._ride_out()
-            if self.plant.excursion(self.channels, self.envelope) > self.plant.stroke:
+            if self.plant.excursion(self.channels[:4], self.envelope) > self.plant.stroke:
                 return p.NackCode.STROKE
         if isinstance(message, (p.Ack, p.Nack, p.Samples, p.Status, p.PulseDone)):
             return p.NackCode.UNKNOWN_TYPE
         return None
+
+    def _check6(self) -> p.NackCode | None:
+        """A six-axis PULSE: the channels' motion within every actuator's force and stroke."""
+        from ..drive import StrokeError
+
+        assert self.plate6 is not None
+        try:
+            motion = self.plate6.motion_of_channels(self.channels)
+            self.plate6.check(motion)
+        except StrokeError:
+            return p.NackCode.STROKE
+        except ParameterError:
+            return p.NackCode.OUT_OF_LIMITS
+        e = self.envelope
+        self.motion6 = (motion, motion.with_envelope(e.attack, e.sustain, e.decay))
+        return None
+
+    def _samples6(self, idx: np.ndarray, env: np.ndarray | None) -> p.Samples6:
+        """Three 3-axis accelerometers at samples ``idx`` (the pulse's motion under ``env``, or
+        at rest), as 11-bit counts with the plant's noise. During the ramps the envelope's rate
+        is left out of the readings (it moves nothing but the sensors)."""
+        assert self.plate6 is not None
+        fs, plant = self.plant.sample_rate, self.plant
+        acc = np.zeros((len(idx), 9))
+        if env is not None and self.motion6 is not None:
+            acc = self.plate6.readings(self.motion6[0], idx / fs) * env[:, None]
+        if plant.snr_db is not None:
+            acc = acc + self._noise.normal(0.0, plant.full_scale * 10 ** (-plant.snr_db / 20), acc.shape)
+        counts = np.clip(np.round(acc / plant.full_scale * 1024), -1024, 1023).astype(int)
+        return p.Samples6(int(idx[0]), tuple(tuple(int(v) for v in row) for row in counts))
 
     def _ride_out(self) -> None:
         """The plate's free motion on its flexures since the last pulse ended (at most 5 s of it):
@@ -163,6 +222,7 @@ class BoardEmulator:
 
     def _act(self, message: p.Message) -> list[p.Message]:
         if isinstance(message, p.Hello):
+            self.link = message.version
             return [self._hello()]
         if isinstance(message, p.SetChannel):
             m = message
@@ -219,6 +279,13 @@ class BoardEmulator:
         if self.settling is not None:
             self.settling[0].join()
             self.settling = None
+        if self.six and self.pulse is not None and self.motion6 is not None and len(self.plant.parts):
+            # the parts follow the plate out of its plane, for as much of the pulse as played
+            played = (self.produced - self.pulse[1]) / self.plant.sample_rate
+            whole = self.motion6[1]
+            if played > 0:
+                self.plant.play(whole if played >= whole.duration else whole.for_duration(played))
+            self.motion6 = None
         if self.pulse is not None and self.pulse_velocity and len(self.plant.parts):
             velocity = np.concatenate(self.pulse_velocity)
             if background:
@@ -253,22 +320,27 @@ class BoardEmulator:
             self.produced += due - SAMPLES_PER_FRAME
             due = SAMPLES_PER_FRAME
         while due > 0:
-            n = min(due, SAMPLES_PER_FRAME)
+            n = min(due, SAMPLES6_PER_FRAME if self.six else SAMPLES_PER_FRAME)
             idx = self.produced + np.arange(n)
-            if self.state == p.State.PULSING and self.pulse is not None:
-                pid, start, end = self.pulse
+            pulsing = self.state == p.State.PULSING and self.pulse is not None
+            if pulsing and self.pulse is not None:
+                end = self.pulse[2]
                 n = min(n, end - self.produced) if end > self.produced else 0
                 idx = idx[:n]
-                t = idx / fs
-                env = self.envelope((idx - start) / fs)
-                acc, vel = self.plant.plate_state(self.plant.forces(self.channels, t, env))
-                self.pulse_velocity.append(vel)
-                counts = self.plant.sensor_counts(acc, vel)
-            else:
-                counts = self.plant.idle(n)
-            if n > 0:
+            if self.six and n > 0:
+                env = self.envelope((idx - self.pulse[1]) / fs) if pulsing and self.pulse else None
+                out += self._send(self._samples6(idx, env))
+            elif n > 0:
+                if pulsing and self.pulse is not None:
+                    env = self.envelope((idx - self.pulse[1]) / fs)
+                    acc, vel = self.plant.plate_state(self.plant.forces(self.channels[:4], idx / fs, env))
+                    self.pulse_velocity.append(vel)
+                    counts = self.plant.sensor_counts(acc, vel)
+                else:
+                    counts = self.plant.idle(n)
                 rows = tuple(tuple(int(v) for v in row) for row in counts)
-                out += self._send(p.Samples(self.produced, rows))  # type: ignore[arg-type]
+                out += self._send(p.Samples(self.produced, rows))
+            if n > 0:
                 self.produced += n
                 due -= n
             if self.state == p.State.PULSING and self.pulse is not None and self.produced >= self.pulse[2]:
@@ -462,6 +534,21 @@ def main(argv: list[str] | None = None) -> int:
         help="also serve the overhead camera on this TCP port (0: any)",
     )
     parser.add_argument(
+        "--axes",
+        type=int,
+        choices=(4, 6),
+        default=4,
+        help="4: the thesis's four-motor plate; 6: a six-actuator plate (protocol v2, "
+        "upm.plate6.Plate6; point parts)",
+    )
+    parser.add_argument(
+        "--max-version",
+        type=int,
+        choices=p.VERSIONS,
+        default=p.VERSION,
+        help="the highest protocol version spoken",
+    )
+    parser.add_argument(
         "--scene",
         type=str,
         default=None,
@@ -490,7 +577,11 @@ def main(argv: list[str] | None = None) -> int:
     plant = SimulatedUPM(snr_db=args.snr_db, seed=args.seed, parts=scene.get("parts", np.zeros((0, 2))),
                          mu=float(scene.get("mu", 0.3)), part_radius=scene.get("part_radius"),
                          **options)  # fmt: skip
-    emulator = BoardEmulator(plant, watchdog_ms=args.watchdog_ms, faults=faults)
+    if args.axes == 6 and plant.part_radius is not None:
+        parser.error("--axes 6 moves point parts: leave part_radius out of the scene")
+    six = Plate6() if args.axes == 6 else None
+    emulator = BoardEmulator(plant, watchdog_ms=args.watchdog_ms, faults=faults, plate6=six,
+                             max_version=args.max_version)  # fmt: skip
     camera = None
     if args.camera_port is not None:
         from ..vision.synthetic import Camera

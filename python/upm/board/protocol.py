@@ -1,4 +1,8 @@
-"""The upm board protocol, version 1: pure bytes <-> messages (``docs/protocol.md``).
+"""The upm board protocol, versions 1 and 2: pure bytes <-> messages (``docs/protocol.md``).
+
+Version 2 adds a six-actuator plate: SET_CHANNEL channels 4 and 5, and SAMPLES6 (three 3-axis
+accelerometers) from a board whose HELLO sets :data:`CAP_SIX_AXIS`. Both sides speak both
+versions; the link runs at the version the host's HELLO offers if the board knows it.
 
 A frame is ``version u8 | type u8 | seq u16 | length u16 | payload | crc u16`` (little-endian),
 the CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF) of everything before it; on the wire each frame
@@ -22,8 +26,10 @@ from .._extras import need
 cobs = need("cobs.cobs", "board", "the board protocol (upm.board, upm.control)", "cobs")
 
 __all__ = [
+    "CAP_SIX_AXIS",
     "MAX_PAYLOAD",
     "VERSION",
+    "VERSIONS",
     "Ack",
     "Decoder",
     "GetStatus",
@@ -36,6 +42,7 @@ __all__ = [
     "Pulse",
     "PulseDone",
     "Samples",
+    "Samples6",
     "SetChannel",
     "SetEnvelope",
     "SetWatchdog",
@@ -46,13 +53,18 @@ __all__ = [
     "encode",
 ]
 
-VERSION = 1
+VERSION = 2
+"""The highest version this side speaks."""
+VERSIONS = (1, 2)
+"""Every version this side speaks (a frame of another is dropped)."""
+CAP_SIX_AXIS = 0b10
+"""HELLO capability (version 2): six actuator channels and SAMPLES6."""
 MAX_PAYLOAD = 1024
 _HEADER = struct.Struct("<BBHH")
 
 
 class ProtocolError(BoardError):
-    """A frame that is not a valid protocol-v1 message (the message says which check failed)."""
+    """A frame that is not a valid protocol message (the message says which check failed)."""
 
 
 class NackCode(IntEnum):
@@ -159,7 +171,8 @@ class Hello(Message):
 
 @dataclass(frozen=True)
 class SetChannel(Message):
-    """One motor channel (0..3 = X1, X2, Y1, Y2): overall amplitude, base frequency [Hz] and the
+    """One motor channel (0..3 = X1, X2, Y1, Y2; version 2 on a six-axis board: 0..5, the
+    actuators of :data:`upm.plate6.PPOD_LIKE`): overall amplitude, base frequency [Hz] and the
     amplitude and phase [rad] of the 1st, 2nd and 2/3 harmonics of ``cos``."""
 
     TYPE = 0x10
@@ -176,7 +189,9 @@ class SetChannel(Message):
 
     def rules(self) -> None:
         _require(
-            0 <= self.channel <= 3, f"SetChannel.channel must be 0..3 (X1, X2, Y1, Y2); got {self.channel}"
+            0 <= self.channel <= 5,
+            "SetChannel.channel must be 0..3 (X1, X2, Y1, Y2), or 0..5 on a six-axis board; "
+            f"got {self.channel}",
         )
         _require(self.frequency > 0, f"SetChannel.frequency must be > 0 Hz; got {self.frequency!r}")
 
@@ -278,8 +293,9 @@ class Samples(Message):
     signed 11-bit values in int16, starting at sample ``first`` (so gaps are detectable)."""
 
     TYPE = 0x20
+    WIDTH: ClassVar[int] = 4
     first: int
-    values: tuple[tuple[int, int, int, int], ...]
+    values: tuple[tuple[int, ...], ...]
 
     def check(self) -> None:
         _check_field("Samples.first", self.first, "I")
@@ -290,11 +306,11 @@ class Samples(Message):
         )
         for k, row in enumerate(rows):
             _require(
-                isinstance(row, (tuple, list)) and len(row) == 4,
-                f"Samples.values[{k}] must be 4 integers (a1x, a1y, a2x, a2y); got {row!r}",
+                isinstance(row, (tuple, list)) and len(row) == self.WIDTH,
+                f"{type(self).__name__}.values[{k}] must be {self.WIDTH} integers; got {row!r}",
             )
             for v in row:
-                _check_field(f"Samples.values[{k}]", v, "h")
+                _check_field(f"{type(self).__name__}.values[{k}]", v, "h")
 
     def payload(self) -> bytes:
         self.check()
@@ -306,12 +322,23 @@ class Samples(Message):
         if len(payload) < 6:
             raise ProtocolError(f"Samples payload must be at least 6 bytes; got {len(payload)}")
         first, count = struct.unpack_from("<IH", payload)
-        if len(payload) != 6 + 8 * count:
+        w = cls.WIDTH
+        if len(payload) != 6 + 2 * w * count:
             raise ProtocolError(
-                f"Samples payload for {count} samples must be {6 + 8 * count} bytes; got {len(payload)}"
+                f"{cls.__name__} payload for {count} samples must be {6 + 2 * w * count} bytes; "
+                f"got {len(payload)}"
             )
-        flat = struct.unpack_from(f"<{4 * count}h", payload, 6)
-        return cls(first, tuple(tuple(flat[4 * i : 4 * i + 4]) for i in range(count)))
+        flat = struct.unpack_from(f"<{w * count}h", payload, 6)
+        return cls(first, tuple(tuple(flat[w * i : w * i + w]) for i in range(count)))
+
+
+@dataclass(frozen=True)
+class Samples6(Samples):
+    """Board -> host (version 2, six-axis board): ``count`` samples of three 3-axis accelerometers
+    (a1x, a1y, a1z, a2x, ..., a3z), as :class:`Samples` otherwise."""
+
+    TYPE = 0x21
+    WIDTH: ClassVar[int] = 9
 
 
 @dataclass(frozen=True)
@@ -337,20 +364,24 @@ _TYPES: dict[int, type[Message]] = {
     cls.TYPE: cls
     for cls in (
         Hello, SetChannel, SetEnvelope, Pulse, PulseDone, Stop, Heartbeat, GetStatus, Status,
-        SetWatchdog, Samples, Ack, Nack,
+        SetWatchdog, Samples, Samples6, Ack, Nack,
     )
 }  # fmt: skip
 
 
-def encode(message: Message, seq: int) -> bytes:
-    """The wire bytes of ``message`` with sequence number ``seq``: COBS(frame) + b"\\x00"."""
+def encode(message: Message, seq: int, version: int = 1) -> bytes:
+    """The wire bytes of ``message`` with sequence number ``seq`` in a frame of protocol
+    ``version`` (1 by default: every board reads it; a link that agreed on 2 frames in 2):
+    COBS(frame) + b"\\x00"."""
+    if version not in VERSIONS:
+        raise ProtocolError(f"version must be one of {VERSIONS}; got {version!r}")
     if not isinstance(message, Message):
         raise ProtocolError(f"message must be a protocol Message; got {type(message).__name__}")
     _check_field("seq", seq, "H")
     payload = message.payload()
     if len(payload) > MAX_PAYLOAD:
         raise ProtocolError(f"payload of {len(payload)} bytes exceeds {MAX_PAYLOAD}")
-    body = _HEADER.pack(VERSION, message.TYPE, seq, len(payload)) + payload
+    body = _HEADER.pack(version, message.TYPE, seq, len(payload)) + payload
     crc = binascii.crc_hqx(body, 0xFFFF)
     return bytes(cobs.encode(body + struct.pack("<H", crc))) + b"\x00"
 
@@ -369,8 +400,8 @@ def decode_frame(frame: bytes) -> tuple[int, Message]:
     if binascii.crc_hqx(body[:-2], 0xFFFF) != crc:
         raise ProtocolError("CRC mismatch")
     version, kind, seq, length = _HEADER.unpack_from(body)
-    if version != VERSION:
-        raise ProtocolError(f"protocol version {version}; this side speaks {VERSION}")
+    if version not in VERSIONS:
+        raise ProtocolError(f"protocol version {version}; this side speaks {VERSIONS}")
     if length != len(body) - _HEADER.size - 2:
         raise ProtocolError(f"length field {length} disagrees with the frame ({len(body) - 8} payload bytes)")
     cls = _TYPES.get(kind)

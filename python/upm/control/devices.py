@@ -163,7 +163,8 @@ class SimulatedDevice6:
 
 class BoardDevice:
     """A board (or the emulator) over protocol v1: per pulse SET_CHANNEL x 4, SET_ENVELOPE, PULSE,
-    wait for PULSE_DONE, then wait out the pulse's rest while the parts stop.
+    wait for PULSE_DONE, then wait out the pulse's rest while the parts stop. A six-axis board
+    (protocol v2) plays field pulses instead, SET_CHANNEL x 6 from ``plate6``'s actuator forces.
 
     Parameters
     ----------
@@ -186,6 +187,7 @@ class BoardDevice:
         limits: DriveLimits | None = None,
         *,
         wait_rest: bool = True,
+        plate6: Plate6 | None = None,
     ) -> None:
         if not isinstance(board, Board):
             raise ParameterError(f"board must be a upm.board.Board; got {type(board).__name__}")
@@ -197,16 +199,28 @@ class BoardDevice:
         self.limits = replace(given, force=min(given.force, float(self.info.max_amplitude)))
         self.plate, self.axes = self.limits.plate, self.limits.axes
         self.wait_rest = wait_rest
+        self.plate6 = plate6 or Plate6()
+        """The six-actuator plate a six-axis board drives (the same model as the emulator's)."""
         self._id = 0
         self.waited = 0.0
         """Seconds spent waiting for the plate to come home after a STROKE refusal."""
+
+    def _channels(self, pulse: Pulse) -> list[dict[str, float]]:
+        """The SET_CHANNEL fields of ``pulse``: four motors, or a six-axis board's six actuators
+        (field pulses only, checked against each actuator's force and stroke)."""
+        if not self.board.six_axis:
+            self.limits.check(pulse)
+            return pulse.channels(self.plate, self.axes, self.limits.force)
+        if pulse.kind != "field" or pulse.plate_motion is None:
+            raise ParameterError(f"a six-axis board plays field pulses; got a {pulse.kind} pulse")
+        self.plate6.check(pulse.plate_motion)
+        return self.plate6.channels(pulse.plate_motion)
 
     def execute(self, pulses: Sequence[Pulse]) -> None:
         board = self.board
         for pulse in pulses:
             if pulse.kind != "rest":
-                self.limits.check(pulse)
-                channels = pulse.channels(self.plate, self.axes, self.limits.force)
+                channels = self._channels(pulse)
                 for k, c in enumerate(channels):
                     board.set_channel(
                         k,
