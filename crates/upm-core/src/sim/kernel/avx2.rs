@@ -23,7 +23,7 @@ const Q_MAX: f64 = 1e36;
 /// `63 e^5 / 256 < 2^-54`. A vector with a sliding lane outside `[Q_MIN, Q_MAX]` takes the
 /// correctly rounded `1 / sqrt(q)` instead.
 #[inline(always)]
-unsafe fn rsqrt(q: __m256d, slides: __m256d) -> __m256d {
+pub(in crate::sim) unsafe fn rsqrt(q: __m256d, slides: __m256d) -> __m256d {
     let inside = _mm256_and_pd(
         _mm256_cmp_pd::<_CMP_GE_OQ>(q, _mm256_set1_pd(Q_MIN)),
         _mm256_cmp_pd::<_CMP_LE_OQ>(q, _mm256_set1_pd(Q_MAX)),

@@ -21,7 +21,7 @@
 //! in the environment picks a build (one the CPU lacks falls back to the best it has).
 
 #[cfg(target_arch = "x86_64")]
-mod avx2;
+pub(super) mod avx2;
 #[cfg(target_arch = "x86_64")]
 pub(super) mod avx512;
 

@@ -11,12 +11,14 @@
 //!
 //! [`step`] is the one home of this update: the portable chunk runner below calls it for every
 //! part (in tiles the compiler vectorises: it is branch-free, correctly rounded square root and
-//! division; the AVX2 build is this code compiled for AVX2), the disks take its flight half
-//! ([`fly`]) and [`crate::ppod`] takes it for the drift field. The AVX-512 build ([`avx512`]) is
-//! the same update with the planar kernel's refined reciprocal square root and fused operations:
-//! it agrees with the portable one to a few ulp (tested below), and one machine always takes the
-//! same build, so results are bitwise identical for any thread count.
+//! division), the disks take its flight half ([`fly`]) and [`crate::ppod`] takes it for the drift
+//! field. The AVX-512 ([`avx512`]) and AVX2 ([`avx2`]) builds are the same update with the
+//! planar kernels' refined reciprocal square roots and fused operations: they agree with the
+//! portable one to a few ulp (tested below), and one machine always takes the same build, so
+//! results are bitwise identical for any thread count.
 
+#[cfg(target_arch = "x86_64")]
+mod avx2;
 #[cfg(target_arch = "x86_64")]
 mod avx512;
 
@@ -113,15 +115,9 @@ pub(super) fn run(steps: &Steps, l: &mut Lanes, air: &mut Air) {
         #[cfg(target_arch = "x86_64")]
         Simd::Avx512 => unsafe { avx512::run(steps, l, air) },
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx2 => unsafe { run_avx2(steps, l, air) },
+        Simd::Avx2 => unsafe { avx2::run(steps, l, air) },
         _ => run_tiles(steps, l, air),
     }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn run_avx2(steps: &Steps, l: &mut Lanes, air: &mut Air) {
-    run_tiles(steps, l, air)
 }
 
 #[inline(always)]
@@ -332,17 +328,22 @@ mod tests {
             match simd {
                 #[cfg(target_arch = "x86_64")]
                 Simd::Avx512 => unsafe { avx512::run(&s, &mut l, &mut air) },
-                _ => run_tiles(&s, &mut l, &mut air),
+                #[cfg(target_arch = "x86_64")]
+                Simd::Avx2 => unsafe { avx2::run(&s, &mut l, &mut air) },
+                Simd::Portable => run_tiles(&s, &mut l, &mut air),
             }
         }
         v
     }
 
     #[test]
-    fn the_avx512_build_agrees_with_the_portable_one() {
-        if !Simd::available().contains(&Simd::Avx512) {
-            return;
+    fn the_vector_builds_agree_with_the_portable_one() {
+        for build in Simd::available().into_iter().skip(1) {
+            agrees(build);
         }
+    }
+
+    fn agrees(build: Simd) {
         let cases = [(1, 50), (7, 50), (9, 50), (33, 50), (67, 400), (4096, 1)];
         for ((n, steps), half) in cases
             .into_iter()
@@ -350,7 +351,7 @@ mod tests {
         {
             for seed in 0..4 {
                 let p = run(Simd::Portable, n, seed, steps, half);
-                let b = run(Simd::Avx512, n, seed, steps, half);
+                let b = run(build, n, seed, steps, half);
                 // stuck, active, left and flight exactly; the state to rounding
                 for k in [4, 5, 6, 11] {
                     assert_eq!(p[k], b[k], "n {n} seed {seed} array {k}");
