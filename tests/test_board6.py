@@ -13,7 +13,7 @@ import upm
 from upm.board import Board, protocol
 from upm.board.emulator import BoardEmulator
 from upm.plant import SimulatedUPM
-from upm.plate6 import Plate6, axis_terms
+from upm.plate6 import Plate6
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="pseudo-terminals")
 
@@ -70,7 +70,7 @@ def test_a_six_axis_pulse_in_the_board_logic():
     # the sustain's readings give back the commanded accelerations (11-bit counts, 200 m/s^2)
     hold = counts[round(0.15 * 5000) : round(1.05 * 5000)] * plant.full_scale / 1024
     est = plate.estimate(hold, 5000.0, 20.0, (1,))[1]
-    _, want = axis_terms(sink)
+    _, want = sink.harmonic_phasors()
     phase = np.exp(-1j * 2 * np.pi * 20.0 * round(0.15 * 5000) / 5000)  # the fit starts at 0.15 s
     assert np.linalg.norm(est * phase - want[1]) / np.linalg.norm(want[1]) < 0.03
     # the parts moved towards the sink's centre

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import upm
-from upm.plate6 import PPOD_LIKE, Actuator, Plate6, axis_terms
+from upm.plate6 import PPOD_LIKE, Actuator, Plate6
 
 
 def test_the_jacobian_by_hand() -> None:
@@ -62,7 +62,7 @@ def test_the_estimator_recovers_every_axis_from_noisy_readings() -> None:
     p = Plate6()
     for name in ("Sink", "Whirlpool", "SqueezeTransY", "Circle"):
         m = upm.PlateMotion.ppod(name)
-        f, want = axis_terms(m)
+        f, want = m.harmonic_phasors()
         t = np.arange(2500) / 5000
         seen = p.readings(m, t) + np.random.default_rng(1).normal(0, 0.2, (len(t), 9))
         got = p.estimate(seen, 5000, f, (1,))
@@ -83,10 +83,10 @@ def test_a_calibration_error_changes_the_motion_and_the_estimate_sees_it() -> No
     p = Plate6()
     m = upm.PlateMotion.ppod("Sink")
     same = p.achieved(m, np.ones(6))
-    _, want = axis_terms(m)
-    assert np.allclose(axis_terms(same)[1][1], want[1])
+    _, want = m.harmonic_phasors()
+    assert np.allclose(same.harmonic_phasors()[1][1], want[1])
     off = p.achieved(m, [1.1, 1, 1, 1, 1, 1])
-    assert not np.allclose(axis_terms(off)[1][1], want[1])
+    assert not np.allclose(off.harmonic_phasors()[1][1], want[1])
 
 
 def test_gathering_through_the_loop_on_the_six_actuator_plate() -> None:

@@ -11,7 +11,7 @@ the plate is at rest.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -124,6 +124,31 @@ class PlateMotion:
         from .ppod import library_motion
 
         return library_motion(name)
+
+    def harmonic_phasors(self) -> tuple[float, dict[int, np.ndarray]]:
+        """The base frequency [Hz] of a motion built by :meth:`harmonic` (or :meth:`ppod`) and its
+        acceleration phasors per harmonic ``k``: the six axes' ``S`` (complex, ``(6,)``) with
+        ``a(t) = Im(S e^{i k w t})``."""
+        recipe = self._recipe
+        if recipe is None or recipe[0] != "harmonic":
+            raise ParameterError("motion must be a upm.PlateMotion built by PlateMotion.harmonic or .ppod")
+        f, *axes = recipe[1:]
+        out: dict[int, np.ndarray] = {}
+        for k, terms in enumerate(axes):
+            for harmonic, amplitude, phase in terms:
+                out.setdefault(int(harmonic), np.zeros(6, complex))[k] += amplitude * np.exp(1j * phase)
+        return float(f), out
+
+    @classmethod
+    def from_phasors(cls, frequency: float, phasors: Mapping[int, ArrayLike]) -> PlateMotion:
+        """The harmonic motion with the six axes' acceleration phasors ``phasors[k]`` (the inverse
+        of :meth:`harmonic_phasors`; terms below 1e-12 are left out)."""
+        axes: dict[str, list[tuple[int, float, float]]] = {a: [] for a in ("x", "y", "z", "rx", "ry", "rz")}
+        for k, s in sorted(phasors.items()):
+            for name, a in zip(axes, np.asarray(s, dtype=np.complex128).reshape(6), strict=True):
+                if abs(a) > 1e-12:
+                    axes[name].append((k, float(abs(a)), float(np.angle(a))))
+        return cls.harmonic(frequency, **axes)
 
     @property
     def is_spatial(self) -> bool:

@@ -227,7 +227,12 @@ class SimulatedUPM:
             ax = acc[:, 0] - acc[:, 2] * y - vel[:, 2] ** 2 * x
             ay = acc[:, 1] + acc[:, 2] * x - vel[:, 2] ** 2 * y
             out += [ax, ay]
-        a = np.stack(out, axis=1)
+        return self.counts(np.stack(out, axis=1))
+
+    def counts(self, readings: FloatArray) -> NDArray[np.int16]:
+        """Accelerometer ``readings`` [m/s²] as the sensors report them: with their noise
+        (``snr_db``), in signed 11-bit counts of ``full_scale``."""
+        a = readings
         if self.snr_db is not None:
             a = a + self._rng.normal(0.0, self.full_scale * 10 ** (-self.snr_db / 20), a.shape)
         return np.clip(np.round(a / self.full_scale * 1024), -1024, 1023).astype(np.int16)

@@ -34,11 +34,10 @@ from ._errors import ParameterError, ShapeError
 from .drive import StrokeError
 from .motion import PlateMotion
 
-__all__ = ["PPOD_ACCELEROMETERS", "PPOD_LIKE", "Actuator", "Plate6", "axis_terms"]
+__all__ = ["PPOD_ACCELEROMETERS", "PPOD_LIKE", "Actuator", "Plate6"]
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
-AXES = ("x", "y", "z", "rx", "ry", "rz")
 
 
 @dataclass(frozen=True)
@@ -71,20 +70,6 @@ PPOD_ACCELEROMETERS: tuple[tuple[float, float], ...] = tuple(
     (0.17 * math.cos(a), 0.17 * math.sin(a)) for a in np.radians((0.0, 120.0, 240.0))
 )
 """Three 3-axis accelerometers at radius 0.17 m, 120° apart [m]."""
-
-
-def axis_terms(motion: PlateMotion) -> tuple[float, dict[int, ComplexArray]]:
-    """The base frequency [Hz] of a harmonic motion (:meth:`PlateMotion.harmonic`) and its
-    acceleration phasors per harmonic: ``a(t) = Im(S e^{i k w t})`` for each of the six axes."""
-    recipe = getattr(motion, "_recipe", None)
-    if not isinstance(motion, PlateMotion) or recipe is None or recipe[0] != "harmonic":
-        raise ParameterError("motion must be a upm.PlateMotion built by PlateMotion.harmonic or .ppod")
-    f, *axes = recipe[1:]
-    out: dict[int, ComplexArray] = {}
-    for k, terms in enumerate(axes):
-        for harmonic, amplitude, phase in terms:
-            out.setdefault(int(harmonic), np.zeros(6, complex))[k] += amplitude * np.exp(1j * phase)
-    return float(f), out
 
 
 @dataclass(frozen=True)
@@ -171,7 +156,7 @@ class Plate6:
         """Each actuator's peak force [N] and peak excursion along its direction [m] playing the
         harmonic ``motion`` (amplitudes of its harmonics added: an upper bound reached when they
         line up)."""
-        f, terms = axis_terms(motion)
+        f, terms = motion.harmonic_phasors()
         w = 2 * math.pi * f
         force = np.zeros(6)
         reach = np.zeros(6)
@@ -206,20 +191,18 @@ class Plate6:
         g = as_float("gains", gains).reshape(-1)
         if g.shape != (6,):
             raise ShapeError(f"gains must have 6 values, one per actuator; got {g.shape}")
-        f, terms = axis_terms(motion)
-        axes: dict[str, list[tuple[int, float, float]]] = {a: [] for a in AXES}
-        for k, s in sorted(terms.items()):
-            real_acc = self.accelerations(g * np.asarray(self.forces(s), dtype=np.complex128))
-            for name, a in zip(AXES, real_acc, strict=True):
-                if abs(a) > 1e-12:
-                    axes[name].append((k, float(abs(a)), float(np.angle(a))))
-        return PlateMotion.harmonic(f, **axes)
+        f, terms = motion.harmonic_phasors()
+        real = {
+            k: self.accelerations(g * np.asarray(self.forces(s), dtype=np.complex128))
+            for k, s in terms.items()
+        }
+        return PlateMotion.from_phasors(f, real)
 
     def channels(self, motion: PlateMotion) -> list[dict[str, float]]:
         """The six actuator channels playing the harmonic ``motion``, as the board's SET_CHANNEL
         fields (``amplitude = 1`` N, force ``h1 cos(wt + p1) + h2 cos(2wt + p2)``; protocol
         version 2, docs/protocol.md). Harmonics 1 and 2 only."""
-        f, terms = axis_terms(motion)
+        f, terms = motion.harmonic_phasors()
         if any(k not in (1, 2) for k in terms):
             raise ParameterError(f"a board channel plays harmonics 1 and 2; the motion has {sorted(terms)}")
         out = []
@@ -243,20 +226,16 @@ class Plate6:
         f = float(channels[0].frequency)
         if any(not math.isclose(float(c.frequency), f, rel_tol=1e-6) for c in channels):
             raise ParameterError("the six channels must share one frequency")
-        axes: dict[str, list[tuple[int, float, float]]] = {a: [] for a in AXES}
+        acc = {}
         for k in (1, 2):
             amp = np.array([c.amplitude * getattr(c, f"h{k}_amplitude") for c in channels])
             phase = np.array([getattr(c, f"h{k}_phase") for c in channels])
-            force = amp * np.exp(1j * (phase + math.pi / 2))
-            acc = np.asarray(self.accelerations(force), dtype=np.complex128)
-            for name, a in zip(AXES, acc, strict=True):
-                if abs(a) > 1e-12:
-                    axes[name].append((k, float(abs(a)), float(np.angle(a))))
-        return PlateMotion.harmonic(f, **axes)
+            acc[k] = self.accelerations(amp * np.exp(1j * (phase + math.pi / 2)))
+        return PlateMotion.from_phasors(f, acc)
 
     def readings(self, motion: PlateMotion, t: ArrayLike) -> FloatArray:
         """What the accelerometers read [m/s²] at times ``t`` (T, 3S) while the plate plays ``motion``."""
-        f, terms = axis_terms(motion)
+        f, terms = motion.harmonic_phasors()
         ts = as_float("t", t).reshape(-1)
         acc = np.zeros((len(ts), 6))
         for k, s in terms.items():

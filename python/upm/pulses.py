@@ -180,14 +180,14 @@ class Pulse:
         only labels the pulse (a designed field's centre). A field that moves the plate out of its
         plane plays on a 6-DOF plate only: the simulated plate's ideal device
         (``SimulatedDevice(plant, ideal=True)``); :meth:`channels` refuses it."""
-        recipe = getattr(motion, "_recipe", None)
-        if not isinstance(motion, PlateMotion) or recipe is None or recipe[0] != "harmonic":
-            raise ParameterError("motion must be a upm.PlateMotion built by PlateMotion.harmonic or .ppod")
+        if not isinstance(motion, PlateMotion):
+            raise ParameterError(f"motion must be a upm.PlateMotion; got {type(motion).__name__}")
+        frequency, _ = motion.harmonic_phasors()  # ParameterError unless harmonic
         cx, cy = vector("center", center, 2)
         return cls(
             "field",
             (float(cx), float(cy)),
-            float(recipe[1]),
+            frequency,
             *cls._times(attack, sustain, decay, rest),
             plate_motion=motion,
         )
@@ -254,13 +254,11 @@ class Pulse:
         if self.kind == "field":
             assert self.plate_motion is not None
             w = 2 * math.pi * self.frequency
-            _, _, *axes = self.plate_motion._recipe  # type: ignore[misc]
-            for k, axis in zip((0, 1, 2), (axes[0], axes[1], axes[5]), strict=True):
-                for harmonic, amplitude, phase in axis:
-                    if float(harmonic) not in out:
-                        raise ParameterError(f"a field pulse plays harmonics 1 and 2 only; got {harmonic}")
-                    # A sin(k w t + p) integrates to Re(-(A / (k w)) e^{i p} e^{i k w t})
-                    out[float(harmonic)][k] += -amplitude / (harmonic * w) * np.exp(1j * phase)
+            for k, s in self.plate_motion.harmonic_phasors()[1].items():
+                if float(k) not in out:
+                    raise ParameterError(f"a field pulse plays harmonics 1 and 2 only; got {k}")
+                # Im(S e^{ikwt}) integrates to Re(-(S / (k w)) e^{ikwt}); in-plane: x, y, rz
+                out[float(k)] = np.asarray(-s[[0, 1, 5]] / (k * w), dtype=np.complex128)
             return out
         if self.kind in ("rotation", "translation"):
             assert self.waveform is not None

@@ -94,8 +94,7 @@ class BoardEmulator:
             raise ParameterError(f"max_version must be one of {p.VERSIONS}; got {max_version!r}")
         self.plate6, self.max_version = plate6, max_version
         self.link = 1  # the version agreed in HELLO
-        self.motion6: Any = None  # the enveloped motion of a six-axis pulse
-        self._noise = np.random.default_rng(self.plant.seed)
+        self.motion6: Any = None  # a six-axis pulse's motion, alone and enveloped
         self.limits = limits
         self.watchdog = watchdog_ms / 1000.0
         self.faults = faults
@@ -200,16 +199,13 @@ class BoardEmulator:
 
     def _samples6(self, idx: np.ndarray, env: np.ndarray | None) -> p.Samples6:
         """Three 3-axis accelerometers at samples ``idx`` (the pulse's motion under ``env``, or
-        at rest), as 11-bit counts with the plant's noise. During the ramps the envelope's rate
-        is left out of the readings (it moves nothing but the sensors)."""
+        at rest), as the plant's sensors report them. During the ramps the envelope's rate is left
+        out of the readings (it moves nothing but the sensors)."""
         assert self.plate6 is not None
-        fs, plant = self.plant.sample_rate, self.plant
         acc = np.zeros((len(idx), 9))
         if env is not None and self.motion6 is not None:
-            acc = self.plate6.readings(self.motion6[0], idx / fs) * env[:, None]
-        if plant.snr_db is not None:
-            acc = acc + self._noise.normal(0.0, plant.full_scale * 10 ** (-plant.snr_db / 20), acc.shape)
-        counts = np.clip(np.round(acc / plant.full_scale * 1024), -1024, 1023).astype(int)
+            acc = self.plate6.readings(self.motion6[0], idx / self.plant.sample_rate) * env[:, None]
+        counts = self.plant.counts(acc)
         return p.Samples6(int(idx[0]), tuple(tuple(int(v) for v in row) for row in counts))
 
     def _ride_out(self) -> None:

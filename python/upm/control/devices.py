@@ -21,7 +21,7 @@ from ..board.client import Board, CommandRefused
 from ..board.protocol import NackCode
 from ..drive import DriveLimits, StrokeError
 from ..plant import Channel, Envelope, SimulatedUPM
-from ..plate6 import Plate6, axis_terms
+from ..plate6 import Plate6
 from ..pulses import Pulse, program
 
 __all__ = ["BoardDevice", "Device", "SimulatedDevice", "SimulatedDevice6", "as_device"]
@@ -152,7 +152,7 @@ class SimulatedDevice6:
             real = self.plate.achieved(wanted, self.gains)
             t = np.arange(round(0.25 * self.sample_rate)) / self.sample_rate
             seen = self.plate.readings(real, t) + self.rng.normal(0.0, self.noise, (len(t), 9))
-            f, want = axis_terms(wanted)
+            f, want = wanted.harmonic_phasors()
             got = self.plate.estimate(seen, self.sample_rate, f, tuple(sorted(want)))
             num = sum(float(np.linalg.norm(got[k] - want[k]) ** 2) for k in want)
             den = sum(float(np.linalg.norm(want[k]) ** 2) for k in want)

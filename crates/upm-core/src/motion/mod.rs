@@ -51,8 +51,7 @@ pub enum Segment {
     },
     /// The plate at rest.
     Rest,
-    /// Harmonic accelerations of all six axes (docs/spec.md §10): the plate may move out of its
-    /// plane, changing the normal force on the parts.
+    /// Harmonic accelerations of all six axes: the plate may leave its plane (docs/spec.md §10).
     Spatial(Box<Spatial>),
     /// Measured or synthesised samples, linearly interpolated: `t` strictly increasing from 0.
     Samples {

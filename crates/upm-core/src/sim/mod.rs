@@ -364,6 +364,8 @@ struct World<'a> {
     contact: Option<contact::ContactWorld>,
     rec: Rec,
     table: Vec<[f64; 3]>,
+    /// Whether the motion leaves the plane (read once: the block loop asks every block).
+    spatial: bool,
     /// The out-of-plane accelerations of the block's steps (empty for a planar motion).
     normals: Vec<[f64; 3]>,
 }
@@ -534,6 +536,7 @@ where
             disks,
             rec,
             table: Vec::with_capacity(block),
+            spatial: spatial[b],
             normals: Vec::with_capacity(if spatial[b] { block } else { 0 }),
         });
     }
@@ -551,7 +554,7 @@ where
             w.table.clear();
             // Sampled a hair before each step's end (see `velocities_into`).
             w.motion.velocities_into(first..end, cfg.dt, &mut w.table);
-            if w.motion.is_spatial() {
+            if w.spatial {
                 w.normals.clear();
                 w.motion.normals_into(first..end, cfg.dt, &mut w.normals);
             }

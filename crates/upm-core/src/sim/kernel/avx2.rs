@@ -50,6 +50,17 @@ pub(super) unsafe fn rsqrt_lanes(q: [f64; 4]) -> [f64; 4] {
     out
 }
 
+/// Records step `step` (1-based count) in `left` for the lanes set in `bits` (a movemask) of
+/// the vector at `at`.
+#[inline]
+pub(in crate::sim) fn mark_left(bits: i32, left: &mut [f64], at: usize, step: usize) {
+    for b in 0..4 {
+        if bits >> b & 1 == 1 {
+            left[at + b] = step as f64;
+        }
+    }
+}
+
 /// The AVX2 build of [`super::run`].
 ///
 /// # Safety
@@ -159,11 +170,7 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
                 let bits = _mm256_movemask_pd(off);
                 if bits != 0 {
                     act[j] = _mm256_andnot_pd(off, a);
-                    for b in 0..4 {
-                        if bits >> b & 1 == 1 {
-                            s.left[at(j) + b] = (first + k + 1) as f64;
-                        }
-                    }
+                    mark_left(bits, s.left, at(j), first + k + 1);
                 }
             } else {
                 (x[j], y[j], vx[j], vy[j], stuck[j]) = (nx, ny, nvx, nvy, stick);

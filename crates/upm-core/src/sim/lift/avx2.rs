@@ -7,7 +7,7 @@
 use std::arch::x86_64::*;
 
 use super::{Air, Steps};
-use crate::sim::kernel::avx2::rsqrt;
+use crate::sim::kernel::avx2::{mark_left, rsqrt};
 use crate::sim::kernel::Lanes;
 
 /// Vectors per tile: 32 parts (as the planar AVX2 build).
@@ -128,11 +128,7 @@ unsafe fn tile<const T: usize>(steps: &Steps, l: &mut Lanes, air: &mut Air, star
                 let bits = _mm256_movemask_pd(off);
                 if bits != 0 {
                     act[j] = _mm256_andnot_pd(off, a);
-                    for b in 0..4 {
-                        if bits >> b & 1 == 1 {
-                            l.left[at(j) + b] = (steps.first + k + 1) as f64;
-                        }
-                    }
+                    mark_left(bits, l.left, at(j), steps.first + k + 1);
                 }
             }
         }
