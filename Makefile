@@ -23,6 +23,15 @@ $(VENV)/.built: $(VENV)/.deps $(RUST_SOURCES) pyproject.toml
 	$(VENV)/bin/maturin develop --release --extras dev --quiet
 	touch $@
 
+# The desk's browser tests and `upm replay --screenshot` drive Debian's Chromium through Playwright
+# (Playwright's own browser download is not reachable here).
+.PHONY: chromium
+chromium: ## install Debian's chromium when it is missing (for the desk's browser tests)
+	@command -v chromium >/dev/null || command -v chromium-browser >/dev/null || \
+	  { echo "installing Debian's chromium"; \
+	    $$( [ "$$(id -u)" = 0 ] || echo sudo ) apt-get update -qq && \
+	    DEBIAN_FRONTEND=noninteractive $$( [ "$$(id -u)" = 0 ] || echo sudo ) apt-get install -y -qq chromium >/dev/null; }
+
 .PHONY: help
 help: ## list the targets
 	@grep -hE '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-8s %s\n", $$1, $$2}'
@@ -36,7 +45,7 @@ demo: $(VENV)/.built ## the main job: 8 chips sorted by colour through the full 
 	$(PY) -m upm.cli figures --out out/figures
 
 .PHONY: test
-test: $(VENV)/.built ## every check: cargo test, clippy, pytest, ruff, mypy + stubtest
+test: $(VENV)/.built chromium ## every check: cargo test, clippy, pytest, ruff, mypy + stubtest
 	cargo fmt --all --check
 	cargo test --quiet
 	cargo clippy --workspace --all-targets --quiet -- -D warnings

@@ -245,6 +245,9 @@ def _main(argv: list[str]) -> int:
         "--points", action="store_true", help="parts are points that pass through each other (no contacts)"
     )
     d.add_argument("--mp4", action="store_true", help="also write animation.mp4 (needs imageio-ffmpeg)")
+    d.add_argument(
+        "--rrd", action="store_true", help="also record the run for rerun: OUT/NAME/run.rrd (upm[viz])"
+    )
     d.add_argument("--seed", type=int, default=1, help="seed of the layout, the camera noise and the plant")
     d.add_argument(
         "--planner",
@@ -263,7 +266,38 @@ def _main(argv: list[str]) -> int:
         "--n-jobs", type=int, default=None, help="threads (default: the file's, else one per core)"
     )
     s.add_argument("--quiet", action="store_true", help="no progress bar")
+    r = commands.add_parser("replay", help="open a .rrd recording in rerun's viewer (upm[viz])")
+    r.add_argument("file", type=Path, help="the .rrd recording")
+    r.add_argument("--web", action="store_true", help="serve rerun's web viewer on 127.0.0.1 instead")
+    r.add_argument("--port", type=int, default=None, help="the web viewer's port (default: a free one)")
+    r.add_argument(
+        "--screenshot",
+        type=Path,
+        default=None,
+        metavar="PNG",
+        help="write a picture of the viewer (headless Chromium) and exit",
+    )
+    k = commands.add_parser("desk", help="the live desk: steer parts by hand in a browser (upm[desk])")
+    from .desk.cli import arguments as desk_arguments
+
+    desk_arguments(k)
     args = parser.parse_args(argv)
+    if args.command == "replay":
+        from .viz import replay
+
+        try:
+            return replay(args.file, web=args.web, png=args.screenshot, port=args.port)
+        except UpmError as error:
+            print(f"upm replay: {error}", file=sys.stderr)
+            return 2
+    if args.command == "desk":
+        from .desk.cli import run as desk_run
+
+        try:
+            return desk_run(args)
+        except UpmError as error:
+            print(f"upm desk: {error}", file=sys.stderr)
+            return 2
     if args.command == "demo":
         if args.name == "feeding":
             return demo(args.out, plots=not args.no_plots)
@@ -282,6 +316,9 @@ def _main(argv: list[str]) -> int:
                 print(f"{name:14s} {'6-DOF plate':12s} {summary}")
             return 0
         if args.name.startswith("mchip-") or args.name == "ppod" or args.name.startswith("ppod-"):
+            if args.rrd:
+                print("upm demo: --rrd records the closed-loop demos (upm demo list)", file=sys.stderr)
+                return 2
             from ._experiments import run_named
             from .mchip_demos import DEMOS as MCHIP_TABLE
             from .ppod_demos import DEMOS as PPOD_TABLE
@@ -302,7 +339,8 @@ def _main(argv: list[str]) -> int:
             return 2
         try:
             metrics = run_demo(args.name, args.out, board=args.board, quick=args.quick, seed=args.seed,
-                               mp4=args.mp4, contacts=not args.points, planner=args.planner)  # fmt: skip
+                               mp4=args.mp4, contacts=not args.points, planner=args.planner,
+                               rrd=args.rrd)  # fmt: skip
         except UpmError as error:
             print(f"upm demo: {error}", file=sys.stderr)
             return 2

@@ -552,13 +552,15 @@ def run_demo(
     cycles: int | None = None,
     contacts: bool = True,
     planner: str | None = None,
+    rrd: bool = False,
 ) -> dict[str, Any]:
     """Run demo ``name`` (see :data:`DEMOS`), write its outputs to ``out/name/``, print the report
     and return the metrics. ``board``: the plate runs in a board emulator process reached over the
     protocol; ``quick``: a short version; ``cycles``: at most this many cycles; ``contacts``: the
     parts are disks of the demo's part radius that collide (rapier2d); ``False``: points that pass
     through each other; ``planner``: one of :data:`PLANNERS` instead of the demo's thesis planner
-    (``predictive`` plays one pulse a cycle, so it gets four times the cycles)."""
+    (``predictive`` plays one pulse a cycle, so it gets four times the cycles); ``rrd``: also
+    record the run for rerun to ``out/name/run.rrd`` (extra ``viz``)."""
     if name not in DEMOS:
         raise ParameterError(f"demo must be one of {sorted(DEMOS)}; got {name!r}")
     demo = DEMOS[name]
@@ -576,6 +578,7 @@ def run_demo(
         + ("  [board emulator]" if board else "")
     )
     started = time.perf_counter()
+    recording = Path(out) / name / "run.rrd" if rrd else None
     if board:
         from .board import Board
         from .control import BoardDevice
@@ -587,7 +590,7 @@ def run_demo(
                 with Board(tty) as link, RemoteCamera(address) as camera:
                     device = BoardDevice(link, LIMITS, wait_rest=True)
                     loop = Loop(device, camera, setup.planner, setup.task, part_radius=setup.radius)
-                    log = loop.run(setup.cycles)
+                    log = loop.run(setup.cycles, recording=recording)
                     truth = camera.truth()
                     stroke = camera.max_excursion()
             finally:
@@ -603,7 +606,7 @@ def run_demo(
             setup.task,
             part_radius=setup.radius,
         )
-        log = loop.run(setup.cycles)
+        log = loop.run(setup.cycles, recording=recording)
         fallen = plant.fallen
         stroke = plant.max_excursion
     metrics = _metrics(name, log, setup, fallen, time.perf_counter() - started, board)
@@ -613,7 +616,9 @@ def run_demo(
     metrics["max_stroke"] = float(stroke)
     errs = getattr(setup.planner, "step_errors", None)
     metrics["prediction_error_median"] = float(np.median(errs)) if errs else float("nan")
-    written = _write_outputs(name, Path(out) / name, log, loop, setup, metrics, mp4)
+    written = _write_outputs(name, Path(out) / name, log, loop, setup, metrics, mp4) + (
+        [recording] if recording else []
+    )
     for line in demo.report(log, setup, metrics):
         say("  " + line)
     say(

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -130,6 +131,13 @@ class MChipResult:
         x, y, z, w = self.orientation.T
         pitch: FloatArray = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
         return pitch
+
+    def to_rerun(self, path: str | Path) -> Path:
+        """Write the run as a rerun recording (``.rrd``; extra ``viz``): the posed part over the
+        array, resonator angles and collisions (:func:`upm.viz.mchip_to_rerun`)."""
+        from .viz import mchip_to_rerun
+
+        return mchip_to_rerun(self, path)
 
     def feed_rate(self, skip: float = 0.01) -> float:
         """Mean feed velocity along x [m/s]: the least-squares slope of ``x(t)`` after ``skip`` [s]

@@ -220,22 +220,26 @@ class Pulse:
         """``on_time + rest`` [s]."""
         return self.on_time + self.rest
 
-    def motion(self, rest: bool = True) -> PlateMotion:
-        """The pulse as a plate motion (enveloped, then its rest when ``rest``)."""
+    def steady(self) -> PlateMotion:
+        """The motion while the envelope is 1: periodic, forever (a rest for a rest pulse)."""
         if self.kind == "rest":
             return PlateMotion.rest(self.rest)
         if self.kind == "field":
             assert self.plate_motion is not None
-            base = self.plate_motion
-        elif self.kind == "rotation":
+            return self.plate_motion
+        if self.kind == "rotation":
             assert self.waveform is not None
-            base = PlateMotion.rotation(self.center, self.waveform)
-        elif self.kind == "translation":
+            return PlateMotion.rotation(self.center, self.waveform)
+        if self.kind == "translation":
             assert self.waveform is not None
-            base = PlateMotion.translation(self.direction, self.waveform)
-        else:
-            base = PlateMotion.jet(self.center, self.direction, self.rho, self.amplitude, self.frequency)
-        m = base.with_envelope(self.attack, self.sustain, self.decay)
+            return PlateMotion.translation(self.direction, self.waveform)
+        return PlateMotion.jet(self.center, self.direction, self.rho, self.amplitude, self.frequency)
+
+    def motion(self, rest: bool = True) -> PlateMotion:
+        """The pulse as a plate motion (enveloped, then its rest when ``rest``)."""
+        if self.kind == "rest":
+            return PlateMotion.rest(self.rest)
+        m = self.steady().with_envelope(self.attack, self.sustain, self.decay)
         if rest and self.rest > 0:
             return PlateMotion.sequence([m, PlateMotion.rest(self.rest)])
         return m

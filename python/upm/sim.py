@@ -117,6 +117,14 @@ class SimResult:
             raise ParameterError(f"{path} is not a saved SimResult: it lacks {missing}")
         return cls(**arrays)
 
+    def to_rerun(self, path: str | Path, *, radius: float | None = None, labels: Any = None) -> Path:
+        """Write the result as a rerun recording (``.rrd``; extra ``viz``): parts, velocities and,
+        with ``radius``, disks' orientations over the ``frame`` and ``plate_time`` timelines
+        (:func:`upm.viz.sim_to_rerun`)."""
+        from .viz import sim_to_rerun
+
+        return sim_to_rerun(self, path, radius=radius, labels=labels)
+
     def to_xarray(self) -> Any:
         """The result as a labelled :class:`xarray.Dataset` (dimensions ``world`` for a batch,
         ``time``, ``part``, ``axis``; units in each variable's ``attrs``). Needs the ``sweep`` extra."""

@@ -23,6 +23,7 @@ from ..plan import (
 )
 from .devices import BoardDevice, Device, SimulatedDevice, SimulatedDevice6, as_device
 from .loop import LoadedLog, Log, Loop, load_log
+from .parts import PartsTask
 from .tasks import GatherTask, GotoTask, SortTask, State, Task, TrajectoryTask, WatchTask
 
 __all__ = [
@@ -37,6 +38,7 @@ __all__ = [
     "LoadedLog",
     "Log",
     "Loop",
+    "PartsTask",
     "Planner",
     "PredictivePlanner",
     "RotationsPlanner",

@@ -331,6 +331,7 @@ class Loop:
         log: str | Path | None = None,
         callback: Callable[[State, list[Pulse]], None] | None = None,
         flush_every: float = 30.0,
+        recording: str | Path | Any = None,
     ) -> Log:
         """Run until the task is done, ``cycles`` cycles have passed, or ``timeout`` seconds of
         plate time; returns the :class:`Log`.
@@ -338,7 +339,13 @@ class Loop:
         With ``log``, the log is written on the way out whatever ends the run (Ctrl-C or an
         exception included: ``meta["stopped"]`` says what), and every ``flush_every`` seconds of
         wall time on the way, so a long experiment is never lost. The path is checked before the
-        first cycle."""
+        first cycle.
+
+        With ``recording`` (an ``.rrd`` path, ``"spawn"`` for a live viewer, or a
+        :class:`upm.viz.Recorder`; extra ``viz``), the run is recorded for rerun as it goes (docs/viz.md):
+        frames, tracked parts, goals, steps, the planned field, the plate's series, timings and
+        events, by a background thread that never holds the loop up. A recorder given here is
+        left open; one made here is closed (the file complete) when the run ends."""
         cycles = integer("cycles", cycles, low=1)
         if timeout is not None:
             real("timeout", timeout, low=0.0, low_open=True)
@@ -347,8 +354,9 @@ class Loop:
         start = time.perf_counter()
         target = None if log is None else _writable(log)
         out.meta["stopped"] = "running"
+        recorder, owned = _recorder(recording)
         try:
-            self._cycles(out, cycles, timeout, callback, start, target, flush)
+            self._cycles(out, cycles, timeout, callback, start, target, flush, recorder)
         except BaseException as error:
             out.meta["stopped"] = f"{type(error).__name__}: {error}"[:500]
             raise
@@ -358,6 +366,8 @@ class Loop:
             )
             if target is not None:
                 out.save(target)
+            if owned:
+                recorder.close()
         return out
 
     def _cycles(
@@ -369,6 +379,7 @@ class Loop:
         start: float,
         target: Path | None,
         flush: float,
+        recorder: Any = None,
     ) -> None:
         flushed = start
         last_cycle = 0.0
@@ -379,6 +390,14 @@ class Loop:
             frame = self._read()
             if self.tracker is None:
                 self._start(frame)
+                if recorder is not None:
+                    recorder.begin(
+                        part_radius=self.part_radius,
+                        pixels_per_metre=self.table.pixels_per_metre,
+                        palette=self.palette,
+                        plate_size=self.plate_size,
+                        limits=getattr(self.device, "limits", None),
+                    )
             tracks = self.tracker.update(frame)
             t1 = time.perf_counter()
             pos = tracks.positions
@@ -388,6 +407,7 @@ class Loop:
                     out.ids = np.append(out.ids, int(i))
                     out.labels.append(tracks.labels[k])
             achieved: dict[int, FloatArray] = {}
+            before = prev
             for k, i in enumerate(tracks.ids):
                 if int(i) in prev and np.all(np.isfinite(pos[k])):
                     achieved[int(i)] = pos[k] - prev[int(i)]
@@ -405,6 +425,20 @@ class Loop:
                            (t1 - t0, 0.0, 0.0))  # fmt: skip
                 out.done = finished
                 out.meta["stopped"] = "done" if finished else ("cycles" if cycle == cycles else "timeout")
+                if recorder is not None:
+                    self._record(
+                        recorder,
+                        state,
+                        tracks,
+                        frame,
+                        nothing,
+                        achieved,
+                        before,
+                        errors,
+                        [],
+                        (t1 - t0, 0.0, 0.0),
+                        out.meta["stopped"],
+                    )
                 break
             steps = np.asarray(self.task.steps(state), dtype=np.float64)
             seen = np.all(np.isfinite(pos), axis=1)
@@ -433,10 +467,70 @@ class Loop:
             desired = np.where(seen[:, None], steps, np.nan)
             out.record(tracks.ids, pos, desired, errors, state.time, time.perf_counter() - start, pulses,
                        (t1 - t0, t2 - t1, t3 - t2))  # fmt: skip
+            if recorder is not None:
+                self._record(
+                    recorder,
+                    state,
+                    tracks,
+                    frame,
+                    desired,
+                    achieved,
+                    before,
+                    errors,
+                    pulses,
+                    (t1 - t0, t2 - t1, t3 - t2),
+                )
             if target is not None and time.perf_counter() - flushed >= flush:
                 out.meta.update(cycles=len(out.rows), plate_time=self.plate_time)
                 out.save(target)
                 flushed = time.perf_counter()
+
+    def _record(
+        self,
+        recorder: Any,
+        state: State,
+        tracks: Any,
+        frame: NDArray[np.uint8],
+        desired: FloatArray,
+        achieved: dict[int, FloatArray],
+        origins: dict[int, FloatArray],
+        errors: FloatArray,
+        pulses: list[Pulse],
+        timings: tuple[float, float, float],
+        end: str | None = None,
+    ) -> None:
+        """Hand the cycle to the recorder, with the task's goals and lines when it has them."""
+        targets, lines = getattr(self.task, "targets", None), getattr(self.task, "lines", None)
+        recorder.cycle(
+            cycle=state.cycle,
+            plate_time=state.time,
+            tracks=tracks,
+            frame=frame,
+            desired=desired,
+            achieved=achieved,
+            origins=origins,
+            errors=errors,
+            targets=None if targets is None else targets(state),
+            lines=[] if lines is None else lines(),
+            pulses=pulses,
+            timings=timings,
+            end=end,
+        )
+
+
+def _recorder(recording: Any) -> tuple[Any, bool]:
+    """The recorder for ``Loop.run``'s ``recording``, and whether the loop made it (and closes it)."""
+    if recording is None:
+        return None, False
+    if hasattr(recording, "cycle") and hasattr(recording, "begin"):
+        return recording, False
+    if not isinstance(recording, (str, Path)):
+        raise ParameterError(
+            f"recording must be a .rrd path, 'spawn' or a upm.viz.Recorder; got {type(recording).__name__}"
+        )
+    from ..viz import Recorder
+
+    return Recorder(recording), True
 
 
 def _writable(log: str | Path) -> Path:

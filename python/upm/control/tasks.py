@@ -17,9 +17,10 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._arrays import as_float, point
+from .._arrays import point
 from .._errors import ParameterError, ShapeError
 from ..drive import PLATE_SIZE
+from ._steps import clip, distance_sum, points, positions_of
 
 __all__ = ["GatherTask", "GotoTask", "SortTask", "State", "Task", "TrajectoryTask", "WatchTask"]
 
@@ -57,38 +58,6 @@ class Task(Protocol):
     def cost(
         self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0
     ) -> FloatArray: ...
-
-
-def _at(state: State, positions: FloatArray | None) -> FloatArray:
-    q = state.positions if positions is None else np.asarray(positions, dtype=np.float64)
-    if q.shape[-2:] != state.positions.shape:
-        raise ShapeError(f"positions must have shape (..., {len(state.positions)}, 2); got {q.shape}")
-    return q
-
-
-def _distance_sum(q: FloatArray, targets: FloatArray, slack: float = 0.0) -> FloatArray:
-    """Sum over parts of ``|q - target|`` less ``slack`` (0 within it), parts without a target
-    (NaN) left out; a lost part (NaN in ``q``) counts 1 m (it is not done)."""
-    d = q - targets
-    r = np.hypot(d[..., 0], d[..., 1])
-    has = np.all(np.isfinite(targets), axis=-1)
-    r = np.where(has, np.where(np.isfinite(r), np.maximum(r - slack, 0.0), 1.0), 0.0)
-    out: FloatArray = np.sum(r, axis=-1)
-    return out
-
-
-def _points(name: str, value: ArrayLike) -> FloatArray:
-    p = as_float(name, value)
-    if p.ndim != 2 or p.shape[1] != 2:
-        raise ShapeError(f"{name} must have shape (M, 2) [m]; got {p.shape}")
-    return np.array(p, dtype=np.float64)
-
-
-def _clip(steps: FloatArray, longest: float) -> FloatArray:
-    n = np.hypot(steps[:, 0], steps[:, 1])
-    scale = np.where(n > longest, longest / np.maximum(n, 1e-300), 1.0)
-    out: FloatArray = steps * scale[:, None]
-    return out
 
 
 class _Slots:
@@ -149,37 +118,42 @@ class GotoTask:
         tolerance: float = 0.003,
         first_step: float | None = None,
     ) -> None:
-        self.goals = _points("goals", goals)
-        anchors = self.goals if starts is None else _points("starts", starts)
+        self.goals = points("goals", goals)
+        anchors = self.goals if starts is None else points("starts", starts)
         if anchors.shape != self.goals.shape:
             raise ShapeError(f"starts must match goals' shape {self.goals.shape}; got {anchors.shape}")
         self.slots = _Slots(anchors)
         self.gain, self.max_step, self.tolerance = float(gain), float(max_step), float(tolerance)
         self.first_step = self.max_step if first_step is None else float(first_step)
 
-    def _targets(self, state: State) -> FloatArray:
+    def targets(self, state: State) -> FloatArray:
+        """Each tracked part's goal (NaN: not bound to one) [m]."""
         slot = self.slots.bind(state)
         out = np.full_like(state.positions, np.nan)
         out[slot >= 0] = self.goals[slot[slot >= 0]]
         return out
 
+    def lines(self) -> list[FloatArray]:
+        """Lines to draw the task with [m] (none: goals are points)."""
+        return []
+
     def errors(self, state: State) -> FloatArray:
-        d = self._targets(state) - state.positions
+        d = self.targets(state) - state.positions
         out: FloatArray = np.hypot(d[:, 0], d[:, 1])
         return out
 
     def cost(self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0) -> FloatArray:
         """Sum of the parts' distances to their goals [m], each less the tolerance (0 within it)."""
-        return _distance_sum(_at(state, positions), self._targets(state), 0.5 * self.tolerance)
+        return distance_sum(positions_of(state, positions), self.targets(state), 0.5 * self.tolerance)
 
     def steps(self, state: State) -> FloatArray:
-        d = self._targets(state) - state.positions
+        d = self.targets(state) - state.positions
         d = np.where(np.isfinite(d), d, 0.0)
         near = np.hypot(d[:, 0], d[:, 1]) <= self.tolerance / 2
         d[near] = 0.0
         if state.cycle == 0:
-            return _clip(d, self.first_step)
-        return _clip(self.gain * d, self.max_step)
+            return clip(d, self.first_step)
+        return clip(self.gain * d, self.max_step)
 
     def done(self, state: State) -> bool:
         e = self.errors(state)
@@ -188,7 +162,7 @@ class GotoTask:
 
 
 def _polyline(name: str, path: ArrayLike, closed: bool) -> tuple[FloatArray, FloatArray]:
-    p = _points(name, path)
+    p = points(name, path)
     if closed and np.any(p[0] != p[-1]):
         p = np.vstack([p, p[:1]])
     if len(p) < 2:
@@ -290,6 +264,15 @@ class TrajectoryTask:
                 out[k] = self.reference(int(j), progress)
         return out
 
+    def targets(self, state: State) -> FloatArray:
+        """Where each tracked part's reference is now [m] (NaN: not bound to a path)."""
+        return self._refs(state, self.progress)
+
+    def lines(self) -> list[FloatArray]:
+        """The paths [m]."""
+        unique = {id(p): p for p, _ in self.paths}
+        return list(unique.values())
+
     def errors(self, state: State) -> FloatArray:
         d = self._refs(state, self.progress) - state.positions
         out: FloatArray = np.hypot(d[:, 0], d[:, 1])
@@ -298,7 +281,7 @@ class TrajectoryTask:
     def cost(self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0) -> FloatArray:
         """Sum of the parts' distances [m] to where their references will be after ``elapsed``
         more seconds (the references wait while a part lags more than ``hold``)."""
-        q = _at(state, positions)
+        q = positions_of(state, positions)
         el = np.asarray(elapsed, dtype=np.float64)
         lag = self.errors(state)
         wait = bool(np.nanmax(lag, initial=0.0) > self.hold)
@@ -313,7 +296,7 @@ class TrajectoryTask:
                 at = at % s_[-1] if self.closed else np.clip(at, 0.0, s_[-1])
                 refs[:, k] = _along(p, s_, at)
         refs = refs.reshape(*ahead.shape, len(slot), 2) if ahead.ndim else refs[0]
-        return _distance_sum(q, refs)
+        return distance_sum(q, refs)
 
     def steps(self, state: State) -> FloatArray:
         dt = state.time - self._time
@@ -341,7 +324,7 @@ class TrajectoryTask:
             prev = self._previous.get(int(i), e[k])
             out[k] = forward[k] + self.kp * e[k] + self.kd * (e[k] - prev)
             self._previous[int(i)] = e[k]
-        return _clip(out, self.max_step)
+        return clip(out, self.max_step)
 
     def done(self, state: State) -> bool:
         if self.progress < self.end:
@@ -415,6 +398,11 @@ class SortTask:
         if not 0 < self.line < self.half - self.margin:
             raise ParameterError(f"line must be in (0, {self.half - self.margin:.3g}) m; got {self.line!r}")
 
+    def lines(self) -> list[FloatArray]:
+        """The two sorting lines ``x = +-line`` [m]."""
+        h = self.half
+        return [np.array([[s * self.line, -h], [s * self.line, h]]) for s in (-1.0, 1.0)]
+
     def _side(self, state: State) -> FloatArray:
         return np.array([float(self.sides.get(lab, 0)) for lab in state.labels])
 
@@ -454,7 +442,7 @@ class SortTask:
             out[:, 1], -self.half + self.margin - pos[:, 1], self.half - self.margin - pos[:, 1]
         )
         out[~seen] = 0.0
-        out = _clip(out, self.max_step)
+        out = clip(out, self.max_step)
         if self.free_y:  # free across, but not out towards the edges parallel to the travel
             inner = self.half - self.margin
             over = np.abs(pos[:, 1]) - inner
@@ -469,7 +457,7 @@ class SortTask:
         others are not; the light pull on past it keeps vision noise and the far field of a pulse
         that moves another part from unsorting a part just over it. A lost part (NaN) counts as
         the plate's width at both weights."""
-        q = _at(state, positions)
+        q = positions_of(state, positions)
         side = self._side(state)
         on = side != 0
         # in place where it can be: a planner scores (K, R, M) layouts at once, and every fresh
@@ -516,6 +504,15 @@ class GatherTask:
                 raise ParameterError(f"{name} must be finite and > 0; got {v!r}")
         self.radius, self.gain, self.max_step = float(radius), float(gain), float(max_step)
 
+    def targets(self, state: State) -> FloatArray:
+        """The centre, for every part [m]."""
+        return np.broadcast_to(self.center, state.positions.shape).copy()
+
+    def lines(self) -> list[FloatArray]:
+        """The circle the parts must end within [m]."""
+        a = np.linspace(0.0, 2 * np.pi, 65)
+        return [self.center + self.radius * np.stack([np.cos(a), np.sin(a)], axis=-1)]
+
     def errors(self, state: State) -> FloatArray:
         d = state.positions - self.center
         out: FloatArray = np.maximum(np.hypot(d[:, 0], d[:, 1]) - self.radius, 0.0)
@@ -523,14 +520,14 @@ class GatherTask:
 
     def cost(self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0) -> FloatArray:
         """Sum of the parts' distances beyond ``radius`` from the centre [m] (a lost part: 1 m)."""
-        q = _at(state, positions)
-        return _distance_sum(q, np.broadcast_to(self.center, q.shape), self.radius)
+        q = positions_of(state, positions)
+        return distance_sum(q, np.broadcast_to(self.center, q.shape), self.radius)
 
     def steps(self, state: State) -> FloatArray:
         d = self.center - state.positions
         r = np.hypot(d[:, 0], d[:, 1])
         want = np.maximum(r - 0.5 * self.radius, 0.0) / np.maximum(r, 1e-300)
-        return _clip(np.where(np.isfinite(d), d * (self.gain * want)[:, None], 0.0), self.max_step)
+        return clip(np.where(np.isfinite(d), d * (self.gain * want)[:, None], 0.0), self.max_step)
 
     def done(self, state: State) -> bool:
         e = self.errors(state)
@@ -557,5 +554,5 @@ class WatchTask:
 
     def cost(self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0) -> FloatArray:
         """Nothing to do: zero."""
-        q = _at(state, positions)
+        q = positions_of(state, positions)
         return np.zeros(q.shape[:-2])

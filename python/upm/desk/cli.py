@@ -1,0 +1,120 @@
+"""``upm desk``: the simulated plate (or a board and a camera) served to a page on 127.0.0.1."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from typing import Any
+
+from .._errors import ParameterError
+from .session import Desk
+
+__all__ = ["arguments", "run", "simulated"]
+
+
+def arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of ``upm desk``."""
+    parser.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1)")
+    parser.add_argument("--port", type=int, default=8765, help="port (default 8765)")
+    parser.add_argument(
+        "--board",
+        default=None,
+        metavar="URL",
+        help="a real board (serial port or pyserial URL) instead of the simulated plate",
+    )
+    parser.add_argument(
+        "--camera",
+        default=None,
+        metavar="N|tcp://HOST:PORT",
+        help="with --board: an OpenCV camera index or a RemoteCamera address",
+    )
+    parser.add_argument(
+        "--six-axis",
+        action="store_true",
+        help="the simulated plate moves out of its plane (field pulses; Gather)",
+    )
+    parser.add_argument("--seed", type=int, default=1, help="layout of the simulated parts")
+    parser.add_argument(
+        "--watchdog", type=float, default=1.0, help="seconds without the page before the plate stops"
+    )
+
+
+def simulated(*, six_axis: bool = False, seed: int = 1, contacts: bool = True, **options: Any) -> Desk:
+    """A desk on the simulated plate with the sort8 demo's eight chips: the predictive planner on
+    the planar plate, or field pulses (FieldPlanner) on a six-actuator one (``six_axis``)."""
+    from ..control import FieldPlanner, PredictivePlanner, SimulatedDevice, SimulatedDevice6
+    from ..demos import DEMOS
+    from ..drive import DriveLimits
+    from ..plant import SimulatedUPM
+
+    setup = DEMOS["sort8"].build(False, seed)
+    limits = DriveLimits()
+    plant = SimulatedUPM(
+        plate=limits.plate,
+        axes=limits.axes,
+        stroke=limits.stroke,
+        parts=setup.parts,
+        seed=seed,
+        part_radius=setup.radius if contacts else None,
+    )
+    camera = plant.camera(setup.labels, seed=seed)
+    if six_axis:
+        device: Any = SimulatedDevice6(plant, seed=seed)
+        planner: Any = FieldPlanner()
+    else:
+        device = SimulatedDevice(plant)
+        planner = PredictivePlanner(limits, mu=0.3, part_radius=setup.radius if contacts else None)
+    desk = Desk(device, camera, planner, part_radius=setup.radius, gather=six_axis, **options)
+    desk.plant = plant  # type: ignore[attr-defined]  # the truth, for tests and reports
+    return desk
+
+
+def _hardware(board_url: str, camera: str | None, watchdog: float) -> Desk:
+    from ..board import Board
+    from ..control import BoardDevice, FieldPlanner, PredictivePlanner
+
+    if camera is None:
+        raise ParameterError("--board needs --camera (an OpenCV camera index or tcp://host:port)")
+    link = Board(board_url)
+    device = BoardDevice(link)
+    if camera.isdigit():
+        import cv2
+
+        cam: Any = cv2.VideoCapture(int(camera))
+        if not cam.isOpened():
+            raise ParameterError(f"--camera: cannot open camera {camera}")
+    else:
+        from ..vision import RemoteCamera
+
+        cam = RemoteCamera(camera)
+    planner = FieldPlanner() if link.six_axis else PredictivePlanner(device.limits, mu=0.3)
+    return Desk(
+        device,
+        cam,
+        planner,
+        part_radius=0.0195,
+        realtime=False,
+        stop_device=link.stop,
+        gather=link.six_axis,
+        watchdog=watchdog,
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Serve the desk until Ctrl-C."""
+    from .server import DeskServer
+
+    if args.board is not None:
+        desk = _hardware(args.board, args.camera, args.watchdog)
+    else:
+        desk = simulated(six_axis=args.six_axis, seed=args.seed, watchdog=args.watchdog)
+    desk.start()
+    server = DeskServer(desk, host=args.host, port=args.port)
+    print(f"upm desk: open {server.url}  (Ctrl-C to stop)", flush=True)
+    try:
+        while True:
+            time.sleep(1)
+    except KeyboardInterrupt:
+        return 0
+    finally:
+        server.close()

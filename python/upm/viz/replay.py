@@ -1,0 +1,150 @@
+"""``upm replay FILE.rrd``: open a recording in rerun's viewer, serve the web viewer on 127.0.0.1,
+or write a screenshot of the web viewer (headless Chromium through Playwright) for reports."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import time
+import urllib.parse
+import urllib.request
+from collections.abc import Iterator
+from pathlib import Path
+
+from .._errors import MissingExtraError, ParameterError
+
+__all__ = ["chromium", "free_port", "replay", "screenshot", "serve_web"]
+
+
+def free_port(host: str = "127.0.0.1") -> int:
+    """A TCP port free on ``host`` now."""
+    with socket.socket() as s:
+        s.bind((host, 0))
+        return int(s.getsockname()[1])
+
+
+def chromium() -> str:
+    """The Chromium executable Playwright drives (``UPM_CHROMIUM``, else Debian's ``chromium``);
+    :class:`upm.MissingExtraError` saying how to install it when there is none."""
+    given = os.environ.get("UPM_CHROMIUM")
+    for candidate in ([given] if given else []) + ["chromium", "chromium-browser", "google-chrome"]:
+        found = shutil.which(candidate) if candidate else None
+        if found:
+            return found
+    raise MissingExtraError(
+        "a headless browser is needed and no Chromium was found: apt-get install chromium "
+        "(make test installs it), or set UPM_CHROMIUM to its path"
+    )
+
+
+def _rerun_cli() -> list[str]:
+    if shutil.which("rerun", path=str(Path(sys.executable).parent)):
+        return [str(Path(sys.executable).parent / "rerun")]
+    return [sys.executable, "-m", "rerun"]
+
+
+def _check(path: str | Path) -> Path:
+    path = Path(path)
+    if not path.is_file():
+        raise ParameterError(f"FILE: no recording at {str(path)!r}")
+    if path.suffix != ".rrd":
+        raise ParameterError(f"FILE must be a .rrd recording; got {str(path)!r}")
+    return path
+
+
+@contextlib.contextmanager
+def serve_web(path: str | Path, *, host: str = "127.0.0.1", port: int | None = None) -> Iterator[str]:
+    """Serve ``path`` in rerun's web viewer on ``host`` while the context is open; yields the URL
+    to open (the viewer already pointed at the recording)."""
+    path = _check(path)
+    web = port or free_port(host)
+    grpc = free_port(host)
+    env = {**os.environ, "RERUN_ANALYTICS": "0"}
+    cmd = [
+        *_rerun_cli(),
+        str(path),
+        "--serve-web",
+        "--bind",
+        host,
+        "--web-viewer-port",
+        str(web),
+        "--port",
+        str(grpc),
+        "--hide-welcome-screen",
+    ]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
+    url = f"http://{host}:{web}/?url=" + urllib.parse.quote(f"rerun+http://{host}:{grpc}/proxy", safe="")
+    try:
+        deadline = time.monotonic() + 30
+        while True:
+            try:
+                with urllib.request.urlopen(f"http://{host}:{web}/", timeout=1):
+                    break
+            except OSError:
+                if proc.poll() is not None or time.monotonic() > deadline:
+                    err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
+                    raise ParameterError(f"rerun's web viewer did not start: {err[-500:]}") from None
+                time.sleep(0.2)
+        yield url
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+
+
+def screenshot(
+    path: str | Path, png: str | Path, *, size: tuple[int, int] = (1600, 900), wait: float = 12.0
+) -> Path:
+    """A picture of ``path`` in rerun's web viewer (its default layout, at the recording's end),
+    rendered by headless Chromium (WebGL in software) and written to ``png``."""
+    from .._extras import need
+
+    need("playwright.sync_api", "desk", "a screenshot of the viewer", "playwright")
+    from playwright.sync_api import sync_playwright
+
+    png = Path(png)
+    png.parent.mkdir(parents=True, exist_ok=True)
+    with serve_web(path) as url, sync_playwright() as pw:
+        browser = pw.chromium.launch(
+            executable_path=chromium(), args=["--use-angle=swiftshader", "--enable-unsafe-swiftshader"]
+        )
+        try:
+            page = browser.new_page(viewport={"width": size[0], "height": size[1]})
+            page.goto(url + "&renderer=webgl")
+            page.wait_for_selector("canvas", timeout=30_000)
+            time.sleep(wait)  # the viewer streams the recording in, then lays it out
+            page.screenshot(path=str(png))
+        finally:
+            browser.close()
+    return png
+
+
+def replay(
+    path: str | Path, *, web: bool = False, png: str | Path | None = None, port: int | None = None
+) -> int:
+    """What ``upm replay`` does: the native viewer, the web viewer (``web``; until Ctrl-C) or a
+    screenshot (``png``). Returns the exit code."""
+    path = _check(path)
+    if png is not None:
+        print(f"wrote {screenshot(path, png)}")
+        return 0
+    if web:
+        with serve_web(path, port=port) as url:
+            print(f"rerun web viewer: {url}  (Ctrl-C to stop)", flush=True)
+            try:
+                while True:
+                    time.sleep(1)
+            except KeyboardInterrupt:
+                return 0
+    if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        print(
+            "upm replay: no display for the native viewer; use --web (or --screenshot PNG)", file=sys.stderr
+        )
+        return 2
+    return subprocess.call([*_rerun_cli(), str(path)])
