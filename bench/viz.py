@@ -37,17 +37,24 @@ except ImportError:  # pragma: no cover
 
 def sort8(cycles: int, recording: Recorder | None) -> control.Log:
     setup = DEMOS["sort8"].build(False, 1)
-    plant = SimulatedUPM(plate=LIMITS.plate, axes=LIMITS.axes, stroke=LIMITS.stroke, parts=setup.parts, seed=1,
-                         part_radius=setup.radius)  # fmt: skip
+    plant = SimulatedUPM(
+        plate=LIMITS.plate,
+        axes=LIMITS.axes,
+        stroke=LIMITS.stroke,
+        parts=setup.parts,
+        seed=1,
+        part_radius=setup.radius,
+    )
     planner = PredictivePlanner(LIMITS, mu=0.3, part_radius=setup.radius)
-    loop = control.Loop(control.SimulatedDevice(plant), plant.camera(setup.labels, seed=1), planner, setup.task,
-                        part_radius=setup.radius)  # fmt: skip
+    camera = plant.camera(setup.labels, seed=1)
+    loop = control.Loop(control.SimulatedDevice(plant), camera, planner, setup.task, part_radius=setup.radius)
     return loop.run(cycles, recording=recording)
 
 
 def recording_cost(cycles: int, repeats: int) -> None:
     times: dict[str, list[float]] = {"off": [], "on": []}
     dropped = [0, 0]
+    cpu, recorded = 0.0, 0
     first: dict[str, control.Log] = {}
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(repeats):
@@ -60,13 +67,18 @@ def recording_cost(cycles: int, repeats: int) -> None:
                     tail = time.perf_counter() - t0
                     dropped[0] += rec.dropped_frames
                     dropped[1] += rec.dropped_cycles
-                    print(f"  recording {r}: {rec.cycles} cycles recorded, closed {1e3 * tail:.0f} ms after the run")
+                    cpu, recorded = cpu + rec.cpu_seconds, recorded + rec.cycles
+                    print(f"  recording {r}: {rec.cycles} cycles, closed {1e3 * tail:.0f} ms after the run")
                 times[mode].extend(np.diff(log.wall).tolist())
                 first.setdefault(mode, log)
     same = np.array_equal(first["on"].positions, first["off"].positions, equal_nan=True)
     off, on = float(np.median(times["off"])), float(np.median(times["on"]))
     print(f"sort8, {cycles} cycles x {repeats}: median cycle {1e3 * off:.0f} ms without recording, "
           f"{1e3 * on:.0f} ms with: ratio {on / off:.3f} (target < 1.05)")  # fmt: skip
+    print(f"  mean cycle {1e3 * np.mean(times['off']):.0f} / {1e3 * np.mean(times['on']):.0f} ms: ratio "
+          f"{np.mean(times['on']) / np.mean(times['off']):.3f}; the recorder thread's CPU time "
+          f"{1e3 * cpu / recorded:.1f} ms a cycle, {100 * cpu / recorded / off:.1f} % of a cycle "
+          "(what it can take from the loop on a saturated machine)")  # fmt: skip
     print(f"  dropped: {dropped[0]} frames, {dropped[1]} cycles; identical runs: {same}")
 
 
@@ -92,8 +104,10 @@ def stop_latency(stops: int) -> None:
     finally:
         desk.close()
     ms = 1e3 * np.array(lat)
-    print(f"desk STOP: {stops} stops, time to the plate's last motion median {np.median(ms):.1f} ms, "
-          f"largest {np.max(ms):.1f} ms (target 250 ms)")
+    print(
+        f"desk STOP: {stops} stops, time to the plate's last motion median {np.median(ms):.1f} ms, "
+        f"largest {np.max(ms):.1f} ms (target 250 ms)"
+    )
 
 
 def main() -> None:

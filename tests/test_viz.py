@@ -45,15 +45,19 @@ def test_a_recorded_loop_reads_back_with_every_entity(recorded):
     log, _, rec = recorded
     every = (
         "camera/image camera/parts plate/parts plate/steps/desired plate/steps/achieved plate/field "
-        "plate/centers plate/task series/plate/speed series/plate/excursion series/motors/X1 "
-        "series/timing/vision series/timing/planning series/task/error events"
+        "plate/centers plate/task series/plate/speed series/plate/motion series/motors "
+        "series/timing series/task/error events"
     )
     for entity in every.split():
         assert entity in rec, entity
     cycles = len(log.rows)
     assert rec.rows("plate/parts") == cycles  # one row per cycle, the last (no pulses) included
     assert rec["plate/parts"]["frame"] == list(range(cycles))
-    assert rec.rows("series/timing/planning") == cycles
+    assert rec.rows("series/timing") == cycles
+    timings = np.array(rec["series/timing"]["Scalars:scalars"]) / 1e3
+    np.testing.assert_allclose(
+        timings, np.stack([log.vision, log.planning, log.execution], axis=1), rtol=1e-12
+    )
     # every pulse played has its series row; every cycle that played pulses has a field
     assert rec.rows("series/plate/speed") == sum(log.pulses)
     assert rec.rows("plate/field") == sum(1 for n in log.pulses if n)
@@ -161,3 +165,85 @@ def test_a_slow_recorder_drops_and_says_so(tmp_path, monkeypatch):
     assert rec.cycles + rec.dropped_cycles == len(log.rows)
     back = viz.read_recording(tmp_path / "slow.rrd")
     assert any("fell behind" in str(t) for t in back["events"]["TextLog:text"])
+
+
+def test_mchip_result_to_rerun(tmp_path):
+    from upm import mchip
+
+    run = mchip.simulate(duration=0.004, record_every=200)
+    rec = viz.read_recording(run.to_rerun(tmp_path / "mchip.rrd"))
+    assert rec.rows("mchip/part") == len(run.t)
+    centres = np.array([c[0] for c in rec["mchip/part"]["Boxes3D:centers"]], dtype=np.float64)
+    np.testing.assert_allclose(centres, run.position, atol=1e-9)
+    n = run.design.rows * run.design.cols
+    assert all(f"series/mchip/resonators/{k}" in rec for k in range(n))
+    got = np.array([v[0] for v in rec["series/mchip/resonators/3"]["Scalars:scalars"]])
+    np.testing.assert_allclose(got, 1e3 * run.angles[:, 3], rtol=1e-12)
+    hits = rec["events"]["TextLog:text"] if "events" in rec else []
+    assert len(hits) == int(np.sum(run.collisions["time"] <= run.t[-1]))
+
+
+def test_replay_serves_the_web_viewer_on_localhost(tmp_path):
+    import urllib.request
+
+    path = upm.simulate(
+        upm.PlateMotion.rotation((0.1, 0.0), Harmonics([4.0, 0.0], [0.0, 2.0], frequency=50.0)),
+        [[0.0, 0.0]],
+        duration=0.05,
+        dt=2e-4,
+        mu=0.3,
+    ).to_rerun(tmp_path / "r.rrd")
+    with viz.serve_web(path) as url:
+        assert url.startswith("http://127.0.0.1:") and "rerun%2Bhttp%3A%2F%2F127.0.0.1" in url
+        with urllib.request.urlopen(url.split("?")[0], timeout=10) as page:
+            assert page.status == 200 and b"rerun" in page.read().lower()
+    with pytest.raises(OSError):  # the viewer and its launcher are gone with the context
+        urllib.request.urlopen(url.split("?")[0], timeout=2)
+    with pytest.raises(upm.ParameterError, match="no recording"):
+        viz.replay(tmp_path / "nothing.rrd")
+
+
+def test_replay_screenshot_draws_the_recording(recorded, tmp_path):
+    pytest.importorskip("playwright.sync_api")
+    try:
+        viz.chromium()
+    except upm.MissingExtraError as error:
+        pytest.skip(str(error))
+    import subprocess
+    import sys
+
+    source = tmp_path / "sort.rrd"
+    sort_run(tmp_path, source, cycles=3)
+    png = tmp_path / "shot.png"
+    out = subprocess.run(
+        [sys.executable, "-m", "upm.cli", "replay", str(source), "--screenshot", str(png), "--wait", "8"],
+        capture_output=True,
+        text=True,
+        timeout=180,
+    )
+    assert out.returncode == 0, out.stderr
+    import cv2
+
+    img = cv2.imread(str(png))
+    assert img is not None and img.shape[1] >= 1200
+    # the plate view draws the parts in their labels' colours: red and blue pixels are there
+    b, g, r = (img[..., k].astype(int) for k in range(3))
+    assert np.sum((r > 180) & (g < 130) & (b < 130)) > 200  # red chips
+    assert np.sum((b > 180) & (r < 120)) > 200  # blue chips
+
+
+def test_the_drawn_field_is_the_average_force_at_rest():
+    # independent reference: upm.average_field's adaptive quadrature on the same steady motion
+    wave = Harmonics([0.05, 0.02], [0.0, 0.0], frequency=50.0)  # a Coulomb pump: a net rotation field
+    pulses = [
+        Pulse.rotation((0.03, -0.02), wave, 0.02, 0.3, 0.02),
+        Pulse.jet((-0.05, 0.04), (1.0, 0.0), 0.03, 0.1, 40.0, 0.02, 0.2, 0.02),
+    ]
+    grid = np.stack(np.meshgrid(np.linspace(-0.17, 0.17, 5), np.linspace(-0.16, 0.18, 5)), -1).reshape(-1, 2)
+    got = viz.field_on_grid(pulses, grid, samples=2048)
+    raw = sum(p.on_time * upm.average_field(p.steady(), grid, tol=1e-8) for p in pulses)
+    top = np.max(np.hypot(raw[:, 0], raw[:, 1]))
+    assert top / sum(p.on_time for p in pulses) > 0.05  # a field worth drawing, in units of mu m g
+    want = raw / top
+    np.testing.assert_allclose(got, want, atol=2e-3)
+    assert viz.field_on_grid([Pulse.pause(0.1)], grid) is None

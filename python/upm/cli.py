@@ -277,6 +277,9 @@ def _main(argv: list[str]) -> int:
         metavar="PNG",
         help="write a picture of the viewer (headless Chromium) and exit",
     )
+    r.add_argument(
+        "--wait", type=float, default=20.0, help="with --screenshot: seconds to let the viewer load"
+    )
     k = commands.add_parser("desk", help="the live desk: steer parts by hand in a browser (upm[desk])")
     from .desk.cli import arguments as desk_arguments
 
@@ -286,7 +289,7 @@ def _main(argv: list[str]) -> int:
         from .viz import replay
 
         try:
-            return replay(args.file, web=args.web, png=args.screenshot, port=args.port)
+            return replay(args.file, web=args.web, png=args.screenshot, port=args.port, wait=args.wait)
         except UpmError as error:
             print(f"upm replay: {error}", file=sys.stderr)
             return 2

@@ -3,8 +3,10 @@
 Each command names a tracked part: send it to a point (:meth:`PartsTask.goto`) or along a path at
 a speed (:meth:`PartsTask.follow`). Every commanded part is served at once by the planner; the
 parts without a command are asked to stay where they are (steps of zero; :meth:`PartsTask.cost`
-charges ``hold`` per metre they move). A command ends when its part is within ``tolerance`` of its
-goal (or of its path's end, the reference there), and it is listed in :attr:`PartsTask.finished`.
+charges ``hold`` per metre they move). The commands end together, when every commanded part is
+within ``tolerance`` of its goal (or of its path's end, the reference there): a part that arrives
+first is held at its goal while the others travel. Ended commands are listed in
+:attr:`PartsTask.finished`.
 Thread-safe: commands may come from another thread while the loop reads the task.
 """
 
@@ -74,7 +76,7 @@ class PartsTask:
     def __init__(
         self,
         *,
-        tolerance: float = 0.004,
+        tolerance: float = 0.003,
         max_step: float = 0.02,
         gain: float = 0.8,
         speed: float = 0.02,
@@ -210,17 +212,19 @@ class PartsTask:
         return out
 
     def done(self, state: State) -> bool:
-        """Ends the commands whose parts arrived; True when none is left."""
+        """True when every commanded part has arrived (the commands then end); a part that is not
+        seen now has not arrived."""
         seen = {int(i): k for k, i in enumerate(state.ids) if np.all(np.isfinite(state.positions[k]))}
         with self._lock:
-            for i, c in list(self.commands.items()):
+            for i, c in self.commands.items():
                 k = seen.get(i)
                 if k is None or (len(c.path) > 1 and c.progress < c.end):
-                    continue
-                if np.hypot(*(c.reference(c.end) - state.positions[k])) <= self.tolerance:
-                    del self.commands[i]
-                    self.finished.append(i)
-            return not self.commands
+                    return False
+                if np.hypot(*(c.reference(c.end) - state.positions[k])) > self.tolerance:
+                    return False
+            self.finished.extend(self.commands)
+            self.commands.clear()
+            return True
 
     def describe(self) -> dict[int, dict[str, Any]]:
         """The commands as plain data: ``{id: {"goal": (x, y)} or {"path": [...], "progress": s}}``."""

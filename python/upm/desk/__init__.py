@@ -12,8 +12,8 @@ drag to draw its path, or press Sort, Gather (out-of-plane plates), Pause and ST
 
 from __future__ import annotations
 
-from .cli import simulated
+from .cli import hardware, simulated
 from .server import DeskServer, app
 from .session import COMMANDS, Desk
 
-__all__ = ["COMMANDS", "Desk", "DeskServer", "app", "simulated"]
+__all__ = ["COMMANDS", "Desk", "DeskServer", "app", "hardware", "simulated"]

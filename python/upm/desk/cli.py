@@ -9,7 +9,7 @@ from typing import Any
 from .._errors import ParameterError
 from .session import Desk
 
-__all__ = ["arguments", "run", "simulated"]
+__all__ = ["arguments", "hardware", "run", "simulated"]
 
 
 def arguments(parser: argparse.ArgumentParser) -> None:
@@ -34,6 +34,9 @@ def arguments(parser: argparse.ArgumentParser) -> None:
         help="the simulated plate moves out of its plane (field pulses; Gather)",
     )
     parser.add_argument("--seed", type=int, default=1, help="layout of the simulated parts")
+    parser.add_argument(
+        "--part-radius", type=float, default=0.0195, help="with --board: the parts' radius [m]"
+    )
     parser.add_argument(
         "--watchdog", type=float, default=1.0, help="seconds without the page before the plate stops"
     )
@@ -69,7 +72,10 @@ def simulated(*, six_axis: bool = False, seed: int = 1, contacts: bool = True, *
     return desk
 
 
-def _hardware(board_url: str, camera: str | None, watchdog: float) -> Desk:
+def hardware(board_url: str, camera: str | None, watchdog: float = 1.0, part_radius: float = 0.0195) -> Desk:
+    """A desk on a board (``board_url``: a serial port or pyserial URL) and a camera (an OpenCV
+    index, or ``tcp://host:port`` of a :class:`upm.vision.RemoteCamera`): the predictive planner
+    on a four-motor board, field pulses on a six-axis one; STOP sends the board STOP."""
     from ..board import Board
     from ..control import BoardDevice, FieldPlanner, PredictivePlanner
 
@@ -105,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     from .server import DeskServer
 
     if args.board is not None:
-        desk = _hardware(args.board, args.camera, args.watchdog)
+        desk = hardware(args.board, args.camera, args.watchdog, args.part_radius)
     else:
         desk = simulated(six_axis=args.six_axis, seed=args.seed, watchdog=args.watchdog)
     desk.start()

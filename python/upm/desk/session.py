@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .._errors import BoardError, ParameterError, UpmError
+from .._errors import ParameterError, UpmError
 from ..control.parts import PartsTask
 from ..control.tasks import GatherTask, SortTask, State
 from ..drive import PLATE_SIZE
@@ -36,7 +36,8 @@ COMMANDS = ("heartbeat", "goto", "path", "clear", "sort", "gather", "pause", "re
 
 
 class Desk:
-    """A plate steered by hand.
+    """A plate steered by hand (each cycle lasts at least ``MIN_CYCLE`` seconds of plate time, as
+    in :class:`upm.control.Loop`).
 
     Parameters
     ----------
@@ -59,6 +60,8 @@ class Desk:
     frame_rate : float
         Largest rate of JPEG frames made for the page [1/s].
     """
+
+    MIN_CYCLE = 0.25
 
     def __init__(
         self,
@@ -92,7 +95,7 @@ class Desk:
         self.can_gather, self.realtime = bool(gather), bool(realtime)
         self.watchdog, self.frame_rate = float(watchdog), float(frame_rate)
         self.stop_device = stop_device
-        self.parts = PartsTask(tolerance=0.004)
+        self.parts = PartsTask()
         self.task: Any = None  # what runs: self.parts, a SortTask, a GatherTask, or None
         self.mode = "idle"
         self.paused = False
@@ -351,10 +354,11 @@ class Desk:
                 pulses = self._plan(state, task)
                 last_cycle = self._play(pulses)
                 cycle += 1
-            except (UpmError, BoardError) as error:  # shown on the page; the plate stops
+            except UpmError as error:  # shown on the page; the plate stops
                 with self._lock:
-                    self.task, self.mode = None, "stopped"
-                    self.message = f"stopped: {error}"
+                    if not self._halt.is_set():  # a pulse cut short by STOP says nothing new
+                        self.task, self.mode = None, "stopped"
+                        self.message = f"stopped: {error}"
                 self._closed.wait(0.2)
 
     def _plan(self, state: State, task: Any) -> list[Pulse]:
@@ -367,14 +371,17 @@ class Desk:
             tuple(lab for lab, s in zip(state.labels, seen, strict=True) if s),
             state.last_cycle,
         )
+        steps = np.asarray(task.steps(state), dtype=np.float64)  # once a cycle, as the loop does
         if hasattr(self.planner, "plan_task") and hasattr(task, "cost"):
             pulses = list(self.planner.plan_task(view, task))
         else:
-            steps = np.asarray(task.steps(state), dtype=np.float64)
             pulses = list(self.planner.plan(state.positions[seen], steps[seen]))
         expected = getattr(self.planner, "expected", None)
         if expected is not None and pulses:
             self.tracker.expect(*expected)
+        short = self.MIN_CYCLE - sum(p.duration for p in pulses)
+        if short > 1e-9:  # time passes while the planner waits: paths' references move on
+            pulses.append(Pulse.pause(short))
         self._field_px = self._field(pulses)
         return pulses
 

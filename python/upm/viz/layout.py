@@ -36,10 +36,10 @@ ENTITIES = {
     "direction (out-of-plane fields), longest arrow one grid spacing",
     "plate/centers": "Points2D [m]: centres (rotations) or foci (jets) of the planned pulses",
     "series/plate/speed": "Scalars [mm/s]: peak in-plane plate speed of each pulse",
-    "series/plate/rotation": "Scalars [rad/s]: peak plate rotation rate of each pulse",
-    "series/plate/excursion": "Scalars [mm]: peak plate excursion of each pulse",
-    "series/motors/{X1,X2,Y1,Y2}": "Scalars [N]: peak force of each motor for the pulse (in-plane pulses)",
-    "series/timing/{vision,planning,execution}": "Scalars [ms]: time spent in each stage of the cycle",
+    "series/plate/motion": "Scalars, 2 series: peak excursion of the farthest plate corner [mm] and peak "
+    "rotation rate [rad/s] of each pulse",
+    "series/motors": "Scalars [N], 4 series X1, X2, Y1, Y2: each motor's peak force (in-plane pulses)",
+    "series/timing": "Scalars [ms], 3 series: vision, planning and execution time of the cycle",
     "series/task/error": "Scalars [mm]: the largest error of a tracked part against the task",
     "series/task/seen": "Scalars: parts tracked in this frame",
     "events": "TextLog: parts lost and found, the run's end, frames the recorder dropped",
@@ -90,15 +90,24 @@ def blueprint(kind: str = "loop") -> Any:
             rrb.Spatial2DView(origin="/plate", name="plate"),
         )
         side = rrb.Vertical(
-            rrb.TimeSeriesView(origin="/series/plate", name="plate"),
+            rrb.TimeSeriesView(
+                origin="/series/plate", contents=["/series/plate/speed"], name="plate speed [mm/s]"
+            ),
+            rrb.TimeSeriesView(
+                origin="/series/plate",
+                contents=["/series/plate/motion"],
+                name="excursion [mm], rotation [rad/s]",
+            ),
             rrb.TimeSeriesView(origin="/series/motors", name="motors [N]"),
             rrb.TimeSeriesView(origin="/series/timing", name="cycle [ms]"),
-            rrb.TimeSeriesView(origin="/series/task", name="task"),
+            rrb.TimeSeriesView(
+                origin="/series/task", contents=["/series/task/error"], name="task error [mm]"
+            ),
             rrb.TextLogView(origin="/events", name="events"),
         )
     return rrb.Blueprint(
         rrb.Horizontal(main, side, column_shares=[3, 2]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
-        rrb.TimePanel(state="collapsed", timeline="plate_time", play_state="paused"),
+        rrb.TimePanel(state="collapsed", timeline="plate_time", play_state="following"),
     )

@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import os
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -76,7 +77,10 @@ def serve_web(path: str | Path, *, host: str = "127.0.0.1", port: int | None = N
         str(grpc),
         "--hide-welcome-screen",
     ]
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
+    # its own process group: the `rerun` launcher starts the viewer as a child, and both must go
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env, start_new_session=True
+    )
     url = f"http://{host}:{web}/?url=" + urllib.parse.quote(f"rerun+http://{host}:{grpc}/proxy", safe="")
     try:
         deadline = time.monotonic() + 30
@@ -91,11 +95,27 @@ def serve_web(path: str | Path, *, host: str = "127.0.0.1", port: int | None = N
                 time.sleep(0.2)
         yield url
     finally:
-        proc.terminate()
+        _end(proc)
+
+
+def _end(proc: subprocess.Popen[bytes]) -> None:
+    """Stop ``proc`` and everything it started (its process group): TERM, then KILL after 5 s."""
+    try:
+        os.killpg(proc.pid, signal.SIGTERM)
+    except ProcessLookupError:
+        return
+    deadline = time.monotonic() + 5.0
+    while time.monotonic() < deadline:
+        proc.poll()  # reap the leader, or the group never looks empty
         try:
-            proc.wait(5)
-        except subprocess.TimeoutExpired:
-            proc.kill()
+            os.killpg(proc.pid, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.05)
+    else:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait(5)
 
 
 def screenshot(
@@ -126,13 +146,19 @@ def screenshot(
 
 
 def replay(
-    path: str | Path, *, web: bool = False, png: str | Path | None = None, port: int | None = None
+    path: str | Path,
+    *,
+    web: bool = False,
+    png: str | Path | None = None,
+    port: int | None = None,
+    wait: float = 20.0,
 ) -> int:
     """What ``upm replay`` does: the native viewer, the web viewer (``web``; until Ctrl-C) or a
-    screenshot (``png``). Returns the exit code."""
+    screenshot (``png``, taken ``wait`` seconds after the viewer opened: a long recording takes
+    longer to stream in). Returns the exit code."""
     path = _check(path)
     if png is not None:
-        print(f"wrote {screenshot(path, png)}")
+        print(f"wrote {screenshot(path, png, wait=wait)}")
         return 0
     if web:
         with serve_web(path, port=port) as url:
