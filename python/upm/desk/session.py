@@ -173,10 +173,12 @@ class Desk:
             self.parts.clear(self._part(message) if "id" in message else None)
             return "cleared"
         if kind == "sort":
+            self.parts.clear()  # one task at a time: the parts' goals give way to the sort
             return self._start(SortTask(self.sides, plate_size=self.plate_size), "sort")
         if kind == "gather":
             if not self.can_gather:
                 raise ParameterError("Gather needs a plate that moves out of its plane (upm desk --six-axis)")
+            self.parts.clear()
             return self._start(GatherTask((0.0, 0.0), radius=0.04), "gather")
         part = self._part(message)
         if kind == "goto":
