@@ -426,19 +426,8 @@ class Loop:
                 out.done = finished
                 out.meta["stopped"] = "done" if finished else ("cycles" if cycle == cycles else "timeout")
                 if recorder is not None:
-                    self._record(
-                        recorder,
-                        state,
-                        tracks,
-                        frame,
-                        nothing,
-                        achieved,
-                        before,
-                        errors,
-                        [],
-                        (t1 - t0, 0.0, 0.0),
-                        out.meta["stopped"],
-                    )
+                    seen_now = (state, tracks, frame, achieved, before, errors)
+                    self._record(recorder, seen_now, nothing, [], (t1 - t0, 0.0, 0.0), out.meta["stopped"])
                 break
             steps = np.asarray(self.task.steps(state), dtype=np.float64)
             seen = np.all(np.isfinite(pos), axis=1)
@@ -468,18 +457,8 @@ class Loop:
             out.record(tracks.ids, pos, desired, errors, state.time, time.perf_counter() - start, pulses,
                        (t1 - t0, t2 - t1, t3 - t2))  # fmt: skip
             if recorder is not None:
-                self._record(
-                    recorder,
-                    state,
-                    tracks,
-                    frame,
-                    desired,
-                    achieved,
-                    before,
-                    errors,
-                    pulses,
-                    (t1 - t0, t2 - t1, t3 - t2),
-                )
+                seen_now = (state, tracks, frame, achieved, before, errors)
+                self._record(recorder, seen_now, desired, pulses, (t1 - t0, t2 - t1, t3 - t2))
             if target is not None and time.perf_counter() - flushed >= flush:
                 out.meta.update(cycles=len(out.rows), plate_time=self.plate_time)
                 out.save(target)
@@ -488,18 +467,16 @@ class Loop:
     def _record(
         self,
         recorder: Any,
-        state: State,
-        tracks: Any,
-        frame: NDArray[np.uint8],
+        seen: tuple[State, Any, NDArray[np.uint8], dict[int, FloatArray], dict[int, FloatArray], FloatArray],
         desired: FloatArray,
-        achieved: dict[int, FloatArray],
-        origins: dict[int, FloatArray],
-        errors: FloatArray,
         pulses: list[Pulse],
         timings: tuple[float, float, float],
         end: str | None = None,
     ) -> None:
-        """Hand the cycle to the recorder, with the task's goals and lines when it has them."""
+        """Hand the cycle to the recorder: what was seen (``(state, tracks, frame, achieved steps,
+        where they started, errors)``), asked for and played, with the task's goals and lines
+        when it has them."""
+        state, tracks, frame, achieved, origins, errors = seen
         targets, lines = getattr(self.task, "targets", None), getattr(self.task, "lines", None)
         recorder.cycle(
             cycle=state.cycle,
