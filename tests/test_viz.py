@@ -247,3 +247,11 @@ def test_the_drawn_field_is_the_average_force_at_rest():
     want = raw / top
     np.testing.assert_allclose(got, want, atol=2e-3)
     assert viz.field_on_grid([Pulse.pause(0.1)], grid) is None
+
+
+def test_upm_demo_rrd_records_the_mchip_feed(tmp_path):
+    from upm import cli
+
+    assert cli.main(["demo", "mchip-feed", "--quick", "--rrd", "--out", str(tmp_path)]) == 0
+    rec = viz.read_recording(tmp_path / "mchip-feed" / "run.rrd")
+    assert rec.rows("mchip/part") > 100 and "series/mchip/z" in rec

@@ -319,15 +319,14 @@ def _main(argv: list[str]) -> int:
                 print(f"{name:14s} {'6-DOF plate':12s} {summary}")
             return 0
         if args.name.startswith("mchip-") or args.name == "ppod" or args.name.startswith("ppod-"):
-            if args.rrd:
-                print("upm demo: --rrd records the closed-loop demos (upm demo list)", file=sys.stderr)
-                return 2
             from ._experiments import run_named
             from .mchip_demos import DEMOS as MCHIP_TABLE
             from .ppod_demos import DEMOS as PPOD_TABLE
 
             try:
-                run_named({**MCHIP_TABLE, **PPOD_TABLE}, args.name, args.out, args.quick, verbose=True)
+                run_named(
+                    {**MCHIP_TABLE, **PPOD_TABLE}, args.name, args.out, args.quick, verbose=True, rrd=args.rrd
+                )
             except UpmError as error:
                 print(f"upm demo: {error}", file=sys.stderr)
                 return 2

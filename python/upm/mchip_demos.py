@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ._errors import ParameterError
-from ._experiments import run_named
+from ._experiments import keep, run_named
 from .mchip import Design, Drive, MChipResult, conveyor_fit, free_swing, simulate
 
 # The thesis's part (Fig. 2.3): 1.15 x 0.4 x 0.25 mm; the demos give it a mass of their own.
@@ -69,6 +69,7 @@ def _feed(quick: bool, out: Path) -> dict[str, Any]:
 
     duration = 0.04 if quick else 0.2
     r = _run(Design(), Drive(), duration)
+    keep(r, out)
     m = _summary(r)
     m["hop_frequency_hz"] = r.hop_frequency()
     m["array_stiffness_n_m"] = r.array_stiffness()

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ._experiments import run_named
+from ._experiments import keep, run_named
 from .field_design import design_field
 from .motion import PlateMotion
 from .ppod import PPOD_FIELDS, PPOD_SEQUENCES, asymptotic_field, divergence_curl, drift_field, field_angle
@@ -42,7 +42,7 @@ def _gather(quick: bool, out: Path) -> dict[str, Any]:
         "designed sink at (0.03, -0.02)": (design_field("sink", center, 0.5, mu=MU).motion, center),
     }
     metrics: dict[str, Any] = {}
-    traces = {}
+    traces: dict[str, Any] = {}
     for label, (motion, c) in sinks.items():
         finals, medians, inside, gathered = [], [], [], []
         for seed in seeds:
@@ -55,6 +55,8 @@ def _gather(quick: bool, out: Path) -> dict[str, Any]:
             every = np.all(np.linalg.norm(r.positions - c, axis=2) < 0.01, axis=1)
             gathered.append(float(r.t[np.argmax(every)]) if every.any() else float("nan"))
             if seed == 0:
+                if not traces:
+                    keep(r, out)  # the library Sink's first seed
                 traces[label] = (r, c)
         metrics[label] = {
             "seeds": len(finals),
