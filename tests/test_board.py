@@ -109,6 +109,27 @@ def test_context_manager_stops_the_motors_on_exceptions(emulator):
         assert status.state == protocol.State.STOPPED and status.pulses == 0
 
 
+def test_stop_from_another_thread_ends_a_waiting_pulse_and_holds_until_cleared(emulator):
+    import threading
+
+    with Board(emulator) as board:
+        command_rotation(board, (0.0, 0.0), sustain=5.0)
+        timer = threading.Timer(0.3, board.stop)
+        timer.start()
+        t0 = time.monotonic()
+        with pytest.raises(upm.BoardError, match="cut short"):
+            board.pulse(5, wait=True, timeout=10.0)
+        assert time.monotonic() - t0 < 3.0  # not the 5 s pulse
+        assert board.status().state == protocol.State.STOPPED
+        with pytest.raises(upm.BoardError, match="clear_stop"):  # nothing slips in after a STOP
+            board.pulse(6, wait=True)
+        assert board.status().pulses == 0  # the pulse cut short did not complete, none other ran
+        board.clear_stop()
+        board.set_envelope(0.01, 0.05, 0.01)
+        board.pulse(7, wait=True)
+        assert board.status().pulses == 1
+
+
 HOST = textwrap.dedent(
     """
     import sys, time, numpy as np

@@ -75,6 +75,7 @@ class Board:
         self._hello: p.Hello | None = None
         self._chunks: list[NDArray[np.int16]] = []
         self._next_sample: int | None = None
+        self._stopping = False  # stop() was called: no pulse() plays until clear_stop()
         self.first_sample: int | None = None
         self.gaps = 0
         self.info: p.Hello | None = None
@@ -263,15 +264,23 @@ class Board:
         its end (from PULSE_DONE, or from STATUS if that frame was lost)."""
         self._done.pop(pulse_id, None)
         before = self.status().pulses if wait else 0
+        if self._stopping:
+            raise BoardError(
+                f"pulse {pulse_id} not played: the board was stopped (Board.stop); clear_stop() first"
+            )
         self._command(p.Pulse(pulse_id))
         if not wait:
             return None
         deadline = time.monotonic() + (timeout if timeout is not None else 600.0)
         while time.monotonic() < deadline:
             with self._changed:
-                self._changed.wait_for(lambda: pulse_id in self._done or self._error is not None, timeout=0.5)
+                self._changed.wait_for(
+                    lambda: pulse_id in self._done or self._error is not None or self._stopping, timeout=0.5
+                )
                 if pulse_id in self._done:
                     return self._done.pop(pulse_id)
+                if self._stopping:
+                    raise BoardError(f"pulse {pulse_id} was cut short: STOP")
             status = self.status()  # PULSE_DONE may have been lost on the wire
             if status.state != p.State.PULSING and status.pulses > before:
                 return int(status.samples)
@@ -280,8 +289,17 @@ class Board:
         raise BoardTimeout(f"pulse {pulse_id} did not finish in time")
 
     def stop(self) -> None:
-        """Every motor off now."""
+        """Every motor off now. A :meth:`pulse` waiting in another thread ends at once, and none
+        plays (``BoardError``) until :meth:`clear_stop`: a pulse another thread was about to
+        start does not slip in after the STOP."""
+        with self._changed:
+            self._stopping = True
+            self._changed.notify_all()
         self._command(p.Stop())
+
+    def clear_stop(self) -> None:
+        """Let :meth:`pulse` play again after :meth:`stop`."""
+        self._stopping = False
 
     def status(self) -> p.Status:
         """The board's state, fault flags and counters."""

@@ -82,7 +82,7 @@ def hardware(board_url: str, camera: str | None, watchdog: float = 1.0, part_rad
     if camera is None:
         raise ParameterError("--board needs --camera (an OpenCV camera index or tcp://host:port)")
     link = Board(board_url)
-    device = BoardDevice(link)
+    device = BoardDevice(link, wait_rest=False)  # the desk waits out the rests, STOP ends them
     if camera.isdigit():
         import cv2
 
@@ -101,6 +101,7 @@ def hardware(board_url: str, camera: str | None, watchdog: float = 1.0, part_rad
         part_radius=0.0195,
         realtime=False,
         stop_device=link.stop,
+        resume_device=link.clear_stop,
         gather=link.six_axis,
         watchdog=watchdog,
     )

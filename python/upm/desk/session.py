@@ -59,6 +59,9 @@ class Desk:
         Seconds without a heartbeat from the page after which a moving plate is stopped.
     frame_rate : float
         Largest rate of JPEG frames made for the page [1/s].
+    stop_device, resume_device : callable, optional
+        What STOP calls besides ending the cycle (a board's ``Board.stop``), and what a new
+        command calls before the plate moves again (``Board.clear_stop``).
     """
 
     MIN_CYCLE = 0.25
@@ -78,6 +81,7 @@ class Desk:
         watchdog: float = 1.0,
         frame_rate: float = 10.0,
         stop_device: Any = None,
+        resume_device: Any = None,
     ) -> None:
         from ..vision import THESIS_PALETTE, Tracker, find_table
 
@@ -94,7 +98,7 @@ class Desk:
         self.sides = dict(sides or {"red": -1, "blue": 1})
         self.can_gather, self.realtime = bool(gather), bool(realtime)
         self.watchdog, self.frame_rate = float(watchdog), float(frame_rate)
-        self.stop_device = stop_device
+        self.stop_device, self.resume_device = stop_device, resume_device
         self.parts = PartsTask()
         self.task: Any = None  # what runs: self.parts, a SortTask, a GatherTask, or None
         self.mode = "idle"
@@ -105,7 +109,9 @@ class Desk:
         self.moving = False
         """Whether a pulse is being played now."""
         self.stops: list[dict[str, float | str]] = []
-        """Every stop: ``reason``, ``latency`` [s] from the request to the plate's last motion."""
+        """Every stop: ``reason``; ``motors`` [s] from the request to the motors off (a board's
+        acknowledgement of STOP; on the simulated plate, the end of the pulse being played); and
+        ``latency`` [s] to the control thread idle."""
         frame = self._read()
         self.table = find_table(frame, plate_size)
         scale = float(self.table.pixels_per_metre)
@@ -202,18 +208,23 @@ class Desk:
             self.parts.clear()
             self.task, self.mode = None, "stopped"
             self.message = f"stopped: {reason}"
+        motors = None
         if self.stop_device is not None:
             try:
                 self.stop_device()
+                motors = time.monotonic() - asked  # the board acknowledged: its motors are off
             except UpmError as error:  # the link is gone: the board's own watchdog stops it
                 self.message += f" (the board did not answer STOP: {error})"
         deadline = asked + 2.0
         while self.moving and time.monotonic() < deadline and threading.current_thread() is not self._thread:
             time.sleep(0.002)
-        self.stops.append({"reason": reason, "latency": time.monotonic() - asked})
+        done = time.monotonic() - asked
+        self.stops.append({"reason": reason, "latency": done, "motors": done if motors is None else motors})
         return self.message
 
     def _start(self, task: Any, mode: str) -> str:
+        if self.resume_device is not None:  # a board refuses pulses after STOP until told
+            self.resume_device()
         with self._lock:
             self._halt.clear()
             self.task, self.mode, self.paused = task, mode, False
@@ -403,6 +414,7 @@ class Desk:
         return arrows
 
     def _play(self, pulses: Sequence[Pulse]) -> float:
+        """Play the pulses in real time; STOP ends the one playing and the rests at once."""
         played = 0.0
         for pulse in pulses:
             if self._halt.is_set() or self.paused:
@@ -411,11 +423,16 @@ class Desk:
             self.moving = True
             try:
                 self.device.execute([pulse])
-                self.pulses_played += pulse.kind != "rest"
-                played += pulse.duration
-                if self.realtime:  # the plate plays in real time: wait out the rest of the pulse
-                    self._halt.wait(max(pulse.duration - (time.monotonic() - started), 0.0))
+                if self.realtime:  # a simulated plate: its motors run for the pulse's on-time
+                    self._halt.wait(max(pulse.on_time - (time.monotonic() - started), 0.0))
             finally:
+                if self._halt.is_set() and self.stop_device is not None:
+                    # a pulse that started while STOP was on its way: STOP again, it is idempotent
+                    self.stop_device()
                 self.moving = False
+            self.pulses_played += pulse.kind != "rest"
+            played += pulse.duration
+            rest = pulse.duration - (time.monotonic() - started) if self.realtime else pulse.rest
+            self._halt.wait(max(rest, 0.0))  # the parts settle; the motors are off
         self.plate_time += played
         return played
