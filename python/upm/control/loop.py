@@ -28,7 +28,7 @@ from ..pulses import Pulse
 from .devices import Device, as_device, pulse_time
 from .tasks import State, Task
 
-__all__ = ["Log", "Loop", "load_log"]
+__all__ = ["Log", "Loop", "load_log", "loop_tracker", "plan_cycle"]
 
 FloatArray = NDArray[np.float64]
 
@@ -271,7 +271,7 @@ class Loop:
         keep_frames: int = 1,
         min_cycle: float = 0.25,
     ) -> None:
-        from ..vision import THESIS_PALETTE, Tracker, find_table
+        from ..vision import THESIS_PALETTE, find_table
 
         self.device: Device = as_device(device)
         if not hasattr(camera, "read"):
@@ -294,7 +294,7 @@ class Loop:
         if not (math.isfinite(min_cycle) and min_cycle >= 0):
             raise ParameterError(f"min_cycle must be finite and >= 0 [s]; got {min_cycle!r}")
         self.min_cycle = float(min_cycle)
-        self._find_table, self._Tracker = find_table, Tracker
+        self._find_table = find_table
         self.palette = THESIS_PALETTE if palette is None else palette
         self.table = table
         self.search = search
@@ -310,18 +310,8 @@ class Loop:
     def _start(self, frame: NDArray[np.uint8]) -> None:
         if self.table is None:
             self.table = self._find_table(frame, self.plate_size)
-        scale = float(self.table.pixels_per_metre)
         longest = float(getattr(self.task, "max_step", 0.02))
-        search = self.search if self.search is not None else (longest + 2 * self.part_radius) * scale
-        self.tracker = self._Tracker(
-            self.table,
-            self.part_radius,
-            palette=self.palette,
-            search=search,
-            detect_every=5,
-            max_missed=3,
-            reacquire=3 * longest + 10 * self.part_radius,
-        )
+        self.tracker = loop_tracker(self.table, self.part_radius, self.palette, longest, self.search)
 
     def run(
         self,
@@ -432,15 +422,7 @@ class Loop:
             steps = np.asarray(self.task.steps(state), dtype=np.float64)
             seen = np.all(np.isfinite(pos), axis=1)
             steps[~seen] = 0.0
-            if hasattr(self.planner, "plan_task") and hasattr(self.task, "cost"):
-                labels = tuple(lab for lab, s in zip(tracks.labels, seen, strict=True) if s)
-                view = State(cycle, self.plate_time, tracks.ids[seen], pos[seen], labels, last_cycle)
-                pulses = list(self.planner.plan_task(view, self.task))
-            else:
-                pulses = list(self.planner.plan(pos[seen], steps[seen]))
-            short = self.min_cycle - pulse_time(pulses)
-            if short > 1e-9:
-                pulses.append(Pulse.pause(short))
+            pulses = plan_cycle(self.planner, self.task, state, steps, self.min_cycle)
             t2 = time.perf_counter()
             if callback is not None:
                 callback(state, pulses)
@@ -493,6 +475,38 @@ class Loop:
             timings=timings,
             end=end,
         )
+
+
+def loop_tracker(
+    table: Any, part_radius: float, palette: Any, longest: float, search: float | None = None
+) -> Any:
+    """The loop's :class:`upm.vision.Tracker` on ``table``: parts may move ``longest`` [m] a cycle
+    (``search`` [top-view px], default: that plus two radii), are searched for on the whole plate
+    every fifth frame and reacquired within three steps."""
+    from ..vision import Tracker
+
+    reach = search if search is not None else (longest + 2 * part_radius) * float(table.pixels_per_metre)
+    return Tracker(table, part_radius, palette=palette, search=reach, detect_every=5, max_missed=3,
+                   reacquire=3 * longest + 10 * part_radius)  # fmt: skip
+
+
+def plan_cycle(planner: Any, task: Any, state: State, steps: FloatArray, min_cycle: float) -> list[Pulse]:
+    """One cycle's pulses: the planner's ``plan_task(state, task)`` when it has one and the task a
+    ``cost`` (on the parts seen), else its ``plan(positions, steps)``; padded with a rest to
+    ``min_cycle`` [s] of plate time."""
+    seen = np.all(np.isfinite(state.positions), axis=1)
+    if hasattr(planner, "plan_task") and hasattr(task, "cost"):
+        labels = tuple(lab for lab, s in zip(state.labels, seen, strict=True) if s)
+        view = State(
+            state.cycle, state.time, state.ids[seen], state.positions[seen], labels, state.last_cycle
+        )
+        pulses = list(planner.plan_task(view, task))
+    else:
+        pulses = list(planner.plan(state.positions[seen], steps[seen]))
+    short = min_cycle - pulse_time(pulses)
+    if short > 1e-9:
+        pulses.append(Pulse.pause(short))
+    return pulses
 
 
 def _recorder(recording: Any) -> tuple[Any, bool]:

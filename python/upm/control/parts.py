@@ -12,7 +12,6 @@ Thread-safe: commands may come from another thread while the loop reads the task
 
 from __future__ import annotations
 
-import math
 import threading
 from dataclasses import dataclass
 from typing import Any
@@ -20,7 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._arrays import point
+from .._arrays import point, real
 from .._errors import ParameterError
 from ._steps import clip, points, positions_of
 from .tasks import State
@@ -83,19 +82,19 @@ class PartsTask:
         hold: float = 0.3,
         lag: float = 0.015,
     ) -> None:
-        for name, value in (
-            ("tolerance", tolerance),
-            ("max_step", max_step),
-            ("gain", gain),
-            ("speed", speed),
-            ("lag", lag),
-        ):
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ParameterError(f"{name} must be finite and > 0; got {value!r}")
-        if not (isinstance(hold, (int, float)) and math.isfinite(hold) and hold >= 0):
-            raise ParameterError(f"hold must be finite and >= 0; got {hold!r}")
-        self.tolerance, self.max_step, self.gain = float(tolerance), float(max_step), float(gain)
-        self.speed, self.hold, self.lag = float(speed), float(hold), float(lag)
+        def positive(name: str, value: float) -> float:
+            return real(name, value, low=0.0, low_open=True)
+
+        self.tolerance, self.max_step, self.gain = (
+            positive("tolerance", tolerance),
+            positive("max_step", max_step),
+            positive("gain", gain),
+        )
+        self.speed, self.lag, self.hold = (
+            positive("speed", speed),
+            positive("lag", lag),
+            real("hold", hold, low=0.0),
+        )
         self.commands: dict[int, _Command] = {}
         self.finished: list[int] = []
         """Ids whose command was done, in the order they finished."""
@@ -118,9 +117,7 @@ class PartsTask:
         p = p[keep]
         if len(p) < 2:
             raise ParameterError("path has no length: all its points are the same")
-        v = self.speed if speed is None else float(speed)
-        if not (math.isfinite(v) and v > 0):
-            raise ParameterError(f"speed must be finite and > 0 [m/s]; got {speed!r}")
+        v = self.speed if speed is None else real("speed", speed, low=0.0, low_open=True)
         arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(p, axis=0).T))])
         with self._lock:
             self.commands[self._id(part_id)] = _Command(p, arc, v)

@@ -14,7 +14,6 @@ the page's heartbeats stop for ``watchdog`` seconds, as the board's watchdog doe
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 from collections.abc import Sequence
@@ -23,7 +22,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .._arrays import real
 from .._errors import ParameterError, UpmError
+from ..control.loop import loop_tracker, plan_cycle
 from ..control.parts import PartsTask
 from ..control.tasks import GatherTask, SortTask, State
 from ..drive import PLATE_SIZE
@@ -83,15 +84,14 @@ class Desk:
         stop_device: Any = None,
         resume_device: Any = None,
     ) -> None:
-        from ..vision import THESIS_PALETTE, Tracker, find_table
+        from ..vision import THESIS_PALETTE, find_table
 
         if not hasattr(device, "execute"):
             raise ParameterError(f"device must have execute(pulses); got {type(device).__name__}")
         if not hasattr(camera, "read"):
             raise ParameterError(f"camera must have read() -> (ok, frame); got {type(camera).__name__}")
         for name, value in (("part_radius", part_radius), ("watchdog", watchdog), ("frame_rate", frame_rate)):
-            if not (math.isfinite(value) and value > 0):
-                raise ParameterError(f"{name} must be finite and > 0; got {value!r}")
+            real(name, value, low=0.0, low_open=True)
         self.device, self.camera, self.planner = device, camera, planner
         self.part_radius, self.plate_size = float(part_radius), float(plate_size)
         self.palette = palette or THESIS_PALETTE
@@ -114,16 +114,7 @@ class Desk:
         ``latency`` [s] to the control thread idle."""
         frame = self._read()
         self.table = find_table(frame, plate_size)
-        scale = float(self.table.pixels_per_metre)
-        self.tracker = Tracker(
-            self.table,
-            part_radius,
-            palette=self.palette,
-            search=(0.02 + 2 * part_radius) * scale,
-            detect_every=5,
-            max_missed=3,
-            reacquire=0.06 + 10 * part_radius,
-        )
+        self.tracker = loop_tracker(self.table, part_radius, self.palette, self.parts.max_step)
         self.tracks = self.tracker.update(frame)
         self.frame = frame
         self.jpeg: bytes = b""
@@ -375,26 +366,12 @@ class Desk:
                 self._closed.wait(0.2)
 
     def _plan(self, state: State, task: Any) -> list[Pulse]:
-        seen = np.all(np.isfinite(state.positions), axis=1)
-        view = State(
-            state.cycle,
-            state.time,
-            state.ids[seen],
-            state.positions[seen],
-            tuple(lab for lab, s in zip(state.labels, seen, strict=True) if s),
-            state.last_cycle,
-        )
         steps = np.asarray(task.steps(state), dtype=np.float64)  # once a cycle, as the loop does
-        if hasattr(self.planner, "plan_task") and hasattr(task, "cost"):
-            pulses = list(self.planner.plan_task(view, task))
-        else:
-            pulses = list(self.planner.plan(state.positions[seen], steps[seen]))
+        steps[~np.all(np.isfinite(state.positions), axis=1)] = 0.0
+        pulses = plan_cycle(self.planner, task, state, steps, self.MIN_CYCLE)
         expected = getattr(self.planner, "expected", None)
         if expected is not None and pulses:
             self.tracker.expect(*expected)
-        short = self.MIN_CYCLE - sum(p.duration for p in pulses)
-        if short > 1e-9:  # time passes while the planner waits: paths' references move on
-            pulses.append(Pulse.pause(short))
         self._field_px = self._field(pulses)
         return pulses
 

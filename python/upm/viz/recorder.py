@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .._arrays import real
 from .._errors import ParameterError
 from .._extras import need
 from ..drive import PLATE_SIZE, DriveLimits
@@ -162,8 +163,7 @@ class Recorder:
         self._rr = need("rerun", "viz", "a rerun recording", "rerun-sdk")
         if not (isinstance(max_queue, int) and max_queue >= 2):
             raise ParameterError(f"max_queue must be an integer >= 2; got {max_queue!r}")
-        if not (math.isfinite(frame_rate) and frame_rate > 0):
-            raise ParameterError(f"frame_rate must be finite and > 0 [1/s]; got {frame_rate!r}")
+        real("frame_rate", frame_rate, low=0.0, low_open=True)
         if not (isinstance(field_grid, int) and 0 <= field_grid <= 41):
             raise ParameterError(f"field_grid must be an integer in 0..41; got {field_grid!r}")
         if not (isinstance(jpeg_quality, int) and 1 <= jpeg_quality <= 100):
