@@ -58,3 +58,27 @@ def test_bad_commands_are_refused():
     with pytest.raises(upm.ParameterError, match="tolerance"):
         PartsTask(tolerance=0.0)
     assert not t.active
+
+
+def test_a_placed_part_is_held_at_its_goal_while_later_commands_run():
+    t = PartsTask(gain=0.5, max_step=0.05, tolerance=0.003)
+    t.goto(1, (0.04, 0.0))
+    assert t.done(state([[0.04, 0.0], [0.1, 0.0]], ids=[1, 2]))
+    assert t.placed.keys() == {1} and not t.active
+    s = state([[0.03, 0.0], [0.1, 0.0]], ids=[1, 2])  # part 1 pushed 10 mm off its place
+    np.testing.assert_array_equal(t.steps(s), 0.0)  # nothing runs: nothing is steered
+    t.goto(2, (0.06, 0.0))
+    np.testing.assert_allclose(t.steps(s), [[0.005, 0.0], [-0.02, 0.0]])  # steered back, and 2 goes
+    np.testing.assert_allclose(t.targets(s), [[0.04, 0.0], [0.06, 0.0]])
+    # its cost counts as a commanded part's, not as hold x how far it moves
+    q = np.array([[[0.03, 0.0], [0.06, 0.0]]])
+    assert t.cost(s, q)[0] == pytest.approx(0.01 - 0.0015)
+    assert not t.done(state([[0.03, 0.0], [0.06, 0.0]], ids=[1, 2]))  # 2 arrived, 1 is not back
+    assert t.done(state([[0.041, 0.0], [0.06, 0.0]], ids=[1, 2]))
+    assert t.finished == [1, 2] and t.placed.keys() == {1, 2}
+    t.goto(3, (0.0, 0.0))
+    assert t.done(state([[0.0, 0.0], [0.06, 0.0]], ids=[3, 2]))  # a placed part not seen does not block
+    t.goto(2, (0.0, 0.05))  # a new command replaces the placement
+    assert 2 not in t.placed
+    t.clear()
+    assert not t.placed and not t.active

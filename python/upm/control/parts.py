@@ -6,7 +6,10 @@ parts without a command are asked to stay where they are (steps of zero; :meth:`
 charges ``hold`` per metre they move). The commands end together, when every commanded part is
 within ``tolerance`` of its goal (or of its path's end, the reference there): a part that arrives
 first is held at its goal while the others travel. Ended commands are listed in
-:attr:`PartsTask.finished`.
+:attr:`PartsTask.finished`, and their parts stay *placed*: while later commands run, a placed part
+is held at the point it was sent to, as firmly as a commanded part (steered back when pushed off,
+and the later commands end only when it is back within ``tolerance``), until it gets a command of
+its own or is cleared.
 Thread-safe: commands may come from another thread while the loop reads the task.
 """
 
@@ -96,6 +99,8 @@ class PartsTask:
             real("hold", hold, low=0.0),
         )
         self.commands: dict[int, _Command] = {}
+        self.placed: dict[int, _Command] = {}
+        """Parts whose command ended, held where they were sent while later commands run."""
         self.finished: list[int] = []
         """Ids whose command was done, in the order they finished."""
         self._lock = threading.Lock()
@@ -104,8 +109,10 @@ class PartsTask:
     def goto(self, part_id: int, goal: ArrayLike) -> None:
         """Send part ``part_id`` to ``goal`` (x, y) [m] (replacing its command)."""
         g = np.asarray(point("goal", goal), dtype=np.float64)
+        i = self._id(part_id)
         with self._lock:
-            self.commands[self._id(part_id)] = _Command(g[None], np.zeros(1), self.speed)
+            self.commands[i] = _Command(g[None], np.zeros(1), self.speed)
+            self.placed.pop(i, None)
 
     def follow(self, part_id: int, path: ArrayLike, speed: float | None = None) -> None:
         """Send part ``part_id`` along ``path`` ((K, 2) [m], K >= 2) at ``speed`` [m/s]."""
@@ -119,16 +126,20 @@ class PartsTask:
             raise ParameterError("path has no length: all its points are the same")
         v = self.speed if speed is None else real("speed", speed, low=0.0, low_open=True)
         arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(p, axis=0).T))])
+        i = self._id(part_id)
         with self._lock:
-            self.commands[self._id(part_id)] = _Command(p, arc, v)
+            self.commands[i] = _Command(p, arc, v)
+            self.placed.pop(i, None)
 
     def clear(self, part_id: int | None = None) -> None:
-        """Drop the command of ``part_id`` (every command when None)."""
+        """Drop the command and placement of ``part_id`` (every one when None)."""
         with self._lock:
             if part_id is None:
                 self.commands.clear()
+                self.placed.clear()
             else:
                 self.commands.pop(self._id(part_id), None)
+                self.placed.pop(self._id(part_id), None)
 
     @property
     def active(self) -> bool:
@@ -143,11 +154,13 @@ class PartsTask:
 
     # -- the task ----------------------------------------------------------------------------------
     def _mine(self, state: State) -> list[tuple[int, _Command | None]]:
+        """Each part's command, or its placement while other commands run."""
         with self._lock:
-            return [(k, self.commands.get(int(i))) for k, i in enumerate(state.ids)]
+            held = self.placed if self.commands else {}
+            return [(k, self.commands.get(int(i)) or held.get(int(i))) for k, i in enumerate(state.ids)]
 
     def targets(self, state: State) -> FloatArray:
-        """Where each commanded part's reference is now [m] (NaN: no command)."""
+        """Where each commanded (or held placed) part's reference is now [m] (NaN: none)."""
         out = np.full_like(state.positions, np.nan)
         for k, c in self._mine(state):
             if c is not None:
@@ -209,8 +222,9 @@ class PartsTask:
         return out
 
     def done(self, state: State) -> bool:
-        """True when every commanded part has arrived (the commands then end); a part that is not
-        seen now has not arrived."""
+        """True when every commanded part has arrived and every placed part seen is at its place
+        (the commands then end and their parts become placed); a commanded part that is not seen
+        now has not arrived."""
         seen = {int(i): k for k, i in enumerate(state.ids) if np.all(np.isfinite(state.positions[k]))}
         with self._lock:
             for i, c in self.commands.items():
@@ -219,7 +233,14 @@ class PartsTask:
                     return False
                 if np.hypot(*(c.reference(c.end) - state.positions[k])) > self.tolerance:
                     return False
+            for i, c in self.placed.items():
+                k = seen.get(i)
+                if self.commands and k is not None:
+                    if np.hypot(*(c.path[0] - state.positions[k])) > self.tolerance:
+                        return False
             self.finished.extend(self.commands)
+            for i, c in self.commands.items():
+                self.placed[i] = _Command(c.reference(c.end)[None], np.zeros(1), c.speed)
             self.commands.clear()
             return True
 

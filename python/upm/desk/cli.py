@@ -98,7 +98,7 @@ def hardware(board_url: str, camera: str | None, watchdog: float = 1.0, part_rad
         device,
         cam,
         planner,
-        part_radius=0.0195,
+        part_radius=part_radius,
         realtime=False,
         stop_device=link.stop,
         resume_device=link.clear_stop,

@@ -180,15 +180,13 @@ class Desk:
         part = self._part(message)
         if kind == "goto":
             goal = self._point(message, "to")
-            self.parts.goto(part, goal)
-            self._start(self.parts, "parts")
+            self._start(self.parts, "parts", lambda: self.parts.goto(part, goal))
             return f"part {part} to ({1e3 * goal[0]:.0f}, {1e3 * goal[1]:.0f}) mm"
         path = self._path(message)
         speed = message.get("speed", 0.03)
         if not isinstance(speed, (int, float)) or not (0 < speed <= 0.2):
             raise ParameterError(f"speed must be a number in (0, 0.2] [m/s]; got {speed!r}")
-        self.parts.follow(part, path, float(speed))
-        self._start(self.parts, "parts")
+        self._start(self.parts, "parts", lambda: self.parts.follow(part, path, float(speed)))
         return f"part {part} along a path of {len(path)} points"
 
     def stop(self, reason: str = "STOP") -> str:
@@ -213,10 +211,14 @@ class Desk:
         self.stops.append({"reason": reason, "latency": done, "motors": done if motors is None else motors})
         return self.message
 
-    def _start(self, task: Any, mode: str) -> str:
+    def _start(self, task: Any, mode: str, give: Any = None) -> str:
+        """Run ``task`` (after ``give()``, which gives it its command: under the lock the control
+        thread ends tasks under, so a command never lands in a task just found done)."""
         if self.resume_device is not None:  # a board refuses pulses after STOP until told
             self.resume_device()
         with self._lock:
+            if give is not None:
+                give()
             self._halt.clear()
             self.task, self.mode, self.paused = task, mode, False
             self.message = f"running: {mode}"
@@ -349,12 +351,13 @@ class Desk:
                     self._closed.wait(0.05)
                     continue
                 state = State(cycle, self.plate_time, tracks.ids, tracks.positions, tracks.labels, last_cycle)
-                if task.done(state):
-                    with self._lock:
-                        if self.task is task:
-                            self.message = f"done: {self.mode}"
-                            self.task, self.mode = None, "idle"
-                    continue
+                with self._lock:  # no command lands between the task found done and the desk idle
+                    if self.task is not task:  # stopped or replaced since it was read
+                        continue
+                    if task.done(state):
+                        self.message = f"done: {self.mode}"
+                        self.task, self.mode = None, "idle"
+                        continue
                 pulses = self._plan(state, task)
                 last_cycle = self._play(pulses)
                 cycle += 1
