@@ -6,7 +6,7 @@
 
 use std::arch::x86_64::*;
 
-use super::{Air, Steps};
+use super::{Air, Reach, Steps};
 use crate::sim::kernel::avx2::{mark_left, rsqrt};
 use crate::sim::kernel::Lanes;
 
@@ -43,6 +43,9 @@ unsafe fn tiles<const EDGE: bool>(steps: &Steps, l: &mut Lanes, air: &mut Air) {
 }
 
 /// The parts `start .. start + 4 T` (fewer at the end) through every step; returns `T`.
+///
+/// A step in which no part of the tile is in the air and the normal force is positive wherever
+/// its parts may be ([`Reach`]) skips the flight test: most steps of most motions.
 #[target_feature(enable = "avx2,fma")]
 #[inline]
 unsafe fn tile<const EDGE: bool, const T: usize>(
@@ -53,133 +56,221 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
 ) -> usize {
     let n = l.x.len();
     let zero = _mm256_setzero_pd();
-    let one = _mm256_set1_pd(1.0);
-    let dt = _mm256_set1_pd(steps.dt);
-    let hdt = _mm256_set1_pd(0.5 * steps.dt);
-    let halfv = _mm256_set1_pd(steps.half);
     let inv_g = _mm256_set1_pd(1.0 / steps.g);
-    let abs = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
     let at = |j: usize| start + 4 * j;
-    let mut live = [_mm256_setzero_si256(); T];
-    for (j, k) in live.iter_mut().enumerate() {
-        let count = n.saturating_sub(at(j)).min(4) as i64;
-        *k = _mm256_cmpgt_epi64(_mm256_set1_epi64x(count), _mm256_set_epi64x(3, 2, 1, 0));
-    }
-    let (mut x, mut y, mut vx, mut vy) = ([zero; T], [zero; T], [zero; T], [zero; T]);
-    // the air state stays in memory, read only for a vector with a part in the air: sixteen
-    // registers cannot hold it beside the rest for a whole tile, and parts seldom fly
-    let mut airborne = [false; T];
-    let (mut slide, mut h2) = ([zero; T], [zero; T]);
-    let (mut stuck, mut act) = ([zero; T], [zero; T]);
+    let mut t = Tile::<T> {
+        live: [_mm256_setzero_si256(); T],
+        x: [zero; T],
+        y: [zero; T],
+        vx: [zero; T],
+        vy: [zero; T],
+        slide: [zero; T],
+        s2: [zero; T],
+        h2: [zero; T],
+        stuck: [zero; T],
+        act: [zero; T],
+        airborne: [false; T],
+    };
     for j in 0..T {
-        let k = live[j];
+        let count = n.saturating_sub(at(j)).min(4) as i64;
+        let k = _mm256_cmpgt_epi64(_mm256_set1_epi64x(count), _mm256_set_epi64x(3, 2, 1, 0));
+        t.live[j] = k;
         let load = |a: &[f64]| _mm256_maskload_pd(a.as_ptr().add(at(j)), k);
-        (x[j], y[j], vx[j], vy[j]) = (load(l.x), load(l.y), load(l.vx), load(l.vy));
-        airborne[j] = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GT_OQ>(load(air.h), zero)) != 0;
-        // mu dt and (mu_s dt)^2: the limits are these times g + a_z
-        slide[j] = _mm256_mul_pd(load(l.slide), inv_g);
+        (t.x[j], t.y[j], t.vx[j], t.vy[j]) = (load(l.x), load(l.y), load(l.vx), load(l.vy));
+        t.airborne[j] = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GT_OQ>(load(air.h), zero)) != 0;
+        // mu dt and (mu dt)^2, (mu_s dt)^2: the limits are these times g + a_z (and its square)
+        t.slide[j] = _mm256_mul_pd(load(l.slide), inv_g);
+        t.s2[j] = _mm256_mul_pd(t.slide[j], t.slide[j]);
         let hold = _mm256_mul_pd(load(l.hold), inv_g);
-        h2[j] = _mm256_mul_pd(hold, hold);
-        stuck[j] = _mm256_cmp_pd::<_CMP_GT_OQ>(load(l.stuck), zero);
-        act[j] = _mm256_and_pd(
+        t.h2[j] = _mm256_mul_pd(hold, hold);
+        t.stuck[j] = _mm256_cmp_pd::<_CMP_GT_OQ>(load(l.stuck), zero);
+        t.act[j] = _mm256_and_pd(
             _mm256_cmp_pd::<_CMP_GT_OQ>(load(l.active), zero),
             _mm256_castsi256_pd(k),
         );
     }
-    for (k, (&[u1, u2, u3], nz)) in steps.u.iter().zip(steps.normals).enumerate() {
+    let mut in_air = t.airborne.iter().any(|&a| a);
+    let mut reach = t.reach();
+    for (k, (u, nz)) in steps.u.iter().zip(steps.normals).enumerate() {
+        let mut grounded = !in_air && reach.grounded(nz, steps.g);
+        if !in_air && !grounded && reach.age >= 4 {
+            reach = t.reach(); // the bound may have grown loose: measure again
+            grounded = reach.grounded(nz, steps.g);
+        }
+        reach.advance(u, steps.dt, steps.half);
+        let now = steps.first + k + 1;
+        if grounded {
+            for j in 0..T {
+                t.step::<EDGE, false>(j, u, nz, steps, air, l.left, at(j), now);
+            }
+        } else {
+            for j in 0..T {
+                t.step::<EDGE, true>(j, u, nz, steps, air, l.left, at(j), now);
+            }
+            in_air = t.airborne.iter().any(|&a| a);
+        }
+    }
+    let one = _mm256_set1_pd(1.0);
+    for j in 0..T {
+        let k = t.live[j];
+        let store =
+            |a: &mut [f64], v: __m256d| _mm256_maskstore_pd(a.as_mut_ptr().add(at(j)), k, v);
+        store(l.x, t.x[j]);
+        store(l.y, t.y[j]);
+        store(l.vx, t.vx[j]);
+        store(l.vy, t.vy[j]);
+        store(l.stuck, _mm256_and_pd(t.stuck[j], one));
+        store(l.active, _mm256_and_pd(t.act[j], one));
+    }
+    T
+}
+
+/// A tile's state, four parts a vector; the air state stays in memory, read only for a vector
+/// with a part in the air (sixteen registers cannot hold it beside the rest, and parts seldom
+/// fly).
+struct Tile<const T: usize> {
+    live: [__m256i; T],
+    x: [__m256d; T],
+    y: [__m256d; T],
+    vx: [__m256d; T],
+    vy: [__m256d; T],
+    slide: [__m256d; T],
+    s2: [__m256d; T],
+    h2: [__m256d; T],
+    stuck: [__m256d; T],
+    act: [__m256d; T],
+    airborne: [bool; T],
+}
+
+impl<const T: usize> Tile<T> {
+    /// The bound on the active parts' positions and speeds, measured.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn reach(&self) -> Reach {
+        let abs = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
+        let (mut r, mut v) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+        for j in 0..T {
+            let a = self.act[j];
+            let far = _mm256_max_pd(_mm256_and_pd(self.x[j], abs), _mm256_and_pd(self.y[j], abs));
+            let fast = _mm256_add_pd(
+                _mm256_and_pd(self.vx[j], abs),
+                _mm256_and_pd(self.vy[j], abs),
+            );
+            // NaN (a broken part) would be lost by max_pd: such a part cannot fly in either path
+            r = _mm256_max_pd(_mm256_and_pd(far, a), r);
+            v = _mm256_max_pd(_mm256_and_pd(fast, a), v);
+        }
+        let (mut rs, mut vs) = ([0.0; 4], [0.0; 4]);
+        _mm256_storeu_pd(rs.as_mut_ptr(), r);
+        _mm256_storeu_pd(vs.as_mut_ptr(), v);
+        Reach::new(
+            rs.into_iter().fold(0.0, f64::max),
+            vs.into_iter().fold(0.0, f64::max),
+        )
+    }
+
+    /// One step of vector `j` (the parts at `at`); `FLY = false` when no part of it can fly.
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn step<const EDGE: bool, const FLY: bool>(
+        &mut self,
+        j: usize,
+        &[u1, u2, u3]: &[f64; 3],
+        nz: &[f64; 3],
+        steps: &Steps,
+        air: &mut Air,
+        left: &mut [f64],
+        at: usize,
+        now: usize,
+    ) {
+        let zero = _mm256_setzero_pd();
+        let one = _mm256_set1_pd(1.0);
+        let hdt = _mm256_set1_pd(0.5 * steps.dt);
         let (u1, u2, u3) = (_mm256_set1_pd(u1), _mm256_set1_pd(u2), _mm256_set1_pd(u3));
         let base = _mm256_set1_pd(steps.g + nz[0]);
         let (ra, rb) = (_mm256_set1_pd(nz[1]), _mm256_set1_pd(nz[2]));
-        for j in 0..T {
-            let a = act[j];
-            let nrm = _mm256_fnmadd_pd(x[j], rb, _mm256_fmadd_pd(y[j], ra, base));
-            let (ph, phv) = (
-                air.h.as_mut_ptr().add(at(j)),
-                air.hv.as_mut_ptr().add(at(j)),
+        let a = self.act[j];
+        let (x, y, vx, vy) = (self.x[j], self.y[j], self.vx[j], self.vy[j]);
+        let nrm = _mm256_fnmadd_pd(x, rb, _mm256_fmadd_pd(y, ra, base));
+        let sx = _mm256_fnmadd_pd(u3, y, u1);
+        let sy = _mm256_fmadd_pd(u3, x, u2);
+        let (wx, wy) = (_mm256_sub_pd(vx, sx), _mm256_sub_pd(vy, sy));
+        let q = _mm256_fmadd_pd(wx, wx, _mm256_mul_pd(wy, wy));
+        let sl = _mm256_mul_pd(self.slide[j], nrm);
+        // |w| <= mu N dt, or (stuck) <= mu_s N dt: q <= (stuck ? max(s2, h2) : s2) N^2
+        let limit = _mm256_max_pd(self.s2[j], _mm256_and_pd(self.stuck[j], self.h2[j]));
+        let stick = _mm256_cmp_pd::<_CMP_LE_OQ>(q, _mm256_mul_pd(limit, _mm256_mul_pd(nrm, nrm)));
+        let flying = if FLY {
+            let mut up = _mm256_cmp_pd::<_CMP_LT_OQ>(nrm, zero);
+            if self.airborne[j] {
+                let h = _mm256_maskload_pd(air.h.as_ptr().add(at), self.live[j]);
+                up = _mm256_or_pd(up, _mm256_cmp_pd::<_CMP_GT_OQ>(h, zero));
+            }
+            _mm256_and_pd(up, a)
+        } else {
+            zero
+        };
+        let slides = _mm256_andnot_pd(flying, _mm256_andnot_pd(stick, a));
+        let keep = _mm256_and_pd(slides, _mm256_fnmadd_pd(sl, rsqrt(q, slides), one));
+        let mut nvx = _mm256_fmadd_pd(wx, keep, sx);
+        let mut nvy = _mm256_fmadd_pd(wy, keep, sy);
+        if FLY && _mm256_movemask_pd(flying) != 0 {
+            let live = self.live[j];
+            let (ph, phv, pf) = (
+                air.h.as_mut_ptr().add(at),
+                air.hv.as_mut_ptr().add(at),
+                air.flight.as_mut_ptr().add(at),
             );
-            let mut up_now = _mm256_cmp_pd::<_CMP_LT_OQ>(nrm, zero);
-            if airborne[j] {
-                let h = _mm256_maskload_pd(ph, live[j]);
-                up_now = _mm256_or_pd(up_now, _mm256_cmp_pd::<_CMP_GT_OQ>(h, zero));
-            }
-            let flying = _mm256_and_pd(up_now, a);
-            let sx = _mm256_fnmadd_pd(u3, y[j], u1);
-            let sy = _mm256_fmadd_pd(u3, x[j], u2);
-            let (wx, wy) = (_mm256_sub_pd(vx[j], sx), _mm256_sub_pd(vy[j], sy));
-            let q = _mm256_fmadd_pd(wx, wx, _mm256_mul_pd(wy, wy));
-            let sl = _mm256_mul_pd(slide[j], nrm);
-            let n2 = _mm256_mul_pd(nrm, nrm);
-            let stick = _mm256_or_pd(
-                _mm256_cmp_pd::<_CMP_LE_OQ>(q, _mm256_mul_pd(sl, sl)),
-                _mm256_and_pd(
-                    stuck[j],
-                    _mm256_cmp_pd::<_CMP_LE_OQ>(q, _mm256_mul_pd(h2[j], n2)),
-                ),
+            let dt = _mm256_set1_pd(steps.dt);
+            let (h, hv) = (_mm256_maskload_pd(ph, live), _mm256_maskload_pd(phv, live));
+            let rate = _mm256_fnmadd_pd(nrm, dt, hv);
+            let height = _mm256_fmadd_pd(rate, dt, h);
+            let up = _mm256_and_pd(flying, _mm256_cmp_pd::<_CMP_GT_OQ>(height, zero));
+            nvx = _mm256_blendv_pd(nvx, vx, flying);
+            nvy = _mm256_blendv_pd(nvy, vy, flying);
+            let h = _mm256_blendv_pd(h, _mm256_and_pd(up, height), flying);
+            _mm256_maskstore_pd(ph, live, h);
+            _mm256_maskstore_pd(
+                phv,
+                live,
+                _mm256_blendv_pd(hv, _mm256_and_pd(up, rate), flying),
             );
-            let slides = _mm256_andnot_pd(flying, _mm256_andnot_pd(stick, a));
-            let keep = _mm256_and_pd(slides, _mm256_fnmadd_pd(sl, rsqrt(q, slides), one));
-            let mut nvx = _mm256_fmadd_pd(wx, keep, sx);
-            let mut nvy = _mm256_fmadd_pd(wy, keep, sy);
-            if _mm256_movemask_pd(flying) != 0 {
-                let pf = air.flight.as_mut_ptr().add(at(j));
-                let (h, hv) = (
-                    _mm256_maskload_pd(ph, live[j]),
-                    _mm256_maskload_pd(phv, live[j]),
-                );
-                let rate = _mm256_fnmadd_pd(nrm, dt, hv);
-                let height = _mm256_fmadd_pd(rate, dt, h);
-                let up = _mm256_and_pd(flying, _mm256_cmp_pd::<_CMP_GT_OQ>(height, zero));
-                nvx = _mm256_blendv_pd(nvx, vx[j], flying);
-                nvy = _mm256_blendv_pd(nvy, vy[j], flying);
-                let h = _mm256_blendv_pd(h, _mm256_and_pd(up, height), flying);
-                _mm256_maskstore_pd(ph, live[j], h);
-                _mm256_maskstore_pd(
-                    phv,
-                    live[j],
-                    _mm256_blendv_pd(hv, _mm256_and_pd(up, rate), flying),
-                );
-                let flown =
-                    _mm256_add_pd(_mm256_maskload_pd(pf, live[j]), _mm256_and_pd(flying, one));
-                _mm256_maskstore_pd(pf, live[j], flown);
-                airborne[j] = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GT_OQ>(h, zero)) != 0;
-            }
-            let nx = _mm256_fmadd_pd(_mm256_add_pd(vx[j], nvx), hdt, x[j]);
-            let ny = _mm256_fmadd_pd(_mm256_add_pd(vy[j], nvy), hdt, y[j]);
-            if !EDGE {
-                (x[j], y[j], vx[j], vy[j]) = (nx, ny, nvx, nvy);
-                stuck[j] = _mm256_andnot_pd(flying, stick);
-                continue;
-            }
-            // parts that left the plate keep their state
-            x[j] = _mm256_blendv_pd(x[j], nx, a);
-            y[j] = _mm256_blendv_pd(y[j], ny, a);
-            vx[j] = _mm256_blendv_pd(vx[j], nvx, a);
-            vy[j] = _mm256_blendv_pd(vy[j], nvy, a);
-            stuck[j] = _mm256_blendv_pd(stuck[j], _mm256_andnot_pd(flying, stick), a);
-            let off = _mm256_and_pd(
-                _mm256_or_pd(
-                    _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_and_pd(nx, abs), halfv),
-                    _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_and_pd(ny, abs), halfv),
-                ),
-                a,
-            );
-            let bits = _mm256_movemask_pd(off);
-            if bits != 0 {
-                act[j] = _mm256_andnot_pd(off, a);
-                mark_left(bits, l.left, at(j), steps.first + k + 1);
-            }
+            let flown = _mm256_add_pd(_mm256_maskload_pd(pf, live), _mm256_and_pd(flying, one));
+            _mm256_maskstore_pd(pf, live, flown);
+            self.airborne[j] = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GT_OQ>(h, zero)) != 0;
+        }
+        let nx = _mm256_fmadd_pd(_mm256_add_pd(vx, nvx), hdt, x);
+        let ny = _mm256_fmadd_pd(_mm256_add_pd(vy, nvy), hdt, y);
+        let stuck = if FLY {
+            _mm256_andnot_pd(flying, stick)
+        } else {
+            stick
+        };
+        if !EDGE {
+            (self.x[j], self.y[j], self.vx[j], self.vy[j]) = (nx, ny, nvx, nvy);
+            self.stuck[j] = stuck;
+            return;
+        }
+        // parts that left the plate keep their state
+        self.x[j] = _mm256_blendv_pd(x, nx, a);
+        self.y[j] = _mm256_blendv_pd(y, ny, a);
+        self.vx[j] = _mm256_blendv_pd(vx, nvx, a);
+        self.vy[j] = _mm256_blendv_pd(vy, nvy, a);
+        self.stuck[j] = _mm256_blendv_pd(self.stuck[j], stuck, a);
+        let abs = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
+        let halfv = _mm256_set1_pd(steps.half);
+        let off = _mm256_and_pd(
+            _mm256_or_pd(
+                _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_and_pd(nx, abs), halfv),
+                _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_and_pd(ny, abs), halfv),
+            ),
+            a,
+        );
+        let bits = _mm256_movemask_pd(off);
+        if bits != 0 {
+            self.act[j] = _mm256_andnot_pd(off, a);
+            mark_left(bits, left, at, now);
         }
     }
-    for j in 0..T {
-        let k = live[j];
-        let store =
-            |a: &mut [f64], v: __m256d| _mm256_maskstore_pd(a.as_mut_ptr().add(at(j)), k, v);
-        store(l.x, x[j]);
-        store(l.y, y[j]);
-        store(l.vx, vx[j]);
-        store(l.vy, vy[j]);
-        store(l.stuck, _mm256_and_pd(stuck[j], one));
-        store(l.active, _mm256_and_pd(act[j], one));
-    }
-    T
 }
