@@ -39,6 +39,7 @@ from .plan import (
     sustain_for_displacement,
     trim_rests,
 )
+from .polygon import Polygon
 from .ppod import (
     PPOD_FIELDS,
     PPOD_SEQUENCES,
@@ -83,6 +84,7 @@ __all__ = [
     "PlanWarning",
     "PlateMotion",
     "Point",
+    "Polygon",
     "PredictivePlanner",
     "Pulse",
     "RankWarning",

@@ -198,6 +198,14 @@ def _parts(parts: Any) -> tuple[Any, ...]:
     radius: np.ndarray | None
     angle: np.ndarray | None
     spin: np.ndarray | None
+    from .polygon import Polygon
+
+    if isinstance(parts, (list, tuple)) and any(isinstance(p, Polygon) for p in parts):
+        k = next(i for i, p in enumerate(parts) if isinstance(p, Polygon))
+        raise ParameterError(
+            f"part {k} is a upm.Polygon: simulate does not step polygon parts yet (points and disks "
+            "only); Polygon.wrench gives a polygon's friction"
+        )
     if isinstance(parts, (list, tuple)) and parts and all(isinstance(p, (Point, Disk)) for p in parts):
         pos = as_float("parts[i].position", [p.position for p in parts])
         vel = as_float("parts[i].velocity", [p.velocity for p in parts])

@@ -21,6 +21,7 @@
 //! * [`solve`]: the sequencing-rotations and displacement-field solvers (SVD, bounded, ordered).
 //! * [`parallel`]: deterministic batches on rayon.
 //! * [`stroke`]: the largest plate-corner excursion of many pulses at once.
+//! * [`polygon`]: convex polygon parts and their exact friction wrench (docs/spec.md §11).
 //! * [`ppod`]: velocity fields (drift and asymptotic) of a plate that moves out of its plane
 //!   ([`motion::spatial`], docs/spec.md §10).
 #![deny(missing_docs)]
@@ -36,6 +37,7 @@ pub mod mchip;
 pub mod motion;
 pub mod parallel;
 pub mod plan;
+pub mod polygon;
 pub mod ppod;
 pub(crate) mod quadrature;
 pub(crate) mod roots;

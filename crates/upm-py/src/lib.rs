@@ -9,6 +9,7 @@ mod errors;
 mod mchip;
 mod motion;
 mod plan;
+mod polygon;
 mod ppod;
 mod solve;
 mod vision;
@@ -467,6 +468,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(solve::jet_field, m)?)?;
     m.add_function(wrap_pyfunction!(solve::average_field, m)?)?;
     m.add_function(wrap_pyfunction!(ppod::drift_field, m)?)?;
+    m.add_function(wrap_pyfunction!(polygon::polygon_geometry, m)?)?;
+    m.add_function(wrap_pyfunction!(polygon::polygon_wrench, m)?)?;
     m.add_function(wrap_pyfunction!(ppod::asymptotic_field, m)?)?;
     m.add_function(wrap_pyfunction!(force_table, m)?)?;
     m.add_function(wrap_pyfunction!(disk_friction, m)?)?;

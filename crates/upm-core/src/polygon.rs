@@ -1,0 +1,361 @@
+//! Convex polygon parts under uniform pressure: their geometry and the exact friction wrench of
+//! any relative planar motion (docs/spec.md §11).
+//!
+//! A part moving over the plate with relative twist `(V, Omega)` at its centroid (its velocity
+//! less the plate surface's, and its spin less the plate's) slides at `u(r) = V + Omega z x r`
+//! under the point `r` from the centroid. Under uniform pressure `p = N / A` the friction force
+//! and moment about the centroid are
+//!
+//! ```text
+//! F = -mu p ∫ u/|u| dA        M = -mu p ∫ r x u/|u| dA
+//! ```
+//!
+//! [`Polygon::wrench`] returns them divided by `mu N` (`F` dimensionless, `M` in metres). When
+//! `Omega != 0` the motion is a rotation about the instantaneous centre `r0`, `u = Omega z x (r -
+//! r0)`, and both integrals follow from `∫ |r - r0| dA` and `∫ (r - r0)/|r - r0| dA`, which have
+//! closed forms over the triangles that fan from `r0` to each edge ([`Polygon::moments`]): no
+//! quadrature, exact to rounding. When `r0` is far from the part (more than [`FAR`] times its
+//! radius, or a pure translation) the fan's triangles cancel each other and the closed forms
+//! lose digits, while the integrand is nearly constant over the part: Gauss–Legendre quadrature
+//! over the triangles that fan from the centroid is then exact to rounding instead.
+
+use crate::error::{Error, Result};
+
+/// Beyond this many part radii the instantaneous centre is "far" (quadrature, see the module).
+pub const FAR: f64 = 1e3;
+
+/// Relative size under which a turn between consecutive edges counts as straight (a degenerate
+/// vertex).
+const STRAIGHT: f64 = 1e-12;
+
+/// A convex polygon with its vertices counter-clockwise about its centroid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Polygon {
+    /// Vertices relative to the centroid, counter-clockwise [m].
+    pub vertices: Vec<[f64; 2]>,
+    /// Where the centroid is in the frame the vertices were given in [m].
+    pub centroid: [f64; 2],
+    /// Area [m²].
+    pub area: f64,
+    /// Polar second moment of area about the centroid, `∫ |r|² dA` [m⁴]: the moment of inertia
+    /// is `mass * polar / area`.
+    pub polar: f64,
+    /// Largest distance of a vertex from the centroid [m].
+    pub radius: f64,
+}
+
+fn cross(a: [f64; 2], b: [f64; 2]) -> f64 {
+    a[0] * b[1] - a[1] * b[0]
+}
+
+fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [a[0] - b[0], a[1] - b[1]]
+}
+
+impl Polygon {
+    /// A polygon from its vertices in the part's frame, counter-clockwise. Refused, naming
+    /// `name` (the vertices' name) and the reason: fewer than 3 vertices, non-finite coordinates, clockwise order,
+    /// repeated or collinear vertices (zero area included), a non-convex outline.
+    pub fn new(name: &str, vertices: &[[f64; 2]]) -> Result<Self> {
+        let bad = |why: String| Err(Error::parameter(name, why));
+        let n = vertices.len();
+        if n < 3 {
+            return bad(format!("need at least 3 points; got {n}"));
+        }
+        if let Some(k) = vertices
+            .iter()
+            .position(|v| !v[0].is_finite() || !v[1].is_finite())
+        {
+            return bad(format!("must be finite; point {k} is {:?}", vertices[k]));
+        }
+        let scale = vertices
+            .iter()
+            .map(|v| v[0].abs().max(v[1].abs()))
+            .fold(0.0, f64::max);
+        if scale == 0.0 {
+            return bad("all lie at one point".into());
+        }
+        // shoelace area and the turn at every vertex, relative to the polygon's size
+        let (mut twice, mut cx, mut cy) = (0.0, 0.0, 0.0);
+        for k in 0..n {
+            let (a, b) = (vertices[k], vertices[(k + 1) % n]);
+            let c = cross(a, b);
+            twice += c;
+            cx += (a[0] + b[0]) * c;
+            cy += (a[1] + b[1]) * c;
+        }
+        if twice <= STRAIGHT * scale * scale {
+            return if twice < -STRAIGHT * scale * scale {
+                bad("run clockwise; give them counter-clockwise".into())
+            } else {
+                bad("enclose no area (they are collinear)".into())
+            };
+        }
+        for k in 0..n {
+            let (a, b, c) = (vertices[k], vertices[(k + 1) % n], vertices[(k + 2) % n]);
+            let (e, f) = (sub(b, a), sub(c, b));
+            let turn = cross(e, f);
+            let size = e[0].hypot(e[1]) * f[0].hypot(f[1]);
+            let at = (k + 1) % n;
+            if size <= STRAIGHT * scale * scale {
+                return bad(format!("repeat point {at} {:?}", vertices[at]));
+            }
+            if turn <= STRAIGHT * size {
+                return if turn < -STRAIGHT * size {
+                    bad(format!(
+                        "are not convex: the outline turns clockwise at point {at} {:?}",
+                        vertices[at]
+                    ))
+                } else {
+                    bad(format!(
+                        "have point {at} {:?} on a straight line between its neighbours",
+                        vertices[at]
+                    ))
+                };
+            }
+        }
+        // a convex outline turns once: the edges' directions must not wind twice
+        let mut winding = 0.0;
+        for k in 0..n {
+            let (a, b, c) = (vertices[k], vertices[(k + 1) % n], vertices[(k + 2) % n]);
+            let (e, f) = (sub(b, a), sub(c, b));
+            winding += cross(e, f).atan2(e[0] * f[0] + e[1] * f[1]);
+        }
+        if winding > 3.0 * std::f64::consts::PI {
+            return bad("are not convex: the outline crosses itself".into());
+        }
+        let area = 0.5 * twice;
+        let centroid = [cx / (3.0 * twice), cy / (3.0 * twice)];
+        let vertices: Vec<[f64; 2]> = vertices.iter().map(|&v| sub(v, centroid)).collect();
+        let mut polar = 0.0;
+        for k in 0..n {
+            let (a, b) = (vertices[k], vertices[(k + 1) % n]);
+            let dot =
+                a[0] * a[0] + a[0] * b[0] + b[0] * b[0] + a[1] * a[1] + a[1] * b[1] + b[1] * b[1];
+            polar += cross(a, b) * dot / 12.0;
+        }
+        let radius = vertices
+            .iter()
+            .map(|v| v[0].hypot(v[1]))
+            .fold(0.0, f64::max);
+        Ok(Self {
+            vertices,
+            centroid,
+            area,
+            polar,
+            radius,
+        })
+    }
+
+    /// `(∫ |r - r0| dA, ∫ (r - r0)/|r - r0| dA)` over the polygon, `r0` relative to the centroid:
+    /// the sums over the edges of the triangles that fan from `r0` (signed: a triangle turning
+    /// clockwise about `r0` counts negatively), each in closed form.
+    pub fn moments(&self, r0: [f64; 2]) -> (f64, [f64; 2]) {
+        let n = self.vertices.len();
+        let (mut dist, mut ux, mut uy) = (0.0, 0.0, 0.0);
+        for k in 0..n {
+            let a = sub(self.vertices[k], r0);
+            let b = sub(self.vertices[(k + 1) % n], r0);
+            let d = sub(b, a);
+            let len = (d[0] * d[0] + d[1] * d[1]).sqrt(); // r0 is within FAR radii: no overflow
+            let e = [d[0] / len, d[1] / len];
+            // the edge's line: p = h n + t e, n = (e_y, -e_x), h signed (> 0: r0 on its inner side)
+            let h = cross(a, b) / len;
+            if h == 0.0 {
+                continue; // r0 on the edge's line: a triangle of no area
+            }
+            let (ta, tb) = (a[0] * e[0] + a[1] * e[1], b[0] * e[0] + b[1] * e[1]);
+            let (ra, rb) = (
+                (a[0] * a[0] + a[1] * a[1]).sqrt(),
+                (b[0] * b[0] + b[1] * b[1]).sqrt(),
+            );
+            // rb - ra and asinh(tb/|h|) - asinh(ta/|h|) without cancellation
+            let drho = if ra + rb > 0.0 {
+                (d[0] * (a[0] + b[0]) + d[1] * (a[1] + b[1])) / (ra + rb)
+            } else {
+                0.0
+            };
+            let hh = h.abs();
+            let dasinh = if ta * tb > 0.0 {
+                // asinh x - asinh y = asinh(x sqrt(1 + y²) - y sqrt(1 + x²)), tb - ta = len
+                (len * (ta + tb).abs() / (tb.abs() * ra + ta.abs() * rb)).asinh()
+            } else {
+                (tb / hh).asinh() - (ta / hh).asinh()
+            };
+            // ∫ |p| dA = (h/3) ∫ sqrt(h² + t²) dt = (h/6) [t rho + h² asinh(t/|h|)]
+            dist += h / 6.0 * (len * rb + ta * drho + h * h * dasinh);
+            // ∫ p/|p| dA = (h/2) ∫ (h n + t e)/rho dt = (h/2) [h n asinh(t/|h|) + e rho]
+            let nrm = [e[1], -e[0]];
+            ux += 0.5 * h * (h * nrm[0] * dasinh + e[0] * drho);
+            uy += 0.5 * h * (h * nrm[1] * dasinh + e[1] * drho);
+        }
+        (dist, [ux, uy])
+    }
+
+    /// The friction wrench `(Fx, Fy, M) / (mu N)` on the part sliding with relative twist
+    /// `(v, omega)` at its centroid (module docs); zero at no relative motion, where friction
+    /// is whatever holds the part.
+    pub fn wrench(&self, v: [f64; 2], omega: f64) -> [f64; 3] {
+        let speed = v[0].hypot(v[1]);
+        if omega == 0.0 && speed == 0.0 {
+            return [0.0; 3];
+        }
+        if omega == 0.0 || speed > FAR * self.radius * omega.abs() {
+            return self.wrench_quadrature(v, omega);
+        }
+        let r0 = [-v[1] / omega, v[0] / omega];
+        let (dist, [ux, uy]) = self.moments(r0);
+        // u/|u| = sign(omega) z x (r - r0)/|r - r0|; r x (z x d) = (r . d) z
+        let s = omega.signum() / self.area;
+        [s * uy, -s * ux, -s * (dist + r0[0] * ux + r0[1] * uy)]
+    }
+
+    /// [`Polygon::wrench`] by Gauss–Legendre quadrature (8 x 8 points on each triangle fanning
+    /// from the centroid): exact to rounding where `u/|u|` is nearly constant over the part.
+    pub fn wrench_quadrature(&self, v: [f64; 2], omega: f64) -> [f64; 3] {
+        let n = self.vertices.len();
+        let (mut fx, mut fy, mut m) = (0.0, 0.0, 0.0);
+        for k in 0..n {
+            let (a, b) = (self.vertices[k], self.vertices[(k + 1) % n]);
+            let jac = cross(a, b);
+            for (&s, &ws) in GAUSS_X.iter().zip(&GAUSS_W) {
+                for (&t, &wt) in GAUSS_X.iter().zip(&GAUSS_W) {
+                    // the triangle (0, a, b) as s (a + t (b - a)), dA = s |a x b| ds dt
+                    let r = [
+                        s * (a[0] + t * (b[0] - a[0])),
+                        s * (a[1] + t * (b[1] - a[1])),
+                    ];
+                    let u = [v[0] - omega * r[1], v[1] + omega * r[0]];
+                    let norm = u[0].hypot(u[1]);
+                    if norm == 0.0 {
+                        continue;
+                    }
+                    let w = ws * wt * s * jac / norm;
+                    fx -= w * u[0];
+                    fy -= w * u[1];
+                    m -= w * cross(r, u);
+                }
+            }
+        }
+        [fx / self.area, fy / self.area, m / self.area]
+    }
+
+    /// Mean distance from the centroid, `∫ |r| dA / A` [m]: the largest friction moment about
+    /// the centroid is this times `mu N` (a part spinning in place).
+    pub fn mean_distance(&self) -> f64 {
+        self.moments([0.0, 0.0]).0 / self.area
+    }
+}
+
+/// Gauss–Legendre nodes on [0, 1], 8 points.
+const GAUSS_X: [f64; 8] = [
+    0.019_855_071_751_231_856,
+    0.101_666_761_293_186_63,
+    0.237_233_795_041_835_5,
+    0.408_282_678_752_175_1,
+    0.591_717_321_247_825,
+    0.762_766_204_958_164_5,
+    0.898_333_238_706_813_4,
+    0.980_144_928_248_768_1,
+];
+
+/// Gauss–Legendre weights on [0, 1], 8 points.
+const GAUSS_W: [f64; 8] = [
+    0.050_614_268_145_188_13,
+    0.111_190_517_226_687_24,
+    0.156_853_322_938_943_64,
+    0.181_341_891_689_181,
+    0.181_341_891_689_181,
+    0.156_853_322_938_943_64,
+    0.111_190_517_226_687_24,
+    0.050_614_268_145_188_13,
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn regular(n: usize, circumradius: f64) -> Polygon {
+        let v: Vec<[f64; 2]> = (0..n)
+            .map(|k| {
+                let a = 2.0 * std::f64::consts::PI * k as f64 / n as f64;
+                [circumradius * a.cos() + 0.3, circumradius * a.sin() - 0.2]
+            })
+            .collect();
+        Polygon::new("part", &v).unwrap()
+    }
+
+    #[test]
+    fn spinning_in_place_gives_the_closed_forms() {
+        let square = Polygon::new("s", &[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]).unwrap();
+        let sq = (2f64.sqrt() + (1.0 + 2f64.sqrt()).ln()) / 6.0;
+        assert!((square.mean_distance() - sq).abs() < 1e-15);
+        assert!((sq - 0.382598).abs() < 1e-6);
+        let w = square.wrench([0.0, 0.0], 3.0);
+        assert!(w[0].abs() < 1e-15 && w[1].abs() < 1e-15 && (w[2] + sq).abs() < 1e-15);
+        let s3 = 3f64.sqrt();
+        let tri = Polygon::new("t", &[[0.0, 0.0], [1.0, 0.0], [0.5, s3 / 2.0]]).unwrap();
+        let t = (2.0 * s3 + (2.0 + s3).ln()) / 18.0;
+        assert!((tri.mean_distance() - t).abs() < 1e-15 && (t - 0.265614).abs() < 1e-6);
+        // regular n-gon of inradius h: (h/3)(sec f + ln(sec f + tan f)/tan f), f = pi/n
+        for n in [5, 6, 8, 64] {
+            let p = regular(n, 0.02);
+            let f = std::f64::consts::PI / n as f64;
+            let h = 0.02 * f.cos();
+            let want = h / 3.0 * (1.0 / f.cos() + (1.0 / f.cos() + f.tan()).ln() / f.tan());
+            assert!((p.mean_distance() - want).abs() < 1e-15, "n {n}");
+        }
+        // many sides: the disk's 2R/3
+        let p = regular(4096, 1.0);
+        assert!((p.mean_distance() - 2.0 / 3.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn translation_is_mu_n_against_the_motion_without_moment() {
+        let p = Polygon::new("p", &[[0.0, 0.0], [0.03, 0.0], [0.04, 0.02], [0.0, 0.01]]).unwrap();
+        let w = p.wrench([0.3, -0.4], 0.0);
+        assert!((w[0] + 0.6).abs() < 1e-15 && (w[1] - 0.8).abs() < 1e-15 && w[2].abs() < 1e-16);
+    }
+
+    #[test]
+    fn the_closed_form_and_the_quadrature_agree_where_both_hold() {
+        let p = Polygon::new("p", &[[0.0, 0.0], [0.03, 0.0], [0.04, 0.02], [0.0, 0.01]]).unwrap();
+        // an instantaneous centre 50 to 1000 radii away: the quadrature converges fast there
+        for far in [50.0, 200.0, 999.0] {
+            let omega = 2.0;
+            let v = [0.0, -omega * far * p.radius];
+            let (a, b) = (p.wrench(v, omega), p.wrench_quadrature(v, omega));
+            for k in 0..3 {
+                assert!((a[k] - b[k]).abs() < 1e-11, "far {far}: {a:?} vs {b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn bad_outlines_are_refused_with_the_reason() {
+        let msg = |v: &[[f64; 2]]| {
+            Polygon::new("parts[2].vertices", v)
+                .unwrap_err()
+                .to_string()
+        };
+        assert!(msg(&[[0.0, 0.0], [1.0, 0.0]]).contains("at least 3"));
+        assert!(msg(&[[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]]).contains("clockwise"));
+        assert!(msg(&[[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]).contains("no area"));
+        assert!(
+            msg(&[[0.0, 0.0], [2.0, 0.0], [1.0, 0.2], [2.0, 2.0], [0.0, 2.0]])
+                .contains("not convex")
+        );
+        assert!(msg(&[[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [1.0, 1.0]]).contains("straight line"));
+        assert!(msg(&[[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [1.0, 1.0]]).contains("repeat point"));
+        assert!(msg(&[[0.0, 0.0], [f64::NAN, 0.0], [1.0, 1.0]]).contains("must be finite; point 1"));
+        // a pentagram's points in star order turn the same way at every vertex but wind twice
+        let star: Vec<[f64; 2]> = (0..5)
+            .map(|k| {
+                let a = 4.0 * std::f64::consts::PI * k as f64 / 5.0;
+                [a.cos(), a.sin()]
+            })
+            .collect();
+        assert!(msg(&star).contains("crosses itself"));
+        assert!(msg(&[[0.0, 0.0], [1.0, 0.0]]).starts_with("parts[2].vertices need"));
+    }
+}

@@ -1,0 +1,83 @@
+//! Binding of convex polygon parts (`upm_core::polygon`).
+
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyTuple;
+use upm_core::polygon::Polygon;
+
+use crate::errors::{batch_on, core, shape_error};
+use crate::pairs;
+
+/// Twists per task: the unit of parallel work and of the Ctrl-C check.
+const CHUNK: usize = 256;
+
+fn polygon(py: Python<'_>, name: &str, vertices: &PyReadonlyArray2<'_, f64>) -> PyResult<Polygon> {
+    let v = pairs(py, name, vertices)?;
+    core(py, Polygon::new(name, &v))
+}
+
+/// `(area, centroid (2,), polar, radius, mean_distance, vertices (K, 2) about the centroid)` of
+/// the polygon `vertices (K, 2)`; `ParameterError` naming `name` and the reason if it is not a
+/// convex counter-clockwise polygon.
+#[pyfunction]
+#[pyo3(signature = (vertices, name="vertices"))]
+pub fn polygon_geometry<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f64>,
+    name: &str,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let p = polygon(py, name, &vertices)?;
+    let k = p.vertices.len();
+    let centred = PyArray1::from_iter(py, p.vertices.iter().flatten().copied()).reshape([k, 2])?;
+    PyTuple::new(
+        py,
+        [
+            p.area.into_pyobject(py)?.into_any(),
+            PyArray1::from_vec(py, p.centroid.to_vec()).into_any(),
+            p.polar.into_pyobject(py)?.into_any(),
+            p.radius.into_pyobject(py)?.into_any(),
+            p.mean_distance().into_pyobject(py)?.into_any(),
+            centred.into_any(),
+        ],
+    )
+}
+
+/// The friction wrench `(Fx, Fy, M) / (mu N)`, `(M, 3)`, of the polygon `vertices (K, 2)` sliding
+/// with the relative twists `twists (M, 3)` (`vx, vy, omega` at its centroid), in parallel.
+#[pyfunction]
+#[pyo3(signature = (vertices, twists, threads=None))]
+pub fn polygon_wrench<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f64>,
+    twists: PyReadonlyArray2<'py, f64>,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let p = polygon(py, "vertices", &vertices)?;
+    let t = twists.as_array();
+    if t.shape()[1] != 3 {
+        return Err(shape_error(
+            py,
+            format!("twists must have shape (M, 3); got {:?}", t.shape()),
+        ));
+    }
+    let rows: Vec<[f64; 3]> = t.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect();
+    let m = rows.len();
+    let out = batch_on(py, m.div_ceil(CHUNK), threads, |c| {
+        rows[c * CHUNK..((c + 1) * CHUNK).min(m)]
+            .iter()
+            .enumerate()
+            .map(|(i, &[vx, vy, w])| {
+                if !(vx.is_finite() && vy.is_finite() && w.is_finite()) {
+                    return Err(upm_core::Error::parameter(
+                        "twists",
+                        format!("must be finite; row {} is {:?}", c * CHUNK + i, [vx, vy, w]),
+                    ));
+                }
+                Ok(p.wrench([vx, vy], w))
+            })
+            .collect::<upm_core::Result<Vec<[f64; 3]>>>()
+    })?;
+    Ok(PyArray1::from_iter(py, out.into_iter().flatten().flatten())
+        .reshape([m, 3])?
+        .into_any())
+}

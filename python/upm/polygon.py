@@ -1,0 +1,152 @@
+"""Convex polygon parts: their geometry and the exact friction wrench of any relative motion
+(docs/spec.md §11, docs/polygons.md).
+
+Under uniform pressure the friction of a part that slides with relative twist ``(V, omega)`` at its
+centroid is ``F = -mu p ∫ u/|u| dA`` and ``M = -mu p ∫ r x u/|u| dA`` with ``u(r) = V + omega z x
+r``. :meth:`Polygon.wrench` evaluates both exactly (closed forms over triangles fanning from the
+instantaneous centre of rotation, computed in Rust), in parallel over many twists.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from . import _core
+from ._arrays import as_float, real
+from ._arrays import threads as pool
+from ._errors import ParameterError, ShapeError
+
+__all__ = ["Polygon"]
+
+FloatArray = NDArray[np.float64]
+
+
+def _pair(name: str, value: Any) -> tuple[float, float]:
+    a = as_float(name, value)
+    if a.shape != (2,) or not np.all(np.isfinite(a)):
+        raise ParameterError(f"{name} must be two finite numbers (x, y); got {value!r}")
+    return float(a[0]), float(a[1])
+
+
+@dataclass(frozen=True, eq=False)
+class Polygon:
+    """A flat convex polygon part pressing uniformly on the plate.
+
+    ``vertices`` ``(K, 2)`` [m] in the part's frame, counter-clockwise; ``position`` [m] of the
+    frame's origin on the plate and ``angle`` [rad] of the frame; ``velocity`` [m/s] of the
+    centroid and ``spin`` [rad/s]; ``mass`` (any unit, only ratios matter; by default
+    proportional to the area). A polygon that is not convex, turns clockwise, repeats a vertex,
+    has three collinear vertices or no area is refused with :class:`upm.ParameterError` naming
+    the reason.
+
+    Not yet taken by :func:`upm.simulate` (the stick–slip step of polygons is to come); its
+    friction is :meth:`wrench`.
+    """
+
+    vertices: Any
+    position: tuple[float, float] = (0.0, 0.0)
+    angle: float = 0.0
+    velocity: tuple[float, float] = (0.0, 0.0)
+    spin: float = 0.0
+    mass: float | None = None
+    _geometry: tuple[Any, ...] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        v = as_float("vertices", self.vertices)
+        if v.ndim != 2 or v.shape[1] != 2:
+            raise ShapeError(f"vertices must have shape (K, 2) with K >= 3; got {v.shape}")
+        v = np.ascontiguousarray(v)
+        v.setflags(write=False)
+        geometry = _core.polygon_geometry(v, "vertices")
+        set_ = object.__setattr__
+        set_(self, "vertices", v)
+        set_(self, "_geometry", geometry)
+        set_(self, "position", _pair("position", self.position))
+        set_(self, "velocity", _pair("velocity", self.velocity))
+        set_(self, "angle", real("angle", self.angle))
+        set_(self, "spin", real("spin", self.spin))
+        if self.mass is not None:
+            set_(self, "mass", real("mass", self.mass, low=0.0, low_open=True))
+
+    # -- shapes --------------------------------------------------------------------------------
+    @classmethod
+    def regular(cls, sides: int, circumradius: float, **state: Any) -> Polygon:
+        """A regular polygon of ``sides`` sides centred on its frame's origin, a vertex on the
+        frame's x axis."""
+        if isinstance(sides, bool) or not isinstance(sides, (int, np.integer)) or not 3 <= sides <= 100_000:
+            raise ParameterError(f"sides must be an integer from 3 to 100000; got {sides!r}")
+        r = real("circumradius", circumradius, low=0.0, low_open=True)
+        a = 2 * np.pi * np.arange(int(sides)) / int(sides)
+        return cls(np.stack([r * np.cos(a), r * np.sin(a)], axis=1), **state)
+
+    @classmethod
+    def rectangle(cls, width: float, height: float, **state: Any) -> Polygon:
+        """A ``width`` x ``height`` rectangle centred on its frame's origin, ``width`` along x."""
+        w = real("width", width, low=0.0, low_open=True) / 2
+        h = real("height", height, low=0.0, low_open=True) / 2
+        return cls([(-w, -h), (w, -h), (w, h), (-w, h)], **state)
+
+    # -- geometry ------------------------------------------------------------------------------
+    @property
+    def area(self) -> float:
+        """[m²]."""
+        return float(self._geometry[0])
+
+    @property
+    def centroid(self) -> FloatArray:
+        """Centroid in the part's frame [m]."""
+        out: FloatArray = self._geometry[1].copy()
+        return out
+
+    @property
+    def gyration(self) -> float:
+        """Radius of gyration about the centroid [m]: the moment of inertia is
+        ``mass * gyration**2``."""
+        return math.sqrt(self._geometry[2] / self._geometry[0])
+
+    @property
+    def radius(self) -> float:
+        """Largest distance of a vertex from the centroid [m]."""
+        return float(self._geometry[3])
+
+    @property
+    def mean_distance(self) -> float:
+        """Mean distance of the footprint from the centroid [m]: a part spinning in place on a
+        still plate feels the moment ``mu N mean_distance``."""
+        return float(self._geometry[4])
+
+    def outline(self) -> FloatArray:
+        """The vertices on the plate [m], ``(K, 2)``: turned by ``angle`` and moved to
+        ``position``."""
+        c, s = math.cos(self.angle), math.sin(self.angle)
+        out: FloatArray = self.vertices @ np.array([[c, s], [-s, c]]) + np.asarray(self.position)
+        return out
+
+    # -- friction ------------------------------------------------------------------------------
+    def wrench(
+        self, velocity: ArrayLike, spin: ArrayLike, *, threads: int | None = None
+    ) -> tuple[FloatArray, FloatArray]:
+        """Friction force and moment about the centroid, divided by ``mu N``, on the part sliding
+        with relative ``velocity`` [m/s] ``(..., 2)`` at its centroid and relative ``spin`` [rad/s]
+        ``(...)`` (the part's less the plate surface's), in the part's frame. Returns
+        ``(force (..., 2), moment (...) [m])``; zero where there is no relative motion (friction
+        then holds the part with whatever it needs)."""
+        v = as_float("velocity", velocity)
+        w = as_float("spin", spin)
+        if v.ndim == 0 or v.shape[-1] != 2:
+            raise ShapeError(f"velocity must have shape (..., 2); got {v.shape}")
+        try:
+            shape = np.broadcast_shapes(v.shape[:-1], w.shape)
+        except ValueError:
+            raise ShapeError(f"velocity {v.shape} and spin {w.shape} do not broadcast") from None
+        twists = np.empty((*shape, 3))
+        twists[..., :2] = v
+        twists[..., 2] = w
+        out = _core.polygon_wrench(self._geometry[5], twists.reshape(-1, 3), pool(threads))
+        out = out.reshape(*shape, 3)
+        return out[..., :2], out[..., 2]

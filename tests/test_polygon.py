@@ -1,0 +1,198 @@
+"""Convex polygon parts: geometry, the exact friction wrench against SPEC §11's closed forms, an
+independent quadrature and a brute-force grid written here, the disk's friction as sides grow, and
+bad outlines refused with the reason."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import upm
+from upm import _core
+
+# an irregular convex pentagon (part frame, counter-clockwise, centroid off the origin)
+PENTAGON = np.array([[0.0, 0.0], [0.030, -0.004], [0.041, 0.016], [0.022, 0.031], [-0.006, 0.019]])
+
+
+def test_spinning_in_place_gives_the_spec_constants():
+    for part, side, want in (
+        (upm.Polygon.rectangle(0.02, 0.02), 0.02, 0.382598),
+        (upm.Polygon([(0, 0), (0.03, 0), (0.015, 0.03 * math.sqrt(3) / 2)]), 0.03, 0.265614),
+    ):
+        force, moment = part.wrench((0.0, 0.0), 5.0)
+        assert np.abs(force).max() < 1e-15
+        assert -moment / side == pytest.approx(want, abs=1e-6)  # M / (mu N L)
+        assert part.mean_distance == pytest.approx(-moment, rel=1e-14)
+    exact_square = (math.sqrt(2) + math.log(1 + math.sqrt(2))) / 6
+    assert upm.Polygon.rectangle(1.0, 1.0).mean_distance == pytest.approx(exact_square, rel=1e-14)
+    for n in (5, 6, 8):  # regular n-gon of inradius h: (h/3)(sec f + ln(sec f + tan f)/tan f)
+        f, r = math.pi / n, 0.02
+        h = r * math.cos(f)
+        want = h / 3 * (1 / math.cos(f) + math.log(1 / math.cos(f) + math.tan(f)) / math.tan(f))
+        assert upm.Polygon.regular(n, r).mean_distance == pytest.approx(want, rel=1e-13)
+    # many sides: the disk's 2R/3
+    assert upm.Polygon.regular(2048, 0.01).mean_distance / 0.01 == pytest.approx(2 / 3, rel=1e-5)
+
+
+def test_pure_translation_is_mu_n_against_the_motion_without_moment():
+    part = upm.Polygon(PENTAGON)
+    v = np.array([[0.3, -0.4], [-1e-3, 0.0], [2.0, 5.0]])
+    force, moment = part.wrench(v, np.zeros(3))
+    np.testing.assert_allclose(force, -v / np.hypot(*v.T)[:, None], atol=1e-15)
+    np.testing.assert_allclose(moment, 0.0, atol=1e-16)
+
+
+def reference(vertices, v, w, nodes=80):
+    """Wrench / (mu N) by Gauss–Legendre quadrature over the triangles that fan from the
+    instantaneous centre r0 (u/|u| is then smooth on each; no closed form used)."""
+    c = centroid(vertices)
+    p = vertices - c
+    if w == 0:
+        u = np.asarray(v) / np.hypot(*v)
+        return -u, 0.0
+    r0 = np.array([-v[1] / w, v[0] / w])
+    x, wt = np.polynomial.legendre.leggauss(nodes)
+    s, ws = (x + 1) / 2, wt / 2
+    force, moment, area = np.zeros(2), 0.0, 0.0
+    for a, b in zip(p, np.roll(p, -1, axis=0), strict=True):
+        a_, b_ = a - r0, b - r0
+        jac = a_[0] * b_[1] - a_[1] * b_[0]  # signed: the fan's triangles cancel outside the part
+        # points r0 + s (a_ + t (b_ - a_)), dA = s jac ds dt
+        t = s[:, None]
+        d = a_ + t * (b_ - a_)  # (n, 2) direction along the ray, independent of s
+        unit = d / np.hypot(d[:, 0], d[:, 1])[:, None]
+        uhat = np.sign(w) * np.stack([-unit[:, 1], unit[:, 0]], axis=1)
+        # force: ∫∫ uhat s jac ds dt;  moment: ∫∫ (r0 + s d) x uhat s jac ds dt
+        sw = (ws * s).sum()  # ∫ s ds
+        s2w = (ws * s * s).sum()  # ∫ s² ds
+        force -= jac * sw * (ws[:, None] * uhat).sum(axis=0)
+        cr0 = r0[0] * uhat[:, 1] - r0[1] * uhat[:, 0]
+        cd = d[:, 0] * uhat[:, 1] - d[:, 1] * uhat[:, 0]
+        moment -= jac * (ws * (sw * cr0 + s2w * cd)).sum()
+        area += 0.5 * (a[0] * b[1] - a[1] * b[0])
+    return force / area, moment / area
+
+
+def reference_smooth(vertices, v, w, nodes=40):
+    """The same by tensor Gauss–Legendre over the triangles that fan from the centroid: for an
+    instantaneous centre well outside the part, where u/|u| is smooth over all of it."""
+    p = vertices - centroid(vertices)
+    x, wt = np.polynomial.legendre.leggauss(nodes)
+    s, ws = (x + 1) / 2, wt / 2
+    S, T = np.meshgrid(s, s, indexing="ij")
+    W = np.outer(ws, ws) * S
+    force, moment, area = np.zeros(2), 0.0, 0.0
+    for a, b in zip(p, np.roll(p, -1, axis=0), strict=True):
+        jac = a[0] * b[1] - a[1] * b[0]
+        rx, ry = S * (a[0] + T * (b[0] - a[0])), S * (a[1] + T * (b[1] - a[1]))
+        ux, uy = v[0] - w * ry, v[1] + w * rx
+        norm = np.hypot(ux, uy)
+        force -= jac * np.array([(W * ux / norm).sum(), (W * uy / norm).sum()])
+        moment -= jac * (W * (rx * uy - ry * ux) / norm).sum()
+        area += 0.5 * jac
+    return force / area, moment / area
+
+
+def centroid(v):
+    a, b = v, np.roll(v, -1, axis=0)
+    c = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return np.array([((a[:, 0] + b[:, 0]) * c).sum(), ((a[:, 1] + b[:, 1]) * c).sum()]) / (3 * c.sum())
+
+
+def test_the_wrench_matches_an_independent_quadrature_at_random_motions():
+    part = upm.Polygon(PENTAGON)
+    rng = np.random.default_rng(4)
+    twists = []
+    for scale in (0.1, 1.0, 10.0, 1e3):  # centres inside, near, beyond and far beyond the part
+        for _ in range(6):
+            w = rng.normal() * 20
+            twists.append((*rng.normal(size=2) * 0.02 * abs(w) * scale, w))
+    twists += [(0.0, 0.0, 3.0), (0.1, 0.0, 0.0), (0.0, -0.05, 0.0)]
+    t = np.array(twists)
+    force, moment = part.wrench(t[:, :2], t[:, 2])
+    for k, (vx, vy, w) in enumerate(t):
+        outside = w == 0 or math.hypot(vx, vy) > 3 * part.radius * abs(w)
+        f_ref, m_ref = (reference_smooth if outside else reference)(PENTAGON, (vx, vy), w)
+        assert np.abs(force[k] - f_ref).max() <= 1e-9, (k, force[k], f_ref)
+        assert abs(moment[k] - m_ref) <= 1e-9 * part.radius, (k, moment[k], m_ref)
+    # the set of all friction wrenches is bounded by mu N and mu N * (largest distance)
+    assert np.all(np.hypot(*force.T) <= 1 + 1e-12) and np.all(np.abs(moment) <= part.radius)
+
+
+def test_the_wrench_matches_a_brute_force_grid():
+    part = upm.Polygon(PENTAGON)
+    lo, hi = PENTAGON.min(axis=0), PENTAGON.max(axis=0)
+    n = 1200
+    gx = lo[0] + (np.arange(n) + 0.5) * (hi[0] - lo[0]) / n
+    gy = lo[1] + (np.arange(n) + 0.5) * (hi[1] - lo[1]) / n
+    x, y = (a.ravel() for a in np.meshgrid(gx, gy))
+    inside = np.ones(x.size, dtype=bool)
+    for a, b in zip(PENTAGON, np.roll(PENTAGON, -1, axis=0), strict=True):
+        inside &= (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]) >= 0
+    r = np.stack([x[inside], y[inside]], axis=1) - part.centroid
+    for v, w in (((0.01, 0.02), 4.0), ((0.0, 0.0), -2.0), ((0.3, -0.1), 1.0)):
+        u = np.asarray(v) + w * np.stack([-r[:, 1], r[:, 0]], axis=1)
+        uhat = u / np.hypot(*u.T)[:, None]
+        f_grid = -uhat.mean(axis=0)
+        m_grid = -(r[:, 0] * uhat[:, 1] - r[:, 1] * uhat[:, 0]).mean()
+        force, moment = part.wrench(v, w)
+        np.testing.assert_allclose(force, f_grid, atol=2e-3)
+        assert moment == pytest.approx(m_grid, abs=2e-3 * part.radius)
+
+
+def test_many_sides_tend_to_the_disk():
+    radius = 0.01
+    part = upm.Polygon.regular(1024, radius)
+    phi = np.linspace(0.05, np.pi / 2 - 0.05, 7)  # phi = atan2(R |W|, |w|)
+    v = np.stack([np.cos(phi), np.zeros_like(phi)], axis=1) * 0.1
+    w = np.sin(phi) * 0.1 / radius
+    force, moment = part.wrench(v, w)
+    f_disk, t_disk = _core.disk_friction(phi)
+    np.testing.assert_allclose(np.hypot(*force.T), f_disk, atol=1e-5)
+    np.testing.assert_allclose(-moment / radius, t_disk, atol=1e-5)
+
+
+def test_geometry():
+    part = upm.Polygon.rectangle(0.04, 0.02, position=(0.1, 0.0), angle=math.pi / 2)
+    assert part.area == pytest.approx(8e-4, rel=1e-14)
+    assert part.gyration**2 == pytest.approx((0.04**2 + 0.02**2) / 12, rel=1e-14)  # I = m (a² + b²)/12
+    np.testing.assert_allclose(part.centroid, 0.0, atol=1e-18)
+    np.testing.assert_allclose(part.outline()[0], [0.1 + 0.01, -0.02], atol=1e-15)
+    assert upm.Polygon(PENTAGON).wrench(np.zeros((4, 3, 2)), np.ones((4, 3)))[1].shape == (4, 3)
+
+
+@pytest.mark.parametrize(
+    ("vertices", "reason"),
+    [
+        ([(0, 0), (0, 1), (1, 0)], "clockwise"),
+        ([(0, 0), (1, 0), (2, 0)], "no area"),
+        ([(0, 0), (2, 0), (1, 0.2), (2, 2), (0, 2)], "not convex"),
+        ([(0, 0), (1, 0), (2, 0), (1, 1)], "straight line"),
+        ([(0, 0), (1, 0), (1, 0), (1, 1)], "repeat point 1"),
+        ([(0, 0), (float("nan"), 0), (1, 1)], "finite"),
+        ([(0, 0), (1, 0)], "at least 3"),
+    ],
+)
+def test_bad_outlines_are_refused_with_the_reason(vertices, reason):
+    with pytest.raises(upm.ParameterError, match=reason):
+        upm.Polygon(vertices)
+
+
+def test_bad_arguments():
+    with pytest.raises(upm.ShapeError, match="vertices"):
+        upm.Polygon([1.0, 2.0, 3.0])
+    with pytest.raises(upm.ParameterError, match="sides"):
+        upm.Polygon.regular(2, 0.01)
+    with pytest.raises(upm.ParameterError, match="position"):
+        upm.Polygon(PENTAGON, position=(0.0, float("inf")))
+    with pytest.raises(upm.ParameterError, match="mass"):
+        upm.Polygon(PENTAGON, mass=-1.0)
+    with pytest.raises(upm.ParameterError, match="velocity must be finite"):
+        upm.Polygon(PENTAGON).wrench((np.nan, 0.0), 1.0)
+    with pytest.raises(upm.ShapeError, match="broadcast"):
+        upm.Polygon(PENTAGON).wrench(np.zeros((3, 2)), np.zeros(4))
+    motion = upm.PlateMotion.harmonic(20.0, x=[(1, 10.0, 0.0)])
+    with pytest.raises(upm.ParameterError, match=r"part 1 is a upm\.Polygon"):
+        upm.simulate(motion, [upm.Point((0.0, 0.0)), upm.Polygon(PENTAGON)], duration=0.01, dt=1e-4, mu=0.3)
