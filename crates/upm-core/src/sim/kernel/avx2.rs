@@ -50,6 +50,25 @@ pub(super) unsafe fn rsqrt_lanes(q: [f64; 4]) -> [f64; 4] {
     out
 }
 
+/// The lanes of `active` whose new position `(nx, ny)` is past the plate's half side `half` in x
+/// or y (`abs` clears the sign bit).
+#[inline(always)]
+pub(in crate::sim) unsafe fn leaving(
+    nx: __m256d,
+    ny: __m256d,
+    abs: __m256d,
+    half: __m256d,
+    active: __m256d,
+) -> __m256d {
+    _mm256_and_pd(
+        _mm256_or_pd(
+            _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_and_pd(nx, abs), half),
+            _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_and_pd(ny, abs), half),
+        ),
+        active,
+    )
+}
+
 /// Records step `step` (1-based count) in `left` for the lanes set in `bits` (a movemask) of
 /// the vector at `at`.
 #[inline]
@@ -160,13 +179,7 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
                 vx[j] = _mm256_blendv_pd(vx[j], nvx, a);
                 vy[j] = _mm256_blendv_pd(vy[j], nvy, a);
                 stuck[j] = _mm256_blendv_pd(stuck[j], stick, a);
-                let off = _mm256_and_pd(
-                    _mm256_or_pd(
-                        _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_and_pd(nx, abs), halfv),
-                        _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_and_pd(ny, abs), halfv),
-                    ),
-                    a,
-                );
+                let off = leaving(nx, ny, abs, halfv, a);
                 let bits = _mm256_movemask_pd(off);
                 if bits != 0 {
                     act[j] = _mm256_andnot_pd(off, a);

@@ -7,7 +7,7 @@
 use std::arch::x86_64::*;
 
 use super::{Air, Reach, Steps};
-use crate::sim::kernel::avx2::{mark_left, rsqrt};
+use crate::sim::kernel::avx2::{leaving, mark_left, rsqrt};
 use crate::sim::kernel::Lanes;
 
 /// Vectors per tile: 32 parts (as the planar AVX2 build).
@@ -260,13 +260,7 @@ impl<const T: usize> Tile<T> {
         self.stuck[j] = _mm256_blendv_pd(self.stuck[j], stuck, a);
         let abs = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
         let halfv = _mm256_set1_pd(steps.half);
-        let off = _mm256_and_pd(
-            _mm256_or_pd(
-                _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_and_pd(nx, abs), halfv),
-                _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_and_pd(ny, abs), halfv),
-            ),
-            a,
-        );
+        let off = leaving(nx, ny, abs, halfv, a);
         let bits = _mm256_movemask_pd(off);
         if bits != 0 {
             self.act[j] = _mm256_andnot_pd(off, a);
