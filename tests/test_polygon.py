@@ -196,3 +196,41 @@ def test_bad_arguments():
     motion = upm.PlateMotion.harmonic(20.0, x=[(1, 10.0, 0.0)])
     with pytest.raises(upm.ParameterError, match=r"part 1 is a upm\.Polygon"):
         upm.simulate(motion, [upm.Point((0.0, 0.0)), upm.Polygon(PENTAGON)], duration=0.01, dt=1e-4, mu=0.3)
+
+
+def test_a_part_on_a_plate_spun_up_about_its_centroid_sticks_until_i_alpha_reaches_m_max():
+    mu, g = 0.3, 9.81
+    # disk (as a 1024-gon): alpha* = (4/3) mu g / R; square: mu g (mean distance) / gyration²
+    for part, alpha_star in (
+        (upm.Polygon.regular(1024, 0.01), 4 / 3 * mu * g / 0.01),
+        (upm.Polygon.rectangle(0.02, 0.02), mu * g * 0.382598 * 0.02 / (0.02**2 / 6)),
+    ):
+        for scale, sticks in ((0.999, True), (1.001, False)):
+            alpha = scale * alpha_star
+            need = part.gyration**2 * alpha / (mu * g)  # the moment I alpha per mu N [m]
+            assert part.holds((0.0, 0.0), need) == sticks
+        gauge, twist = part.gauge((0.0, 0.0), part.gyration**2 * alpha_star / (mu * g))
+        assert gauge == pytest.approx(1.0, rel=2e-5 if len(part.vertices) > 4 else 1e-6)
+        assert twist[2] < 0 and np.abs(twist[:2]).max() < 1e-9 * abs(twist[2])  # it starts to spin back
+
+
+def test_the_gauge_puts_every_sliding_wrench_on_the_limit_surface_and_beats_sampling():
+    part = upm.Polygon(PENTAGON)
+    rng = np.random.default_rng(11)
+    v, w = rng.normal(size=(30, 2)) * 0.02, rng.normal(size=30) * 5
+    force, moment = part.wrench(v, w)
+    gauge, twist = part.gauge(force, moment)
+    np.testing.assert_allclose(gauge, 1.0, atol=1e-12)
+    ours = np.concatenate([v, w[:, None] * part.radius], axis=1)
+    theirs = twist * [1, 1, part.radius]
+    cos = (ours * theirs).sum(1) / np.linalg.norm(ours, axis=1) / np.linalg.norm(theirs, axis=1)
+    assert cos.min() > 1 - 1e-8
+    # an independent lower bound: <z, e> / D(e) over 20,000 sampled twists, D(e) = -<W(e), e>
+    e = rng.normal(size=(20_000, 3))
+    fe, me = part.wrench(e[:, :2], e[:, 2] / part.radius)
+    work = -((fe * e[:, :2]).sum(1) + me * e[:, 2] / part.radius)
+    z = np.array([0.3, -0.2, 0.004])
+    sampled = ((z[:2] * e[:, :2]).sum(1) + z[2] * e[:, 2] / part.radius) / work
+    exact = part.gauge(z[:2], z[2])[0]
+    assert sampled.max() <= exact * (1 + 1e-12) and sampled.max() >= 0.99 * exact
+    assert part.gauge((0.0, 0.0), 0.0)[0] == 0.0

@@ -150,3 +150,32 @@ class Polygon:
         out = _core.polygon_wrench(self._geometry[5], twists.reshape(-1, 3), pool(threads))
         out = out.reshape(*shape, 3)
         return out[..., :2], out[..., 2]
+
+    def gauge(
+        self, force: ArrayLike, moment: ArrayLike, *, threads: int | None = None
+    ) -> tuple[FloatArray, FloatArray]:
+        """Where the wrench ``(force (..., 2), moment (...) [m])`` per ``mu N`` lies against the
+        limit surface (every wrench friction can give the part): its gauge ``(...)``, at most 1
+        when static friction can supply it, and the relative twist ``(..., 3)`` ``(vx, vy,
+        omega)`` (up to scale) whose sliding friction is the wrench divided by the gauge (the way
+        the part starts to slide when the wrench it needs grows past the limit). Exact: a Newton
+        ascent of ``<z, e> / D(e)`` over twist directions (docs/polygons.md)."""
+        f = as_float("force", force)
+        m = as_float("moment", moment)
+        if f.ndim == 0 or f.shape[-1] != 2:
+            raise ShapeError(f"force must have shape (..., 2); got {f.shape}")
+        try:
+            shape = np.broadcast_shapes(f.shape[:-1], m.shape)
+        except ValueError:
+            raise ShapeError(f"force {f.shape} and moment {m.shape} do not broadcast") from None
+        z = np.empty((*shape, 3))
+        z[..., :2] = f
+        z[..., 2] = m
+        values, twists = _core.polygon_gauge(self._geometry[5], z.reshape(-1, 3), pool(threads))
+        return values.reshape(shape), twists.reshape(*shape, 3)
+
+    def holds(self, force: ArrayLike, moment: ArrayLike) -> NDArray[np.bool_]:
+        """Whether static friction can supply the wrench ``(force, moment)`` per ``mu N`` (its
+        :meth:`gauge` is at most 1): a part that needs it to move with the plate sticks."""
+        out: NDArray[np.bool_] = self.gauge(force, moment)[0] <= 1.0
+        return out

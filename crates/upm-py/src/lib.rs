@@ -470,6 +470,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(ppod::drift_field, m)?)?;
     m.add_function(wrap_pyfunction!(polygon::polygon_geometry, m)?)?;
     m.add_function(wrap_pyfunction!(polygon::polygon_wrench, m)?)?;
+    m.add_function(wrap_pyfunction!(polygon::polygon_gauge, m)?)?;
     m.add_function(wrap_pyfunction!(ppod::asymptotic_field, m)?)?;
     m.add_function(wrap_pyfunction!(force_table, m)?)?;
     m.add_function(wrap_pyfunction!(disk_friction, m)?)?;

@@ -16,6 +16,18 @@ fn polygon(py: Python<'_>, name: &str, vertices: &PyReadonlyArray2<'_, f64>) -> 
     core(py, Polygon::new(name, &v))
 }
 
+/// An `(M, 3)` array as rows; `ShapeError` naming `name` otherwise.
+fn triples(py: Python<'_>, name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f64; 3]>> {
+    let t = a.as_array();
+    if t.shape()[1] != 3 {
+        return Err(shape_error(
+            py,
+            format!("{name} must have shape (M, 3); got {:?}", t.shape()),
+        ));
+    }
+    Ok(t.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect())
+}
+
 /// `(area, centroid (2,), polar, radius, mean_distance, vertices (K, 2) about the centroid)` of
 /// the polygon `vertices (K, 2)`; `ParameterError` naming `name` and the reason if it is not a
 /// convex counter-clockwise polygon.
@@ -53,14 +65,7 @@ pub fn polygon_wrench<'py>(
     threads: Option<usize>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let p = polygon(py, "vertices", &vertices)?;
-    let t = twists.as_array();
-    if t.shape()[1] != 3 {
-        return Err(shape_error(
-            py,
-            format!("twists must have shape (M, 3); got {:?}", t.shape()),
-        ));
-    }
-    let rows: Vec<[f64; 3]> = t.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect();
+    let rows = triples(py, "twists", &twists)?;
     let m = rows.len();
     let out = batch_on(py, m.div_ceil(CHUNK), threads, |c| {
         rows[c * CHUNK..((c + 1) * CHUNK).min(m)]
@@ -80,4 +85,29 @@ pub fn polygon_wrench<'py>(
     Ok(PyArray1::from_iter(py, out.into_iter().flatten().flatten())
         .reshape([m, 3])?
         .into_any())
+}
+
+/// The gauges of the wrenches `wrenches (M, 3)` (`Fx, Fy, M` per `mu N`) in the limit set of
+/// the polygon `vertices (K, 2)`, and the sliding twists `(M, 3)` they point to, in parallel.
+#[pyfunction]
+#[pyo3(signature = (vertices, wrenches, threads=None))]
+pub fn polygon_gauge<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f64>,
+    wrenches: PyReadonlyArray2<'py, f64>,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let p = polygon(py, "vertices", &vertices)?;
+    let rows = triples(py, "wrenches", &wrenches)?;
+    let m = rows.len();
+    let out = batch_on(py, m.div_ceil(CHUNK), threads, |c| {
+        rows[c * CHUNK..((c + 1) * CHUNK).min(m)]
+            .iter()
+            .map(|&[fx, fy, mz]| p.gauge(fx, fy, mz))
+            .collect::<upm_core::Result<Vec<_>>>()
+    })?;
+    let all: Vec<_> = out.into_iter().flatten().collect();
+    let values = PyArray1::from_iter(py, all.iter().map(|g| g.value));
+    let twists = PyArray1::from_iter(py, all.iter().flat_map(|g| g.twist)).reshape([m, 3])?;
+    PyTuple::new(py, [values.into_any(), twists.into_any()])
 }

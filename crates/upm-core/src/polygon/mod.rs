@@ -21,6 +21,9 @@
 
 use crate::error::{Error, Result};
 
+mod limit;
+pub use limit::Gauge;
+
 /// Beyond this many part radii the instantaneous centre is "far" (quadrature, see the module).
 pub const FAR: f64 = 1e3;
 
@@ -196,25 +199,36 @@ impl Polygon {
     /// `(v, omega)` at its centroid (module docs); zero at no relative motion, where friction
     /// is whatever holds the part.
     pub fn wrench(&self, v: [f64; 2], omega: f64) -> [f64; 3] {
+        self.friction(v, omega).0
+    }
+
+    /// [`Polygon::wrench`] and the rate of work of friction, `∫ |u| dA / A` (per `mu N`) [m/s]:
+    /// the support function of the limit set (the wrench is minus its gradient).
+    pub fn friction(&self, v: [f64; 2], omega: f64) -> ([f64; 3], f64) {
         let speed = v[0].hypot(v[1]);
         if omega == 0.0 && speed == 0.0 {
-            return [0.0; 3];
+            return ([0.0; 3], 0.0);
         }
         if omega == 0.0 || speed > FAR * self.radius * omega.abs() {
-            return self.wrench_quadrature(v, omega);
+            return self.friction_quadrature(v, omega);
         }
         let r0 = [-v[1] / omega, v[0] / omega];
         let (dist, [ux, uy]) = self.moments(r0);
         // u/|u| = sign(omega) z x (r - r0)/|r - r0|; r x (z x d) = (r . d) z
         let s = omega.signum() / self.area;
-        [s * uy, -s * ux, -s * (dist + r0[0] * ux + r0[1] * uy)]
+        let wrench = [s * uy, -s * ux, -s * (dist + r0[0] * ux + r0[1] * uy)];
+        (wrench, omega.abs() * dist / self.area)
     }
 
     /// [`Polygon::wrench`] by Gauss–Legendre quadrature (8 x 8 points on each triangle fanning
     /// from the centroid): exact to rounding where `u/|u|` is nearly constant over the part.
     pub fn wrench_quadrature(&self, v: [f64; 2], omega: f64) -> [f64; 3] {
+        self.friction_quadrature(v, omega).0
+    }
+
+    fn friction_quadrature(&self, v: [f64; 2], omega: f64) -> ([f64; 3], f64) {
         let n = self.vertices.len();
-        let (mut fx, mut fy, mut m) = (0.0, 0.0, 0.0);
+        let (mut fx, mut fy, mut m, mut work) = (0.0, 0.0, 0.0, 0.0);
         for k in 0..n {
             let (a, b) = (self.vertices[k], self.vertices[(k + 1) % n]);
             let jac = cross(a, b);
@@ -230,14 +244,17 @@ impl Polygon {
                     if norm == 0.0 {
                         continue;
                     }
-                    let w = ws * wt * s * jac / norm;
+                    let area = ws * wt * s * jac;
+                    let w = area / norm;
                     fx -= w * u[0];
                     fy -= w * u[1];
                     m -= w * cross(r, u);
+                    work += area * norm;
                 }
             }
         }
-        [fx / self.area, fy / self.area, m / self.area]
+        let a = self.area;
+        ([fx / a, fy / a, m / a], work / a)
     }
 
     /// Mean distance from the centroid, `∫ |r| dA / A` [m]: the largest friction moment about
