@@ -92,8 +92,12 @@ def test_click_parts_and_goals_then_stop(served, browser, tmp_path):
     page = open_page(browser, server, desk)
     a, goal_a, truth_a = pick(desk, 0.04)
     b, goal_b, truth_b = pick(desk, -0.04, avoid=[(a, goal_a)])
+    box = page.locator("#plate").bounding_box()
     for part, goal in ((a, goal_a), (b, goal_b)):  # two parts given goals at once
         click_plate(page, desk, pixels_of(desk, part))
+        page.wait_for_timeout(300)  # the status line now names the selected part: a long line
+        # the plate stays put under the pointer (a wrapped status line moved it 20 mm down)
+        assert page.locator("#plate").bounding_box() == box
         click_plate(page, desk, desk.table.to_camera(goal[None])[0])
     wait(lambda: len(desk.parts.describe()) + len(desk.parts.finished) == 2, 5, "both goto commands")
     assert desk.mode == "parts"

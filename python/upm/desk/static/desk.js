@@ -28,8 +28,8 @@ function connect() {
     }
     const message = JSON.parse(event.data);
     if (message.type === "state") { state = message; draw(); showStatus(); }
-    else if (message.type === "error") { errorLine.textContent = message.message; }
-    else if (message.type === "ack") { errorLine.textContent = ""; }
+    else if (message.type === "error") { errorLine.textContent = errorLine.title = message.message; }
+    else if (message.type === "ack") { errorLine.textContent = errorLine.title = ""; }
   };
   socket.onclose = () => { statusLine.textContent = "disconnected: the plate is stopped"; };
 }
@@ -38,6 +38,7 @@ function showStatus() {
   const seen = state.parts.filter((p) => !p.lost).length;
   statusLine.textContent = `${state.message} · ${seen} parts · plate time ${state.plate_time.toFixed(1)} s · ` +
     `${state.pulses} pulses` + (selected !== null ? ` · part ${selected} selected: click its goal` : "");
+  statusLine.title = statusLine.textContent; // the line is clipped to keep the plate still
   document.getElementById("gather").disabled = !state.gather;
   document.getElementById("pause").textContent = state.paused ? "Resume" : "Pause";
 }
