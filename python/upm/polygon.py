@@ -33,6 +33,22 @@ def _pair(name: str, value: Any) -> tuple[float, float]:
     return float(a[0]), float(a[1])
 
 
+def _rows(pair_name: str, pair: Any, one_name: str, one: Any) -> tuple[tuple[int, ...], FloatArray]:
+    """``pair (..., 2)`` and ``one (...)`` broadcast together: their shape and the ``(N, 3)`` rows."""
+    p = as_float(pair_name, pair)
+    o = as_float(one_name, one)
+    if p.ndim == 0 or p.shape[-1] != 2:
+        raise ShapeError(f"{pair_name} must have shape (..., 2); got {p.shape}")
+    try:
+        shape = np.broadcast_shapes(p.shape[:-1], o.shape)
+    except ValueError:
+        raise ShapeError(f"{pair_name} {p.shape} and {one_name} {o.shape} do not broadcast") from None
+    rows = np.empty((*shape, 3))
+    rows[..., :2] = p
+    rows[..., 2] = o
+    return shape, rows.reshape(-1, 3)
+
+
 @dataclass(frozen=True, eq=False)
 class Polygon:
     """A flat convex polygon part pressing uniformly on the plate.
@@ -136,18 +152,8 @@ class Polygon:
         ``(...)`` (the part's less the plate surface's), in the part's frame. Returns
         ``(force (..., 2), moment (...) [m])``; zero where there is no relative motion (friction
         then holds the part with whatever it needs)."""
-        v = as_float("velocity", velocity)
-        w = as_float("spin", spin)
-        if v.ndim == 0 or v.shape[-1] != 2:
-            raise ShapeError(f"velocity must have shape (..., 2); got {v.shape}")
-        try:
-            shape = np.broadcast_shapes(v.shape[:-1], w.shape)
-        except ValueError:
-            raise ShapeError(f"velocity {v.shape} and spin {w.shape} do not broadcast") from None
-        twists = np.empty((*shape, 3))
-        twists[..., :2] = v
-        twists[..., 2] = w
-        out = _core.polygon_wrench(self._geometry[5], twists.reshape(-1, 3), pool(threads))
+        shape, twists = _rows("velocity", velocity, "spin", spin)
+        out = _core.polygon_wrench(self._geometry[5], twists, pool(threads))
         out = out.reshape(*shape, 3)
         return out[..., :2], out[..., 2]
 
@@ -160,18 +166,8 @@ class Polygon:
         omega)`` (up to scale) whose sliding friction is the wrench divided by the gauge (the way
         the part starts to slide when the wrench it needs grows past the limit). Exact: a Newton
         ascent of ``<z, e> / D(e)`` over twist directions (docs/polygons.md)."""
-        f = as_float("force", force)
-        m = as_float("moment", moment)
-        if f.ndim == 0 or f.shape[-1] != 2:
-            raise ShapeError(f"force must have shape (..., 2); got {f.shape}")
-        try:
-            shape = np.broadcast_shapes(f.shape[:-1], m.shape)
-        except ValueError:
-            raise ShapeError(f"force {f.shape} and moment {m.shape} do not broadcast") from None
-        z = np.empty((*shape, 3))
-        z[..., :2] = f
-        z[..., 2] = m
-        values, twists = _core.polygon_gauge(self._geometry[5], z.reshape(-1, 3), pool(threads))
+        shape, z = _rows("force", force, "moment", moment)
+        values, twists = _core.polygon_gauge(self._geometry[5], z, pool(threads))
         return values.reshape(shape), twists.reshape(*shape, 3)
 
     def holds(self, force: ArrayLike, moment: ArrayLike) -> NDArray[np.bool_]:

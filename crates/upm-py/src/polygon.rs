@@ -28,6 +28,27 @@ fn triples(py: Python<'_>, name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResul
     Ok(t.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect())
 }
 
+/// `f(index, row)` for every row, in chunks of [`CHUNK`] in parallel (Ctrl-C checked between
+/// chunks), in order.
+fn each_row<T, F>(
+    py: Python<'_>,
+    rows: &[[f64; 3]],
+    threads: Option<usize>,
+    f: F,
+) -> PyResult<Vec<T>>
+where
+    T: Send,
+    F: Fn(usize, [f64; 3]) -> upm_core::Result<T> + Sync + Send,
+{
+    let m = rows.len();
+    let out = batch_on(py, m.div_ceil(CHUNK), threads, |c| {
+        (c * CHUNK..((c + 1) * CHUNK).min(m))
+            .map(|i| f(i, rows[i]))
+            .collect::<upm_core::Result<Vec<T>>>()
+    })?;
+    Ok(out.into_iter().flatten().collect())
+}
+
 /// `(area, centroid (2,), polar, radius, mean_distance, vertices (K, 2) about the centroid)` of
 /// the polygon `vertices (K, 2)`; `ParameterError` naming `name` and the reason if it is not a
 /// convex counter-clockwise polygon.
@@ -67,22 +88,16 @@ pub fn polygon_wrench<'py>(
     let p = polygon(py, "vertices", &vertices)?;
     let rows = triples(py, "twists", &twists)?;
     let m = rows.len();
-    let out = batch_on(py, m.div_ceil(CHUNK), threads, |c| {
-        rows[c * CHUNK..((c + 1) * CHUNK).min(m)]
-            .iter()
-            .enumerate()
-            .map(|(i, &[vx, vy, w])| {
-                if !(vx.is_finite() && vy.is_finite() && w.is_finite()) {
-                    return Err(upm_core::Error::parameter(
-                        "twists",
-                        format!("must be finite; row {} is {:?}", c * CHUNK + i, [vx, vy, w]),
-                    ));
-                }
-                Ok(p.wrench([vx, vy], w))
-            })
-            .collect::<upm_core::Result<Vec<[f64; 3]>>>()
+    let out = each_row(py, &rows, threads, |i, [vx, vy, w]| {
+        if !(vx.is_finite() && vy.is_finite() && w.is_finite()) {
+            return Err(upm_core::Error::parameter(
+                "twists",
+                format!("must be finite; row {i} is {:?}", [vx, vy, w]),
+            ));
+        }
+        Ok(p.wrench([vx, vy], w))
     })?;
-    Ok(PyArray1::from_iter(py, out.into_iter().flatten().flatten())
+    Ok(PyArray1::from_iter(py, out.into_iter().flatten())
         .reshape([m, 3])?
         .into_any())
 }
@@ -100,13 +115,7 @@ pub fn polygon_gauge<'py>(
     let p = polygon(py, "vertices", &vertices)?;
     let rows = triples(py, "wrenches", &wrenches)?;
     let m = rows.len();
-    let out = batch_on(py, m.div_ceil(CHUNK), threads, |c| {
-        rows[c * CHUNK..((c + 1) * CHUNK).min(m)]
-            .iter()
-            .map(|&[fx, fy, mz]| p.gauge(fx, fy, mz))
-            .collect::<upm_core::Result<Vec<_>>>()
-    })?;
-    let all: Vec<_> = out.into_iter().flatten().collect();
+    let all = each_row(py, &rows, threads, |_, [fx, fy, mz]| p.gauge(fx, fy, mz))?;
     let values = PyArray1::from_iter(py, all.iter().map(|g| g.value));
     let twists = PyArray1::from_iter(py, all.iter().flat_map(|g| g.twist)).reshape([m, 3])?;
     PyTuple::new(py, [values.into_any(), twists.into_any()])
