@@ -104,11 +104,8 @@ impl Polygon {
                 ]
             } else {
                 // not concave here: a gradient step of a tenth of a radian at most
-                let s = 0.1 / gnorm.max(1e-300);
-                [
-                    s.min(1.0 / (a.abs() + c.abs()).max(1e-300)) * grad[0],
-                    s.min(1.0) * grad[1],
-                ]
+                let s = (0.1 / gnorm.max(1e-300)).min(1.0 / (a.abs() + c.abs()).max(1e-300));
+                [s * grad[0], s * grad[1]]
             };
             // backtrack until the ratio grows (it is quasi-concave: a longer ascent is safe)
             let mut moved = false;

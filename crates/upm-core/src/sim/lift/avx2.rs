@@ -92,12 +92,7 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
     let mut in_air = t.airborne.iter().any(|&a| a);
     let mut reach = t.reach();
     for (k, (u, nz)) in steps.u.iter().zip(steps.normals).enumerate() {
-        let mut grounded = !in_air && reach.grounded(nz, steps.g);
-        if !in_air && !grounded && reach.age >= 4 {
-            reach = t.reach(); // the bound may have grown loose: measure again
-            grounded = reach.grounded(nz, steps.g);
-        }
-        reach.advance(u, steps.dt, steps.half);
+        let grounded = reach.step(in_air, u, nz, steps, || t.reach());
         let now = steps.first + k + 1;
         if grounded {
             for j in 0..T {

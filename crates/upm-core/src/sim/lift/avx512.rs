@@ -101,12 +101,7 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
     let mut reach = reach_of(&x, &y, &vx, &vy, &act);
     for (k, (u, nz)) in steps.u.iter().zip(steps.normals).enumerate() {
         // no part of the tile in the air nor able to leave: the flight test is skipped
-        let mut grounded = !in_air && reach.grounded(nz, steps.g);
-        if !in_air && !grounded && reach.age >= 4 {
-            reach = reach_of(&x, &y, &vx, &vy, &act); // the bound may have grown loose
-            grounded = reach.grounded(nz, steps.g);
-        }
-        reach.advance(u, steps.dt, steps.half);
+        let grounded = reach.step(in_air, u, nz, steps, || reach_of(&x, &y, &vx, &vy, &act));
         let &[u1, u2, u3] = u;
         let (u1, u2, u3) = (_mm512_set1_pd(u1), _mm512_set1_pd(u2), _mm512_set1_pd(u3));
         let base = _mm512_set1_pd(steps.g + nz[0]);

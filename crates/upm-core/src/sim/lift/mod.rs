@@ -138,6 +138,27 @@ impl Reach {
         base - tilt > 1e-9 * (base.abs() + tilt)
     }
 
+    /// Whether the flight test can be skipped in the step of `u` and `nz`: no part of the tile
+    /// in the air and [`Reach::grounded`], the bound measured again (`measure`) when it failed
+    /// and has grown for a few steps. Advances the bound by the step.
+    #[inline(always)]
+    pub fn step(
+        &mut self,
+        in_air: bool,
+        u: &[f64; 3],
+        nz: &[f64; 3],
+        steps: &Steps,
+        measure: impl FnOnce() -> Self,
+    ) -> bool {
+        let mut grounded = !in_air && self.grounded(nz, steps.g);
+        if !in_air && !grounded && self.age >= 4 {
+            *self = measure();
+            grounded = self.grounded(nz, steps.g);
+        }
+        self.advance(u, steps.dt, steps.half);
+        grounded
+    }
+
     /// The bound after a step of the plate's velocity `u` (in a plate of half side `half`, an
     /// active part is within it after the step).
     #[inline(always)]
