@@ -98,6 +98,41 @@ def test_batch_equals_separate_runs_and_records_what_it_promises():
     np.testing.assert_array_equal(batch.velocities[:, 0, 1], [[0.01, 0.0]] * 3)
 
 
+def address(a: np.ndarray) -> int:
+    return a.__array_interface__["data"][0]
+
+
+def test_results_kept_are_never_overwritten_and_recycled_memory_gives_the_same_results():
+    """Result buffers go back to a pool when their arrays go, and later calls write into them: a
+    result (or a view of it) still held must never change, and a run into recycled memory must
+    equal the first run bit for bit."""
+    motion = upm.PlateMotion.translation(
+        (1, 0), upm.TwoHarmonic(0.5, np.pi / 2, amplitude=0.02, frequency=35.0)
+    )
+    rng = np.random.default_rng(3)
+    a, b = rng.uniform(-0.1, 0.1, (2, 5000, 2))
+    kw = dict(duration=0.01, dt=1e-4, mu=0.3, mu_s=0.35, record_every=10)
+    first = upm.simulate(motion, a, **kw)
+    kept = first.positions.copy(), first.velocities.copy()
+    other = upm.simulate(motion, b, **kw)
+    view = other.velocities[4]
+    view_kept = view.copy()
+    assert not np.array_equal(other.positions, kept[0])
+    seen = {address(other.positions), address(other.velocities)}
+    del other
+    for _ in range(3):
+        again = upm.simulate(motion, a, **kw)
+        assert address(again.positions) in seen, "the result memory given back was not reused"
+        seen |= {address(again.positions), address(again.velocities)}
+        assert np.array_equal(again.positions, kept[0]) and np.array_equal(again.velocities, kept[1])
+        assert np.array_equal(first.positions, kept[0]) and np.array_equal(first.velocities, kept[1])
+        assert np.array_equal(view, view_kept)
+        again.positions[:] = np.nan  # the caller may write into a result; the next run is whole
+        del again
+    del first
+    assert np.array_equal(upm.simulate(motion, a, **kw).positions, kept[0])
+
+
 def test_parts_that_leave_the_plate_are_flagged():
     run = upm.simulate(
         upm.PlateMotion.rest(1.0),

@@ -179,6 +179,45 @@ impl PlateMotion {
     }
 }
 
+/// The owner of a result buffer behind a NumPy array (the array's base): when the array goes,
+/// the buffer goes back to the core's pool for the next result ([`upm_core::buffer::recycle`]),
+/// so a caller simulating again and again writes into memory already mapped.
+#[pyclass(frozen, module = "upm._core")]
+struct Recycled {
+    /// The buffer's raw parts (pointer as an address: NumPy writes through it, Rust never reads).
+    ptr: usize,
+    len: usize,
+    capacity: usize,
+}
+
+impl Drop for Recycled {
+    fn drop(&mut self) {
+        // SAFETY: the raw parts come from one `Vec<f64>` taken apart in `recycled`, rebuilt once.
+        let v = unsafe { Vec::from_raw_parts(self.ptr as *mut f64, self.len, self.capacity) };
+        upm_core::buffer::recycle(v);
+    }
+}
+
+/// `v` as a 1-D NumPy array over the same memory, recycled when the array goes.
+fn recycled(py: Python<'_>, v: Vec<f64>) -> PyResult<Bound<'_, PyArray1<f64>>> {
+    let mut v = std::mem::ManuallyDrop::new(v);
+    let (ptr, len, capacity) = (v.as_mut_ptr(), v.len(), v.capacity());
+    let owner = Bound::new(
+        py,
+        Recycled {
+            ptr: ptr as usize,
+            len,
+            capacity,
+        },
+    )?;
+    // SAFETY: `len` initialised f64 at `ptr`, owned by `owner`, which the array keeps alive as its
+    // base and which frees (recycles) them only when the array is gone.
+    unsafe {
+        let view = numpy::ndarray::ArrayView1::from_shape_ptr(len, ptr.cast_const());
+        Ok(PyArray1::borrow_from_array(&view, owner.into_any()))
+    }
+}
+
 /// The stacked trajectory of `b` worlds as NumPy arrays: its buffers become the arrays as they
 /// are, no copy: `(t, positions, velocities, stuck, angles, spins, left_time, flight)`.
 fn to_arrays<'py>(
@@ -194,8 +233,8 @@ fn to_arrays<'py>(
         .map(|l| l.unwrap_or(f64::NAN))
         .collect();
     let t = PyArray1::from_vec(py, run.t);
-    let pos = PyArray1::from_vec(py, run.positions.into_flattened()).reshape([b, rows, m, 2])?;
-    let vel = PyArray1::from_vec(py, run.velocities.into_flattened()).reshape([b, rows, m, 2])?;
+    let pos = recycled(py, run.positions.into_flattened())?.reshape([b, rows, m, 2])?;
+    let vel = recycled(py, run.velocities.into_flattened())?.reshape([b, rows, m, 2])?;
     let stuck = PyArray1::from_vec(py, run.stuck).reshape([b, rows, m])?;
     let angles = PyArray1::from_vec(py, run.angles).reshape([b, rows, m])?;
     let spins = PyArray1::from_vec(py, run.spins).reshape([b, rows, m])?;

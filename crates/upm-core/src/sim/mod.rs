@@ -518,7 +518,7 @@ where
     let n_points = m - disk_index.len();
     let block = block_steps(motions.len(), n_points, disk_index.len());
     let mut worlds: Vec<World> = Vec::with_capacity(motions.len());
-    // Reserved fallibly (an error, not an abort, when it cannot fit), on huge pages.
+    // Reserved fallibly (an error, not an abort, when it cannot fit), reusing recycled results.
     let mut recorder = Recorder::new(motions.len(), rows, m)?;
     for (b, motion) in motions.iter().enumerate() {
         let u0 = motion.velocity(0.0);

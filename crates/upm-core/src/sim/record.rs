@@ -2,8 +2,9 @@
 //! integrator into the buffers that become the result (and, through the binding, the NumPy
 //! arrays), with no per-row staging and no copy.
 //!
-//! Positions, velocities and stuck flags are reserved uninitialised and written exactly once per
-//! `(row, part)`; angles and spins are allocated zeroed (pages the kernel maps lazily), so a world
+//! Positions, velocities and stuck flags are reserved uninitialised (positions and velocities in
+//! buffers handed back by earlier results when they fit: see [`buffer::result_pairs`]) and written
+//! exactly once per `(row, part)`; angles and spins are allocated zeroed (pages the kernel maps lazily), so a world
 //! of point parts never touches them.
 
 use crate::buffer;
@@ -66,8 +67,8 @@ impl Recorder {
             })?;
         let mut out = Trajectory {
             t: Vec::new(),
-            positions: Vec::new(),
-            velocities: Vec::new(),
+            positions: buffer::result_pairs(cells, "the positions")?,
+            velocities: buffer::result_pairs(cells, "the velocities")?,
             stuck: Vec::new(),
             angles: buffer::zeroed(cells, "the angles")?,
             spins: buffer::zeroed(cells, "the spins")?,
@@ -75,8 +76,6 @@ impl Recorder {
             flight: Vec::new(),
         };
         buffer::reserve(&mut out.t, rows, "the recorded times")?;
-        buffer::reserve(&mut out.positions, cells, "the positions")?;
-        buffer::reserve(&mut out.velocities, cells, "the velocities")?;
         buffer::reserve(&mut out.stuck, cells, "the stuck flags")?;
         Ok(Recorder {
             out,
