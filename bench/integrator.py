@@ -223,6 +223,33 @@ def disk_times(dt: float, quick: bool) -> None:
           f" (final positions agree to {diff:.1e} m)")  # fmt: skip
 
 
+def polygon_times(dt: float, quick: bool) -> None:
+    """Hexagons (issue 27's shape for its cost target, 150 ns) on a rotating and a translating
+    plate, one thread, spinning at the start, beside disks of the same size on the same motion."""
+    rot = upm.PlateMotion.rotation((0.03, -0.02), upm.Harmonics([0.5, -0.25], frequency=F))
+    tra = upm.PlateMotion.translation(
+        (0.6, 0.8), upm.TwoHarmonic(0.5, np.pi / 2, amplitude=0.03, frequency=F)
+    )
+    n, steps = (50, 200) if quick else (200, 1000)
+    rng = np.random.default_rng(8)
+    pos, angle, spin = rng.uniform(-0.1, 0.1, (n, 2)), rng.uniform(0, 1, n), rng.uniform(-5, 5, n)
+    hexagons = [
+        upm.Polygon.regular(6, 0.008, position=tuple(p), angle=a, spin=w)
+        for p, a, w in zip(pos, angle, spin, strict=True)
+    ]
+    disks = [
+        upm.Disk(tuple(p), radius=0.008, angle=a, spin=w) for p, a, w in zip(pos, angle, spin, strict=True)
+    ]
+    kw = dict(duration=steps * dt, dt=dt, mu=MU, mu_s=MU_S, record_every=1, threads=1)
+    ns = 1e9 / (n * steps)
+    print(f"\nhexagons, {n} parts x {steps} steps, 1 thread, ns per part-step:")
+    for name, motion in (("rotating", rot), ("translating", tra)):
+        run = upm.simulate(motion, hexagons, **kw)
+        gon = best_of(lambda m=motion: upm.simulate(m, hexagons, **kw)) * ns
+        disk = best_of(lambda m=motion: upm.simulate(m, disks, **kw)) * ns
+        print(f"  {name} plate: hexagons {gon:.0f} (stuck {run.stuck.mean():.0%} of steps), disks {disk:.0f}")
+
+
 def spatial_times(quick: bool) -> None:
     """The lift-off step (a plate that moves out of its plane, docs/ppod.md) against the planar
     step on the same in-plane motion: a circular translation at 20 Hz alone, and with the PPOD
@@ -288,6 +315,7 @@ def main() -> None:
     per_call(motion, dt)
     batch_times(quick=args.quick)
     disk_times(dt, quick=args.quick)
+    polygon_times(dt, quick=args.quick)
     spatial_times(quick=args.quick)
 
     recording(motion, dt, rng, quick=args.quick)

@@ -194,8 +194,12 @@ def test_bad_arguments():
     with pytest.raises(upm.ShapeError, match="broadcast"):
         upm.Polygon(PENTAGON).wrench(np.zeros((3, 2)), np.zeros(4))
     motion = upm.PlateMotion.harmonic(20.0, x=[(1, 10.0, 0.0)])
-    with pytest.raises(upm.ParameterError, match=r"part 1 is a upm\.Polygon"):
-        upm.simulate(motion, [upm.Point((0.0, 0.0)), upm.Polygon(PENTAGON)], duration=0.01, dt=1e-4, mu=0.3)
+    parts = [upm.Point((0.0, 0.0)), upm.Polygon(PENTAGON)]
+    with pytest.raises(upm.ParameterError, match=r"parts\[1\] is a upm\.Polygon"):
+        upm.simulate(motion, parts, duration=0.01, dt=1e-4, mu=0.3, contacts=True)
+    lift = upm.PlateMotion.harmonic(20.0, z=[(1, 5.0, 0.0)])
+    with pytest.raises(upm.ParameterError, match=r"out of the plate's plane.*part 1"):
+        upm.simulate(lift, parts, duration=0.01, dt=1e-4, mu=0.3)
 
 
 def test_a_part_on_a_plate_spun_up_about_its_centroid_sticks_until_i_alpha_reaches_m_max():
@@ -234,3 +238,120 @@ def test_the_gauge_puts_every_sliding_wrench_on_the_limit_surface_and_beats_samp
     exact = part.gauge(z[:2], z[2])[0]
     assert sampled.max() <= exact * (1 + 1e-12) and sampled.max() >= 0.99 * exact
     assert part.gauge((0.0, 0.0), 0.0)[0] == 0.0
+
+
+# -- the stick–slip step in the integrator -------------------------------------------------------
+G = 9.81
+
+
+def test_a_square_spinning_on_a_still_plate_stops_as_the_closed_form_says():
+    # alpha = mu g (mean distance) / gyration², constant: it stops at omega0 / alpha after turning
+    # omega0² / (2 alpha), without moving its centre and without creeping afterwards
+    mu, side, omega0, dt = 0.3, 0.02, 20.0, 1e-5
+    square = upm.Polygon.rectangle(side, side, position=(0.01, -0.02), angle=0.3, spin=omega0)
+    alpha = mu * G * 0.382598 * side / (side**2 / 6)
+    stop = omega0 / alpha
+    run = upm.simulate(
+        upm.PlateMotion.rest(1.0), [square], duration=1.5 * stop, dt=dt, mu=mu, record_every=10
+    )
+    half = np.searchsorted(run.t, stop / 2)
+    assert run.spins[half, 0] == pytest.approx(omega0 - alpha * run.t[half], abs=2 * alpha * dt)
+    assert run.angles[-1, 0] - 0.3 == pytest.approx(omega0**2 / (2 * alpha), rel=1e-4)
+    assert np.abs(run.positions[:, 0] - (0.01, -0.02)).max() < 1e-15
+    after = run.t > stop + 2 * dt
+    assert run.stuck[after, 0].all() and (run.spins[after, 0] == 0).all()
+    assert np.ptp(run.angles[after, 0]) == 0.0
+
+
+def test_without_spin_on_a_translating_plate_a_polygon_moves_as_a_point():
+    # a translating part feels no moment about its centroid: it keeps its angle and its centroid
+    # follows the point part's path (the point kernel is independent code: SIMD, rsqrt series)
+    motion = upm.PlateMotion.translation(
+        (0.6, 0.8), upm.TwoHarmonic(0.5, np.pi / 2, amplitude=0.03, frequency=35.0)
+    )
+    angle = 0.7
+    part = upm.Polygon(PENTAGON, position=(0.01, 0.02), angle=angle, velocity=(0.05, -0.01))
+    c, s = math.cos(angle), math.sin(angle)
+    centroid = np.array([[c, -s], [s, c]]) @ part.centroid + (0.01, 0.02)
+    point = upm.Point(tuple(centroid), velocity=(0.05, -0.01))
+    kw = dict(duration=0.3, dt=1e-4, mu=0.3, mu_s=0.4, record_every=20)
+    run = upm.simulate(motion, [point, part], **kw)
+    assert (run.angles[:, 1] == angle).all() and (run.spins[:, 1] == 0).all()
+    drawn = run.positions[:, 1] + np.array([[c, -s], [s, c]]) @ part.centroid
+    assert np.abs(drawn - run.positions[:, 0]).max() < 1e-12
+    assert np.abs(run.velocities[:, 1] - run.velocities[:, 0]).max() < 1e-12
+    assert (run.stuck[:, 1] == run.stuck[:, 0]).all() and run.stuck[:, 0].any() and not run.stuck[:, 0].all()
+
+
+def test_a_polygon_of_many_sides_moves_as_the_disk():
+    # a 512-gon and a disk of the same radius, sliding and spinning on a still plate, then on a
+    # rotating one: the same paths, and both stop with v / (R omega) near Farkas's 0.653
+    r = 0.01
+    turning = upm.PlateMotion.rotation((0.03, -0.02), upm.Harmonics([0.0], [2.0], frequency=35.0))
+    for motion in (upm.PlateMotion.rest(1.0), turning):
+        disk = upm.Disk((0.0, 0.0), radius=r, velocity=(0.12, 0.0), spin=25.0)
+        gon = upm.Polygon.regular(512, r, velocity=(0.12, 0.0), spin=25.0)
+        run = upm.simulate(motion, [disk, gon], duration=0.06, dt=2e-5, mu=0.3, record_every=50)
+        scale = np.abs(run.positions[:, 0]).max()
+        assert np.abs(run.positions[:, 1] - run.positions[:, 0]).max() < 2e-4 * scale
+        assert np.abs(run.spins[:, 1] - run.spins[:, 0]).max() < 2e-4 * 25.0
+        assert (run.stuck[:, 1] == run.stuck[:, 0]).mean() > 0.97
+    # from v / (R omega) = 3 the ratio falls to Farkas's 0.653 as both stop together (the disk's
+    # test in crates/upm-core/tests/integrator.rs, with the same start and tolerance)
+    gon = upm.Polygon.regular(256, r, velocity=(0.3, 0.0), spin=10.0)
+    still = upm.simulate(upm.PlateMotion.rest(1.0), [gon], duration=0.2, dt=1e-5, mu=0.3, record_every=1)
+    stop = np.flatnonzero(still.stuck[:, 0])[0]
+    assert still.spins[stop - 1, 0] > 0 and (still.spins[stop:, 0] == 0).all()
+    assert (still.velocities[stop:, 0] == 0).all()
+    ratio = np.hypot(*still.velocities[stop - 1, 0]) / (r * still.spins[stop - 1, 0])
+    assert ratio == pytest.approx(0.653, abs=5e-3)
+
+
+def test_a_polygon_on_a_plate_spun_about_its_centroid_sticks_below_alpha_star_and_slips_above():
+    mu, side, f = 0.3, 0.02, 20.0
+    alpha_star = mu * G * 0.382598 * side / (side**2 / 6)
+    w = 2 * np.pi * f
+    for scale, sticks in ((0.97, True), (1.05, False)):
+        # angular velocity (alpha / w) sin wt: the largest angular acceleration is alpha, at t = 0
+        motion = upm.PlateMotion.rotation(
+            (0.01, 0.02), upm.Harmonics([0.0], [scale * alpha_star / w], frequency=f)
+        )
+        part = upm.Polygon.rectangle(side, side, position=(0.01, 0.02))
+        run = upm.simulate(motion, [part], duration=0.1, dt=1e-5, mu=mu, record_every=10)
+        assert run.stuck[:, 0].all() == sticks
+        if sticks:
+            # it turns with the plate (whose velocity the integrator samples a hair before each step)
+            plate = motion.velocity(run.t)[:, 2]
+            assert np.abs(run.spins[:, 0] - plate).max() < 1e-6 * np.abs(plate).max()
+        assert np.abs(run.positions[:, 0] - (0.01, 0.02)).max() < 1e-12  # the centroid stays put
+
+
+def test_polygons_points_and_disks_together_keep_their_order_and_batches_match_single_runs():
+    motions = [
+        upm.PlateMotion.rotation((0.0, 0.0), upm.Harmonics([0.0], [a], frequency=30.0)) for a in (3.0, 5.0)
+    ]
+    parts = [
+        upm.Point((0.02, 0.0)),
+        upm.Polygon(PENTAGON, position=(-0.03, 0.01), angle=1.0),
+        upm.Disk((0.0, 0.04), radius=0.01),
+        upm.Polygon.rectangle(0.02, 0.01, position=(0.05, -0.02), spin=3.0),
+    ]
+    kw = dict(duration=0.1, dt=5e-5, mu=0.3, mu_s=0.35, record_every=40)
+    batch = upm.simulate_batch(motions, parts, **kw)
+    for b, motion in enumerate(motions):
+        one = upm.simulate(motion, parts, **kw)
+        for name in ("positions", "velocities", "angles", "spins", "stuck"):
+            assert np.array_equal(getattr(one, name), getattr(batch, name)[b]), name
+        alone = upm.simulate(motion, [parts[1]], **kw)
+        assert np.array_equal(alone.positions[:, 0], one.positions[:, 1])
+        assert np.array_equal(alone.angles[:, 0], one.angles[:, 1])
+    assert np.abs(batch.spins[:, :, 1]).max() > 0.1  # the pentagon turns
+
+
+def test_a_polygon_leaving_the_plate_is_flagged_and_frozen():
+    motion = upm.PlateMotion.rest(1.0)
+    part = upm.Polygon.regular(6, 0.01, position=(0.09, 0.0), velocity=(0.5, 0.0), spin=5.0)
+    run = upm.simulate(motion, [part], duration=0.1, dt=1e-4, mu=0.3, plate_size=0.2, record_every=1)
+    assert run.left_plate[0] and 0.0 < run.left_time[0] < 0.05
+    out = run.t > run.left_time[0]
+    assert np.ptp(run.positions[out, 0], axis=0).max() == 0.0

@@ -148,6 +148,7 @@ def simulate(
     contact_iterations: int = 4,
     world_mu: _F | None = None,
     world_mu_s: _F | None = None,
+    polygons: list[tuple[int, _F]] | None = None,
 ) -> tuple[_F, _F, _F, NDArray[np.bool_], _F, _F, _F, _F]: ...
 def simd_info() -> tuple[str, list[str]]: ...
 

@@ -60,8 +60,8 @@ class Polygon:
     has three collinear vertices or no area is refused with :class:`upm.ParameterError` naming
     the reason.
 
-    Not yet taken by :func:`upm.simulate` (the stick–slip step of polygons is to come); its
-    friction is :meth:`wrench`.
+    :func:`upm.simulate` and :func:`upm.simulate_batch` step it with its exact stick–slip step
+    (planar motions, no contacts, for now); its friction is :meth:`wrench`.
     """
 
     vertices: Any

@@ -192,41 +192,41 @@ def _walls(walls: Any, plate_size: float | None) -> np.ndarray | None:
 
 
 def _parts(parts: Any) -> tuple[Any, ...]:
-    """Positions, velocities (M, 2) and radius, angle, spin (M,) of points and disks; for an
-    array of positions (point parts at rest) the others are None (zero, never built)."""
+    """Positions, velocities (M, 2) and radius, angle, spin (M,) of points, disks and polygons,
+    and the polygons as ``[(part, vertices (K, 2))]`` (None without any); for an array of
+    positions (point parts at rest) the others are None (zero, never built)."""
     vel: np.ndarray | None
     radius: np.ndarray | None
     angle: np.ndarray | None
     spin: np.ndarray | None
+    polygons: list[tuple[int, np.ndarray]] | None = None
     from .polygon import Polygon
 
-    if isinstance(parts, (list, tuple)) and any(isinstance(p, Polygon) for p in parts):
-        k = next(i for i, p in enumerate(parts) if isinstance(p, Polygon))
-        raise ParameterError(
-            f"part {k} is a upm.Polygon: simulate does not step polygon parts yet (points and disks "
-            "only); Polygon.wrench gives a polygon's friction"
-        )
-    if isinstance(parts, (list, tuple)) and parts and all(isinstance(p, (Point, Disk)) for p in parts):
+    kinds = (Point, Disk, Polygon)
+    if isinstance(parts, (list, tuple)) and parts and all(isinstance(p, kinds) for p in parts):
+        turning = (Disk, Polygon)
         pos = as_float("parts[i].position", [p.position for p in parts])
         vel = as_float("parts[i].velocity", [p.velocity for p in parts])
         radius = as_float("parts[i].radius", [p.radius if isinstance(p, Disk) else 0.0 for p in parts])
-        angle = as_float("parts[i].angle", [p.angle if isinstance(p, Disk) else 0.0 for p in parts])
-        spin = as_float("parts[i].spin", [p.spin if isinstance(p, Disk) else 0.0 for p in parts])
+        angle = as_float("parts[i].angle", [p.angle if isinstance(p, turning) else 0.0 for p in parts])
+        spin = as_float("parts[i].spin", [p.spin if isinstance(p, turning) else 0.0 for p in parts])
         bad = [i for i, p in enumerate(parts) if isinstance(p, Disk) and not p.radius > 0]
         if bad:
             raise ParameterError(
                 f"radius must be > 0 for a Disk; got {parts[bad[0]].radius} for part {bad[0]}"
             )
+        polygons = [(i, p.vertices) for i, p in enumerate(parts) if isinstance(p, Polygon)] or None
     else:
         pos = as_float("parts", parts)
         vel = radius = angle = spin = None
     if pos.ndim != 2 or pos.shape[1] != 2 or pos.shape[0] == 0:
-        allowed = "an (M, 2) array of positions or a list of upm.Point/upm.Disk"
+        allowed = "an (M, 2) array of positions or a list of upm.Point/upm.Disk/upm.Polygon"
         raise ShapeError(f"parts must be {allowed}; got shape {pos.shape}")
     if vel is not None and vel.shape != pos.shape:
         raise ShapeError(f"part velocities must have shape {pos.shape}; got {vel.shape}")
-    return tuple(None if a is None else np.ascontiguousarray(a, dtype=np.float64)
-                 for a in (pos, vel, radius, angle, spin))  # fmt: skip
+    arrays = tuple(None if a is None else np.ascontiguousarray(a, dtype=np.float64)
+                   for a in (pos, vel, radius, angle, spin))  # fmt: skip
+    return (*arrays, polygons)
 
 
 def _per_part(name: str, value: ArrayLike, m: int) -> np.ndarray:
@@ -310,7 +310,12 @@ def _run(
     span = real("duration", duration, low=0.0, low_open=True)
     if span < step * (1 - 1e-9):
         raise ParameterError(f"duration must be at least one step dt = {step:g} s; got {span:g}")
-    pos, vel, radius, angle, spin = _parts(parts)
+    pos, vel, radius, angle, spin, polygons = _parts(parts)
+    if contacts and polygons:
+        raise ParameterError(
+            f"contacts=True needs every part to be a upm.Disk; parts[{polygons[0][0]}] is a upm.Polygon "
+            "(polygon contacts are to come): simulate polygons without contacts"
+        )
     if contacts and (radius is None or np.any(radius == 0)):
         first = 0 if radius is None else int(np.flatnonzero(radius == 0)[0])
         raise ParameterError(
@@ -347,6 +352,7 @@ def _run(
         progress=report,
         world_mu=None if worlds is None else worlds[0],
         world_mu_s=None if worlds is None else worlds[1],
+        polygons=polygons,
         **(contacts or {}),
     )
 
@@ -399,18 +405,23 @@ def simulate(
     threads: int | None = None,
     progress: Callable[[float], object] | None = None,
 ) -> SimResult:
-    """Simulate parts sliding (points) or sliding and spinning (disks) on the plate under ``motion``.
+    """Simulate parts sliding (points) or sliding and spinning (disks, polygons) on the plate under
+    ``motion``.
 
     Each step is the exact implicit Coulomb step of docs/spec.md §1: a part sticks when the force needed
     to keep it with the plate is within ``mu_s m g``, otherwise it slides at ``mu m g``; no
-    regularisation, so parts on a still plate stop and never creep. A disk's force and torque are
-    integrated over its footprint and its translation and spin stick or slide together.
+    regularisation, so parts on a still plate stop and never creep. A disk's or a polygon's force and
+    torque are integrated over its footprint under uniform pressure and its translation and spin
+    stick or slide together (a polygon sticks exactly when the wrench that keeps it with the plate
+    lies in its limit set: docs/polygons.md). A polygon's recorded position is its frame's origin
+    (with ``angles``, the pose: ``Polygon(vertices, position, angle)`` redraws it), its velocity
+    its centroid's. Polygons run on planar motions, without contacts, for now.
 
     Parameters
     ----------
     motion : PlateMotion
-    parts : array_like of shape (M, 2), or list of upm.Point and upm.Disk
-        Positions [m] of point parts at rest, or points and disks with their state.
+    parts : array_like of shape (M, 2), or list of upm.Point, upm.Disk and upm.Polygon
+        Positions [m] of point parts at rest, or points, disks and polygons with their state.
     duration : float
         Simulated time [s]; the run takes ``ceil(duration / dt)`` steps.
     dt : float

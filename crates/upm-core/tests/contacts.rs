@@ -15,6 +15,7 @@ fn disks(position: Vec<[f64; 2]>, velocity: Vec<[f64; 2]>, radius: Vec<f64>, mu:
         radius,
         angle: vec![0.0; m],
         spin: vec![0.0; m],
+        polygons: Vec::new(),
     }
 }
 

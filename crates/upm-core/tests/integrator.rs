@@ -22,6 +22,7 @@ fn disk(position: [f64; 2], velocity: [f64; 2], radius: f64, spin: f64, mu: f64)
         radius: vec![radius],
         angle: vec![0.0],
         spin: vec![spin],
+        polygons: Vec::new(),
     }
 }
 

@@ -265,7 +265,7 @@ fn view2<'a>(a: &'a PyReadonlyArray2<'_, f64>) -> std::borrow::Cow<'a, [f64]> {
 
 /// Simulates point and disk parts under each of `motions` (B worlds); arrays carry a batch axis.
 #[pyfunction]
-#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4, world_mu=None, world_mu_s=None))]
+#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4, world_mu=None, world_mu_s=None, polygons=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -293,7 +293,17 @@ pub fn simulate<'py>(
     contact_iterations: usize,
     world_mu: Option<PyReadonlyArray2<'py, f64>>,
     world_mu_s: Option<PyReadonlyArray2<'py, f64>>,
+    polygons: Option<Vec<(usize, PyReadonlyArray2<'py, f64>)>>,
 ) -> PyResult<Bound<'py, PyTuple>> {
+    // Polygon parts: (part, vertices (K, 2) in its frame), checked convex and counter-clockwise.
+    let polygons = polygons
+        .iter()
+        .flatten()
+        .map(|(i, v)| {
+            let shape = crate::polygon::polygon(py, &format!("parts[{i}].vertices"), v)?;
+            Ok((*i, shape))
+        })
+        .collect::<PyResult<Vec<_>>>()?;
     // The caller's arrays as they are: no copy of a contiguous array.
     let position = pair_view(py, "positions", &positions)?;
     let velocity = velocities
@@ -314,6 +324,7 @@ pub fn simulate<'py>(
         radius: radius.as_deref(),
         angle: angle.as_deref(),
         spin: spin.as_deref(),
+        polygons: &polygons,
     };
     let m = parts.len();
     let cfg = Config {

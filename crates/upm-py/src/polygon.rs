@@ -11,7 +11,12 @@ use crate::pairs;
 /// Twists per task: the unit of parallel work and of the Ctrl-C check.
 const CHUNK: usize = 256;
 
-fn polygon(py: Python<'_>, name: &str, vertices: &PyReadonlyArray2<'_, f64>) -> PyResult<Polygon> {
+/// The convex polygon `vertices (K, 2)`; `ParameterError` naming `name` and the reason otherwise.
+pub(crate) fn polygon(
+    py: Python<'_>,
+    name: &str,
+    vertices: &PyReadonlyArray2<'_, f64>,
+) -> PyResult<Polygon> {
     let v = pairs(py, name, vertices)?;
     core(py, Polygon::new(name, &v))
 }

@@ -52,6 +52,13 @@ impl Polygon {
     /// The gauge of the wrench `(fx, fy, m) / (mu N)` (`m` in metres) in the limit set
     /// (module docs).
     pub fn gauge(&self, fx: f64, fy: f64, m: f64) -> Result<Gauge> {
+        self.gauge_from(fx, fy, m, None)
+    }
+
+    /// [`Polygon::gauge`], the ascent started from the twist direction `start` (`(vx, vy,
+    /// radius * omega)`, where the ratio is positive; a good one saves iterations) instead of
+    /// from the wrench itself.
+    pub fn gauge_from(&self, fx: f64, fy: f64, m: f64, start: Option<[f64; 3]>) -> Result<Gauge> {
         for (name, x) in [("force", fx), ("force", fy), ("moment", m)] {
             crate::error::finite(name, x)?;
         }
@@ -67,6 +74,12 @@ impl Polygon {
         }
         let mut e = unit(z);
         let (mut f, mut g) = self.ratio(z, e);
+        if let Some(s) = start.filter(|s| dot(*s, *s) > 0.0) {
+            let (fs, gs) = self.ratio(z, unit(s));
+            if fs > f {
+                (e, f, g) = (unit(s), fs, gs);
+            }
+        }
         const H: f64 = 1e-6;
         for it in 0..60 {
             // an orthonormal basis of the directions' tangent plane at e

@@ -22,7 +22,9 @@
 use crate::error::{Error, Result};
 
 mod limit;
+mod step;
 pub use limit::Gauge;
+pub use step::{Step, Stepper};
 
 /// Beyond this many part radii the instantaneous centre is "far" (quadrature, see the module).
 pub const FAR: f64 = 1e3;
@@ -178,12 +180,19 @@ impl Polygon {
             } else {
                 0.0
             };
+            // asinh(t/|h|) = ln((t + rho)/|h|), rho = sqrt(h² + t²) the distance to the point at
+            // t (ra, rb at the ends), so a difference on one side of the foot of h is one
+            // logarithm of a ratio of positive sums (tb - ta = len; rb - ra = drho, |drho| <=
+            // len), and across the foot a sum of two, each `ln_1p` of a positive term: no hypot,
+            // no cancellation.
             let hh = h.abs();
-            let dasinh = if ta * tb > 0.0 {
-                // asinh x - asinh y = asinh(x sqrt(1 + y²) - y sqrt(1 + x²)), tb - ta = len
-                (len * (ta + tb).abs() / (tb.abs() * ra + ta.abs() * rb)).asinh()
+            let half = |t: f64, rho: f64| (t * (hh + rho + t) / (hh * (hh + rho))).ln_1p();
+            let dasinh = if ta >= 0.0 {
+                ((len + drho) / (ta + ra)).ln_1p()
+            } else if tb <= 0.0 {
+                ((len - drho) / (rb - tb)).ln_1p()
             } else {
-                (tb / hh).asinh() - (ta / hh).asinh()
+                half(tb, rb) + half(-ta, ra)
             };
             // ∫ |p| dA = (h/3) ∫ sqrt(h² + t²) dt = (h/6) [t rho + h² asinh(t/|h|)]
             dist += h / 6.0 * (len * rb + ta * drho + h * h * dasinh);

@@ -31,6 +31,7 @@ pub mod kernel;
 pub mod lift;
 mod parts;
 mod points;
+mod polygons;
 mod record;
 
 use rayon::prelude::*;
@@ -49,6 +50,9 @@ const BLOCK_STEPS: usize = 4096;
 /// caller's check between blocks (Ctrl-C) comes often enough whatever the number of parts.
 const BLOCK_POINT_STEPS: usize = 50_000_000;
 const BLOCK_DISK_STEPS: usize = 200_000;
+
+/// A polygon's step costs about this many disks' (its sliding solve is a Newton iteration).
+const POLYGON_DISKS: usize = 40;
 
 /// Steps per block for `worlds` worlds of `points` points and `disks` disks (1..=BLOCK_STEPS).
 /// The block length changes only when the caller checks for signals, never the results.
@@ -362,6 +366,8 @@ struct World<'a> {
     disks: Vec<DiskState>,
     /// The disks' rapier world when contacts are on.
     contact: Option<contact::ContactWorld>,
+    /// Polygon parts.
+    polygons: Vec<polygons::PolygonState>,
     rec: Rec,
     table: Vec<[f64; 3]>,
     /// Whether the motion leaves the plane (read once: the block loop asks every block).
@@ -477,6 +483,25 @@ where
         .iter()
         .map(PlateMotion::is_spatial)
         .collect::<Vec<_>>();
+    if let Some(&(i, _)) = parts.polygons.first() {
+        if contacts.is_some() {
+            return Err(Error::parameter(
+                "contacts",
+                format!("need every part to be a disk; part {i} is a polygon (polygon contacts are to come)"),
+            )
+            .into());
+        }
+        if spatial.iter().any(|&s| s) {
+            return Err(Error::parameter(
+                "motion",
+                format!(
+                    "moves out of the plate's plane, which polygon parts (part {i}) do not support yet; \
+                     simulate them on a planar motion"
+                ),
+            )
+            .into());
+        }
+    }
     if contacts.is_some() && spatial.iter().any(|&s| s) {
         return Err(Error::parameter(
             "contacts",
@@ -488,8 +513,16 @@ where
     let rows = recorded_rows(steps, cfg.record_every);
     // Points only: the points are the parts, in order (no index to map them through).
     let disk_index: Vec<usize> = (0..m).filter(|&i| parts.radius(i) > 0.0).collect();
-    let point_index: Option<Vec<usize>> =
-        (!disk_index.is_empty()).then(|| (0..m).filter(|&i| parts.radius(i) == 0.0).collect());
+    let mut is_polygon = vec![false; if parts.polygons.is_empty() { 0 } else { m }];
+    for &(i, _) in parts.polygons {
+        is_polygon[i] = true;
+    }
+    let point_index: Option<Vec<usize>> = (!disk_index.is_empty() || !parts.polygons.is_empty())
+        .then(|| {
+            (0..m)
+                .filter(|&i| parts.radius(i) == 0.0 && !is_polygon.get(i).copied().unwrap_or(false))
+                .collect()
+        });
     let index = point_index.as_deref();
     let disk_mass: Vec<f64> = match contacts {
         None => Vec::new(),
@@ -515,8 +548,9 @@ where
             "is too small: the number of records overflows",
         )
     })?;
-    let n_points = m - disk_index.len();
-    let block = block_steps(motions.len(), n_points, disk_index.len());
+    let n_points = m - disk_index.len() - parts.polygons.len();
+    let heavy = disk_index.len() + POLYGON_DISKS * parts.polygons.len();
+    let block = block_steps(motions.len(), n_points, heavy);
     let mut worlds: Vec<World> = Vec::with_capacity(motions.len());
     // Reserved fallibly (an error, not an abort, when it cannot fit), reusing recycled results.
     let mut recorder = Recorder::new(motions.len(), rows, m)?;
@@ -534,6 +568,11 @@ where
             points: points::Points::new(parts, index, cfg, u0, spatial[b]),
             contact: contacts.map(|c| contact::ContactWorld::new(&disks, &disk_mass, c, cfg)),
             disks,
+            polygons: parts
+                .polygons
+                .iter()
+                .map(|(i, shape)| polygons::PolygonState::new(parts, *i, shape, cfg, u0))
+                .collect(),
             rec,
             table: Vec::with_capacity(block),
             spatial: spatial[b],
@@ -546,11 +585,14 @@ where
         for d in &w.disks {
             d.record_step(None, &w.rec);
         }
+        for p in &w.polygons {
+            p.record(0, &w.rec);
+        }
     });
     let mut first = 0;
     while first < steps {
         let end = (first + block).min(steps);
-        worlds.par_iter_mut().for_each(|w| {
+        worlds.par_iter_mut().try_for_each(|w| {
             w.table.clear();
             // Sampled a hair before each step's end (see `velocities_into`).
             w.motion.velocities_into(first..end, cfg.dt, &mut w.table);
@@ -560,14 +602,21 @@ where
             }
             let (table, normals, rec) = (&w.table, &w.normals, &w.rec);
             let (points, disks, contact) = (&mut w.points, &mut w.disks, &mut w.contact);
-            rayon::join(
-                || points.run(table, normals, first, cfg, rec, index),
-                || match contact {
-                    Some(c) => c.run(disks, table, first, cfg, rec),
-                    None => run_disks(disks, table, normals, first, cfg, rec),
+            let shapes = &mut w.polygons;
+            let ((), polygons) = rayon::join(
+                || {
+                    rayon::join(
+                        || points.run(table, normals, first, cfg, rec, index),
+                        || match contact {
+                            Some(c) => c.run(disks, table, first, cfg, rec),
+                            None => run_disks(disks, table, normals, first, cfg, rec),
+                        },
+                    );
                 },
+                || polygons::run(shapes, table, first, cfg, rec),
             );
-        });
+            polygons
+        })?;
         recorder.times(first + 1, end, steps, cfg.record_every, cfg.dt);
         between(end)?;
         first = end;
@@ -588,6 +637,9 @@ where
         for d in &w.disks {
             left[d.index] = d.left;
             flight[d.index] = d.flight as f64 * cfg.dt;
+        }
+        for p in &w.polygons {
+            left[p.index] = p.left;
         }
     }
     drop(worlds);

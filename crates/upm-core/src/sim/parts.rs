@@ -3,6 +3,7 @@
 //! every part and velocities, radii, angles and spins may be absent).
 
 use crate::error::{positive, Error, Result};
+use crate::polygon::Polygon;
 
 /// Parts (points and disks): initial state and friction coefficients, one entry per part.
 #[derive(Debug, Clone, PartialEq)]
@@ -21,6 +22,9 @@ pub struct Parts {
     pub angle: Vec<f64>,
     /// Angular velocity [rad/s] (disks; points keep 0).
     pub spin: Vec<f64>,
+    /// Polygon parts: `(part, shape)`, parts in increasing order, each with radius 0. A polygon
+    /// part's position is its frame's origin (the vertices' frame), its velocity its centroid's.
+    pub polygons: Vec<(usize, Polygon)>,
 }
 
 impl Parts {
@@ -40,6 +44,7 @@ impl Parts {
             radius: vec![0.0; m],
             angle: vec![0.0; m],
             spin: vec![0.0; m],
+            polygons: Vec::new(),
         }
     }
 
@@ -53,6 +58,7 @@ impl Parts {
             radius: Some(&self.radius),
             angle: Some(&self.angle),
             spin: Some(&self.spin),
+            polygons: &self.polygons,
         }
     }
 
@@ -80,6 +86,8 @@ pub struct PartsView<'a> {
     pub angle: Option<&'a [f64]>,
     /// Angular velocity [rad/s].
     pub spin: Option<&'a [f64]>,
+    /// Polygon parts, as [`Parts::polygons`].
+    pub polygons: &'a [(usize, Polygon)],
 }
 
 /// Entry `i` of a per-part array, or its one value.
@@ -184,10 +192,38 @@ impl PartsView<'_> {
             })
             && self.angle.is_none_or(finite)
             && self.spin.is_none_or(finite);
-        if fine {
-            return Ok(());
+        if !fine {
+            return self.first_offender();
         }
-        self.first_offender()
+        self.check_polygons()
+    }
+
+    /// Checks that the polygon parts name parts in increasing order and have no radius.
+    fn check_polygons(&self) -> Result<()> {
+        let mut last = None;
+        for (i, _) in self.polygons {
+            let i = *i;
+            if i >= self.len() || last.is_some_and(|l| l >= i) {
+                return Err(Error::parameter(
+                    "polygons",
+                    format!(
+                        "must name parts in increasing order below {}; got part {i} after {last:?}",
+                        self.len()
+                    ),
+                ));
+            }
+            if self.radius(i) != 0.0 {
+                return Err(Error::parameter(
+                    "radius",
+                    format!(
+                        "must be 0 for a polygon part; part {i} has {}",
+                        self.radius(i)
+                    ),
+                ));
+            }
+            last = Some(i);
+        }
+        Ok(())
     }
 
     /// The error of the first part that fails [`PartsView::check`].

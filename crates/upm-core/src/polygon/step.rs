@@ -1,0 +1,300 @@
+//! The implicit stick–slip step of a polygon part (docs/spec.md §11, docs/polygons.md).
+//!
+//! Per unit mass, with the relative twist `w = (vx, vy, omega)` at the centroid (the part's less
+//! the plate surface's), the part's state after a step of `dt` minimises
+//!
+//! ```text
+//! Phi(w) = |v - v*|² / 2 + k² (omega - omega*)² / 2 + c D(w),     c = mu g dt,
+//! ```
+//!
+//! `w* = (v*, omega*)` the relative twist the part would have without friction, `k` its radius of
+//! gyration and `D` the rate of work of friction per `mu N` ([`Polygon::friction`]): convex,
+//! positively homogeneous, smooth away from 0. The minimum is at `w = 0` (the part sticks to the
+//! plate) exactly when the wrench `(v*, k² omega*) / c` lies in the limit set, its [gauge] at most
+//! 1 (with `c = mu_s g dt` while the part is stuck); otherwise it is where `Phi` is smooth and
+//! found by Newton's method, with the step length halved until `Phi` falls. Sticking is exact:
+//! no velocity below a threshold is rounded to zero (no creep), and the minimiser is unique (no
+//! chatter between stick and slip that the motion does not make).
+//!
+//! Most steps are cheap: the limit set contains the double cone over the unit force disk and the
+//! pure moments `±` the mean distance (a wrench inside it sticks), and lies inside the cylinder
+//! `|F| <= 1`, `|M| <=` the mean distance (a wrench outside it slides). A twist with no relative
+//! spin and no free spin slides as a point does (uniform pressure gives a translating part no
+//! moment about its centroid), in closed form.
+//!
+//! [gauge]: Polygon::gauge
+
+use super::Polygon;
+use crate::error::{Error, Result};
+
+/// The result of one step: the relative twist after it and whether the part sticks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Step {
+    /// Relative twist `(vx, vy, omega)` after the step [m/s, rad/s] (zero when stuck).
+    pub w: [f64; 3],
+    /// Whether the part moves with the plate after the step.
+    pub stuck: bool,
+    /// Newton iterations of the sliding solve (0 when it took no solve).
+    pub iterations: usize,
+}
+
+/// A polygon's constants for stepping it: the shape and its gyration and mean distance.
+#[derive(Debug, Clone)]
+pub struct Stepper {
+    /// The shape, vertices about the centroid.
+    pub shape: Polygon,
+    /// Radius of gyration about the centroid, `sqrt(polar / area)` [m].
+    pub gyration: f64,
+    /// Mean distance of the footprint from the centroid [m]: the largest friction moment per
+    /// `mu N`.
+    pub mean_distance: f64,
+    /// Twist directions `(vx, vy, radius * omega)` over a half sphere with their rates of work
+    /// `D`: each an exact supporting plane of the limit set, for a quick lower bound of a
+    /// wrench's gauge and a start for the exact one.
+    samples: Vec<([f64; 3], f64)>,
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Relative size of a Newton step under which the solve has converged.
+const TOLERANCE: f64 = 1e-14;
+/// Sampled twist directions of [`Stepper`].
+const SAMPLES: usize = 48;
+/// Whole Newton steps taken once `Phi` no longer resolves its fall, at most (the gradient then
+/// sits at its rounding floor).
+const FINE_STEPS: usize = 4;
+/// Newton iterations allowed before the solve reports that it did not converge.
+const MAX_ITERATIONS: usize = 100;
+
+impl Stepper {
+    /// The constants of `shape`.
+    pub fn new(shape: Polygon) -> Self {
+        let gyration = (shape.polar / shape.area).sqrt();
+        let mean_distance = shape.mean_distance();
+        // directions over a half sphere (D is even), golden-angle spiral
+        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let samples = (0..SAMPLES)
+            .map(|i| {
+                let z = (i as f64 + 0.5) / SAMPLES as f64;
+                let r = (1.0 - z * z).sqrt();
+                let a = golden * i as f64;
+                let e = [r * a.cos(), r * a.sin(), z];
+                let d = shape.friction([e[0], e[1]], e[2] / shape.radius).1;
+                (e, d)
+            })
+            .collect();
+        Stepper {
+            shape,
+            gyration,
+            mean_distance,
+            samples,
+        }
+    }
+
+    /// One implicit step from the free relative twist `free` (in the part's frame), with `slide
+    /// = mu g dt` and `hold = mu_s g dt` (the latter while the part `was_stuck`); `guess` is a
+    /// relative twist near the answer, if one is known (the last step's, for a part sliding on).
+    pub fn step(
+        &self,
+        free: [f64; 3],
+        slide: f64,
+        hold: f64,
+        was_stuck: bool,
+        guess: Option<[f64; 3]>,
+    ) -> Result<Step> {
+        let k = self.gyration;
+        let c = if was_stuck { hold } else { slide };
+        // the wrench per mu N that keeps the part with the plate, force and moment / mean distance
+        let force = free[0].hypot(free[1]) / c;
+        let moment = (k * k * free[2]).abs() / (c * self.mean_distance);
+        let stuck = Step {
+            w: [0.0; 3],
+            stuck: true,
+            iterations: 0,
+        };
+        if force + moment <= 1.0 {
+            return Ok(stuck); // inside the double cone, inside the limit set
+        }
+        if free[2] == 0.0 {
+            // no spin: a point's slide (a translating part feels no moment)
+            if force <= 1.0 {
+                return Ok(stuck);
+            }
+            // |free| > hold >= slide: it slides on
+            let f = 1.0 - slide / (force * c);
+            return Ok(Step {
+                w: [free[0] * f, free[1] * f, 0.0],
+                stuck: false,
+                iterations: 0,
+            });
+        }
+        // The gauge's lower bound over the sampled directions (exact supporting planes of the
+        // limit set): over 1, the part slides; else the exact gauge, started at the best one.
+        let l = self.shape.radius;
+        let z = [free[0] / c, free[1] / c, k * k * free[2] / c];
+        let zs = [z[0], z[1], z[2] / l];
+        let (mut lower, mut best) = (f64::NEG_INFINITY, [0.0; 3]);
+        for &(e, d) in &self.samples {
+            let r = dot(zs, e) / d;
+            if r.abs() > lower {
+                lower = r.abs();
+                best = if r < 0.0 { [-e[0], -e[1], -e[2]] } else { e };
+            }
+        }
+        // the way it starts to slide, in the solve's coordinates (v, k omega): minus the gauge's
+        // direction (either sign is tried)
+        let mut toward = [best[0], best[1], k * best[2] / l];
+        if lower <= 1.0 && force <= 1.0 && moment <= 1.0 {
+            let g = self.shape.gauge_from(z[0], z[1], z[2], Some(best))?;
+            if g.value <= 1.0 {
+                return Ok(stuck);
+            }
+            toward = [g.twist[0], g.twist[1], k * g.twist[2]];
+        }
+        // Static friction let go (or the part was sliding): it slides under sliding friction. A
+        // wrench outside the static limit set (scaled by mu / mu_s <= 1) lies outside the sliding
+        // one too, which contains 0 and is convex, so the minimiser is not 0.
+        self.slide(free, slide, toward, guess)
+    }
+
+    /// The sliding solve: the minimiser of `Phi` (module docs), not at 0. It starts from the
+    /// lowest of: the free twist, `guess`, and the best points on the rays through the free twist
+    /// and through `toward` (either sign; the way the part starts to slide): along a ray `t d`,
+    /// `Phi` is a parabola in `t` (`D` is homogeneous), least at `t = (<d, y*> - c D(d)) / |d|²`.
+    /// Near the limit surface the minimiser is small and lies close to `toward`'s ray, where
+    /// `Phi` is smooth; started from the free twist instead, Newton's iterates could end at the
+    /// kink at 0.
+    fn slide(
+        &self,
+        free: [f64; 3],
+        c: f64,
+        toward: [f64; 3],
+        guess: Option<[f64; 3]>,
+    ) -> Result<Step> {
+        let k = self.gyration;
+        // scaled coordinates y = (vx, vy, k omega): Phi = |y - y*|²/2 + c D
+        let target = [free[0], free[1], k * free[2]];
+        let phi = |y: [f64; 3]| -> (f64, [f64; 3]) {
+            let (w, d) = self.shape.friction([y[0], y[1]], y[2] / k);
+            let r = [y[0] - target[0], y[1] - target[1], y[2] - target[2]];
+            let value = 0.5 * dot(r, r) + c * d;
+            let grad = [r[0] - c * w[0], r[1] - c * w[1], r[2] - c * w[2] / k];
+            (value, grad)
+        };
+        let size = dot(target, target).sqrt();
+        let mut y = target;
+        let (mut value, mut grad) = phi(y);
+        let guess = guess.filter(|g| g.iter().any(|&x| x != 0.0));
+        if let Some(g) = guess {
+            let cand = [g[0], g[1], k * g[2]];
+            let (vc, gc) = phi(cand);
+            if vc < value {
+                (y, value, grad) = (cand, vc, gc);
+            }
+        }
+        let rays = [target, toward, [-toward[0], -toward[1], -toward[2]]];
+        for d in rays.into_iter().filter(|d| dot(*d, *d) > 0.0) {
+            let (_, dd) = self.shape.friction([d[0], d[1]], d[2] / k);
+            let t = (dot(d, target) - c * dd) / dot(d, d);
+            if t > 0.0 {
+                let cand = [t * d[0], t * d[1], t * d[2]];
+                let (vc, gc) = phi(cand);
+                if vc < value {
+                    (y, value, grad) = (cand, vc, gc);
+                }
+            }
+        }
+        let mut fine = 0;
+        let mut hess = [[0.0; 3]; 3];
+        let mut last = f64::INFINITY;
+        for it in 0..MAX_ITERATIONS {
+            let norm = dot(y, y).sqrt();
+            if fine == 0 {
+                // the Hessian I + c J, J the Jacobian of minus the scaled wrench, by differences
+                // (kept once Phi stops resolving its fall: it changes no more)
+                let h = 1e-7 * norm;
+                for j in 0..3 {
+                    let mut yj = y;
+                    yj[j] += h;
+                    let (_, gj) = phi(yj);
+                    for (i, row) in hess.iter_mut().enumerate() {
+                        row[j] = (gj[i] - grad[i]) / h;
+                    }
+                }
+                for (i, j) in [(1, 0), (2, 0), (2, 1)] {
+                    let s = 0.5 * (hess[i][j] + hess[j][i]);
+                    (hess[i][j], hess[j][i]) = (s, s);
+                }
+            }
+            let mut step = solve3(hess, [-grad[0], -grad[1], -grad[2]])
+                .filter(|s| dot(*s, grad) < 0.0)
+                .unwrap_or([-grad[0], -grad[1], -grad[2]]);
+            let length = dot(step, step).sqrt();
+            if length <= TOLERANCE * norm + 1e-15 * size {
+                return Ok(self.done(y, it));
+            }
+            if -dot(step, grad) <= 1e-14 * value {
+                // Phi's fall is below its rounding: Newton's region, where its steps are taken
+                // whole while they shrink, the gradient (exact to rounding) falling to its floor
+                fine += 1;
+                if fine > FINE_STEPS || length >= 0.5 * last {
+                    return Ok(self.done(y, it));
+                }
+                last = length;
+                y = [y[0] + step[0], y[1] + step[1], y[2] + step[2]];
+                (value, grad) = phi(y);
+                continue;
+            }
+            // halve the step until Phi falls (Armijo); a convex Phi always falls for a small one
+            let mut moved = false;
+            for _ in 0..60 {
+                let cand = [y[0] + step[0], y[1] + step[1], y[2] + step[2]];
+                let (vc, gc) = phi(cand);
+                if vc < value && vc <= value + 1e-4 * dot(step, grad) {
+                    (y, value, grad, moved) = (cand, vc, gc, true);
+                    break;
+                }
+                step = [0.5 * step[0], 0.5 * step[1], 0.5 * step[2]];
+            }
+            if !moved {
+                // no step within rounding lowers Phi: the minimum to rounding
+                return Ok(self.done(y, it + 1));
+            }
+        }
+        Err(Error::Convergence(format!(
+            "the sliding step of a polygon part from the relative twist {free:?} did not converge \
+             in {MAX_ITERATIONS} Newton iterations"
+        )))
+    }
+
+    fn done(&self, y: [f64; 3], iterations: usize) -> Step {
+        Step {
+            w: [y[0], y[1], y[2] / self.gyration],
+            stuck: false,
+            iterations,
+        }
+    }
+}
+
+/// `a x = b` for a symmetric 3x3 `a` by Cramer's rule, None when `a` is singular.
+fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
+    let det = |m: [[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let d = det(a);
+    if !(d.is_finite() && d.abs() > 0.0) {
+        return None;
+    }
+    let x: [f64; 3] = std::array::from_fn(|j| {
+        let mut m = a;
+        for i in 0..3 {
+            m[i][j] = b[i];
+        }
+        det(m) / d
+    });
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}

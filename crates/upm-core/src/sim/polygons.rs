@@ -1,0 +1,145 @@
+//! Convex polygon parts in the integrator: each step is the polygon's exact implicit stick–slip
+//! step ([`crate::polygon::Stepper`]) on its twist relative to the plate surface under its
+//! centroid, taken in the part's frame, then the trapezoid for its centroid and angle.
+//!
+//! A polygon part's recorded position is its frame's origin (with its angle, the pose that
+//! redraws it from its vertices), its recorded velocity that of its centroid.
+
+use rayon::prelude::*;
+
+use crate::error::Result;
+use crate::polygon::{Polygon, Stepper};
+
+use super::record::Rec;
+use super::{half_side, moves_with_plate, off_plate, Config, PartsView};
+
+/// One polygon part: its state and friction thresholds.
+pub(super) struct PolygonState {
+    stepper: Stepper,
+    /// Centroid [m], its velocity [m/s], the frame's angle [rad] and the spin [rad/s].
+    c: [f64; 2],
+    v: [f64; 2],
+    angle: f64,
+    spin: f64,
+    stuck: bool,
+    /// The relative twist in the part's frame after the last step (the next solve's guess).
+    last: [f64; 3],
+    active: bool,
+    pub(super) left: Option<f64>,
+    slide: f64,
+    hold: f64,
+    /// Its place among all parts.
+    pub(super) index: usize,
+}
+
+/// `p` turned by the angle whose cosine and sine are `cs`.
+fn turn([c, s]: [f64; 2], p: [f64; 2]) -> [f64; 2] {
+    [c * p[0] - s * p[1], s * p[0] + c * p[1]]
+}
+
+impl PolygonState {
+    /// Part `i` of `parts`, of shape `shape` (vertices in its frame), under the plate velocity
+    /// `u0` at the start.
+    pub(super) fn new(
+        parts: &PartsView,
+        i: usize,
+        shape: &Polygon,
+        cfg: &Config,
+        u0: [f64; 3],
+    ) -> Self {
+        let (p, v, angle, spin) = (
+            parts.position[i],
+            parts.velocity(i),
+            parts.angle(i),
+            parts.spin(i),
+        );
+        let off = turn([angle.cos(), angle.sin()], shape.centroid);
+        let c = [p[0] + off[0], p[1] + off[1]];
+        let outside = off_plate(c[0], c[1], half_side(cfg));
+        PolygonState {
+            stepper: Stepper::new(shape.clone()),
+            c,
+            v,
+            angle,
+            spin,
+            // A part that starts moving with the plate surface starts stuck.
+            stuck: moves_with_plate(c, v, u0) && spin == u0[2],
+            last: [0.0; 3],
+            active: !outside,
+            left: outside.then_some(0.0),
+            slide: parts.mu(i) * cfg.g * cfg.dt,
+            hold: parts.mu_s(i) * cfg.g * cfg.dt,
+            index: i,
+        }
+    }
+
+    /// One step (0-based `s`) under the plate velocity `u`, if the part is still on the plate.
+    fn step(&mut self, [u1, u2, u3]: [f64; 3], s: usize, cfg: &Config) -> Result<()> {
+        if !self.active {
+            return Ok(());
+        }
+        let [x, y] = self.c;
+        let surface = [u1 - u3 * y, u2 + u3 * x];
+        let free = [self.v[0] - surface[0], self.v[1] - surface[1]];
+        let cs = [self.angle.cos(), self.angle.sin()];
+        let local = turn([cs[0], -cs[1]], free);
+        let st = self
+            .stepper
+            .step(
+                [local[0], local[1], self.spin - u3],
+                self.slide,
+                self.hold,
+                self.stuck,
+                (!self.stuck).then_some(self.last),
+            )
+            .map_err(|e| e.with_context(&format!("part {}", self.index)))?;
+        self.last = st.w;
+        let w = turn(cs, [st.w[0], st.w[1]]);
+        let (v, spin) = ([surface[0] + w[0], surface[1] + w[1]], u3 + st.w[2]);
+        let dt = cfg.dt;
+        self.c = [
+            x + 0.5 * (self.v[0] + v[0]) * dt,
+            y + 0.5 * (self.v[1] + v[1]) * dt,
+        ];
+        self.angle += 0.5 * (self.spin + spin) * dt;
+        (self.v, self.spin, self.stuck) = (v, spin, st.stuck);
+        if off_plate(self.c[0], self.c[1], half_side(cfg)) {
+            self.active = false;
+            self.left = Some((s + 1) as f64 * dt);
+        }
+        Ok(())
+    }
+
+    /// Records the state after step `s` (1-based; 0: the initial state) if that step is recorded.
+    pub(super) fn record(&self, s: usize, rec: &Rec) {
+        if let Some(row) = rec.row(s) {
+            let off = turn(
+                [self.angle.cos(), self.angle.sin()],
+                self.stepper.shape.centroid,
+            );
+            let origin = [self.c[0] - off[0], self.c[1] - off[1]];
+            let state = (origin, self.v, self.angle, self.spin, self.stuck);
+            // SAFETY: row < rows (from Rec::row), index < m, one polygon is one cell of a row.
+            unsafe { rec.disk(row, self.index, state) };
+        }
+    }
+}
+
+/// Advances `polygons` through one block (`table[k]`: the plate velocity at the end of step
+/// `first + k`), one part per rayon task, recording as it goes; the first error (a sliding solve
+/// that did not converge) stops the run.
+pub(super) fn run(
+    polygons: &mut [PolygonState],
+    table: &[[f64; 3]],
+    first: usize,
+    cfg: &Config,
+    rec: &Rec,
+) -> Result<()> {
+    polygons.par_iter_mut().try_for_each(|p| {
+        for (k, &u) in table.iter().enumerate() {
+            p.step(u, first + k, cfg)?;
+            p.record(first + k + 1, rec);
+        }
+        Ok(())
+    })
+}

@@ -1,0 +1,175 @@
+//! The polygon part's implicit stick–slip step against references outside it: the closed form of
+//! a part spinning down in place, the optimality condition of the step written out here, the
+//! limit surface's gauge, the point's closed form and the disk's step.
+
+use upm_core::polygon::{Polygon, Stepper};
+
+fn pentagon() -> Polygon {
+    Polygon::new(
+        "p",
+        &[
+            [0.0, 0.0],
+            [0.030, -0.004],
+            [0.041, 0.016],
+            [0.022, 0.031],
+            [-0.006, 0.019],
+        ],
+    )
+    .unwrap()
+}
+
+fn regular(n: usize, r: f64) -> Polygon {
+    let v: Vec<[f64; 2]> = (0..n)
+        .map(|k| {
+            let a = 2.0 * std::f64::consts::PI * k as f64 / n as f64;
+            [r * a.cos(), r * a.sin()]
+        })
+        .collect();
+    Polygon::new("n-gon", &v).unwrap()
+}
+
+/// Uniform numbers in [-1, 1) from a 64-bit LCG.
+fn uniform(n: usize, seed: u64) -> Vec<f64> {
+    let mut state = seed;
+    (0..n)
+        .map(|_| {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        })
+        .collect()
+}
+
+#[test]
+fn a_part_spinning_in_place_slows_by_the_mean_distance_over_the_gyration_squared() {
+    // a square feels no force spinning about its centroid (an irregular part does, and that
+    // couples a little translation into the spin)
+    let p = Stepper::new(
+        Polygon::new("sq", &[[0.0, 0.0], [0.02, 0.0], [0.02, 0.02], [0.0, 0.02]]).unwrap(),
+    );
+    let c = 0.3 * 9.81 * 1e-4;
+    let k2 = p.gyration * p.gyration;
+    for spin in [30.0, -4.0, 0.5] {
+        let st = p.step([0.0, 0.0, spin], c, c, false, None).unwrap();
+        let want = spin - spin.signum() * c * p.mean_distance / k2;
+        assert!(!st.stuck);
+        assert!(
+            (st.w[2] - want).abs() < 1e-12 * spin.abs(),
+            "{st:?} vs {want}"
+        );
+        assert!(st.w[0].hypot(st.w[1]) < 1e-15);
+    }
+    // slower than one step's loss: it stops
+    let slow = 0.9 * c * p.mean_distance / k2;
+    assert!(p.step([0.0, 0.0, slow], c, c, false, None).unwrap().stuck);
+}
+
+#[test]
+fn the_step_is_the_minimiser_stuck_exactly_inside_the_limit_set() {
+    let shape = pentagon();
+    let p = Stepper::new(shape.clone());
+    let k2 = p.gyration * p.gyration;
+    let c = 0.25 * 9.81 * 2e-4;
+    let r = uniform(3 * 400, 5);
+    let (mut stuck, mut slid) = (0, 0);
+    for i in 0..400 {
+        // free twists from well inside the limit set to far outside it
+        let scale = c * (0.2 + 1.5 * (r[3 * i] + 1.0));
+        let free = [
+            scale * r[3 * i + 1],
+            scale * r[3 * i + 2],
+            scale * r[3 * i + 1] * r[3 * i + 2] * p.mean_distance / k2,
+        ];
+        let st = p.step(free, c, c, false, None).unwrap();
+        let z = [free[0] / c, free[1] / c, k2 * free[2] / c];
+        let gauge = shape.gauge(z[0], z[1], z[2]).unwrap().value;
+        if (gauge - 1.0).abs() < 1e-9 {
+            continue;
+        }
+        assert_eq!(st.stuck, gauge <= 1.0, "twist {i}: gauge {gauge}, {st:?}");
+        if st.stuck {
+            stuck += 1;
+            assert_eq!(st.w, [0.0; 3]);
+            continue;
+        }
+        slid += 1;
+        // optimality: (w - w*, k² (omega - omega*)) = c x (the friction wrench of w)
+        let f = shape.wrench([st.w[0], st.w[1]], st.w[2]);
+        let res = [
+            st.w[0] - free[0] - c * f[0],
+            st.w[1] - free[1] - c * f[1],
+            k2 * (st.w[2] - free[2]) - c * f[2],
+        ];
+        let size = free[0].hypot(free[1]) + p.gyration * free[2].abs();
+        // started from a nearby guess (the last step's twist in a run) it lands on the same point
+        let near = [st.w[0] * 1.01, st.w[1] * 0.99, st.w[2] * 1.02];
+        let warm = p.step(free, c, c, false, Some(near)).unwrap();
+        for j in 0..3 {
+            let scale = if j == 2 { size / p.gyration } else { size };
+            assert!(
+                (warm.w[j] - st.w[j]).abs() < 1e-11 * scale,
+                "twist {i}: {warm:?} vs {st:?}"
+            );
+        }
+        assert!(
+            res[0].abs() + res[1].abs() + res[2].abs() / p.gyration < 1e-12 * size,
+            "twist {i}: residual {res:?} free {free:?} c {c} {st:?}"
+        );
+    }
+    assert!(stuck > 40 && slid > 40, "{stuck} stuck, {slid} slid");
+}
+
+#[test]
+fn static_friction_holds_a_stuck_part_longer_and_then_lets_it_slide() {
+    let p = Stepper::new(pentagon());
+    let (slide, hold) = (1e-3, 1.5e-3);
+    let free = [1.2e-3, 0.0, 0.0];
+    assert!(p.step(free, slide, hold, true, None).unwrap().stuck);
+    let moving = p.step(free, slide, hold, false, None).unwrap();
+    assert!(!moving.stuck && (moving.w[0] - 0.2e-3).abs() < 1e-18);
+    // past static friction it slides under sliding friction, with spin too
+    let free = [1.0e-3, 0.8e-3, 0.05];
+    let st = p.step(free, slide, hold, true, None).unwrap();
+    let again = p.step(free, slide, slide, false, None).unwrap();
+    assert!(!st.stuck && !again.stuck);
+    for k in 0..3 {
+        assert!(
+            (st.w[k] - again.w[k]).abs() < 1e-15 * (1.0 + again.w[k].abs()),
+            "{st:?} {again:?}"
+        );
+    }
+}
+
+#[test]
+fn without_spin_a_part_slides_as_a_point() {
+    let p = Stepper::new(pentagon());
+    let c = 2e-3;
+    let st = p.step([3e-3, -4e-3, 0.0], c, c, false, None).unwrap();
+    let f = 1.0 - c / 5e-3;
+    assert_eq!(st.w, [3e-3 * f, -4e-3 * f, 0.0]);
+    assert!(!st.stuck && st.iterations == 0);
+}
+
+#[test]
+fn a_polygon_of_many_sides_steps_as_the_disk() {
+    let radius = 0.02;
+    let p = Stepper::new(regular(2048, radius));
+    let c = 0.3 * 9.81 * 1e-4;
+    let r = uniform(3 * 60, 11);
+    for i in 0..60 {
+        let scale = c * (0.5 + 4.0 * (r[3 * i] + 1.0));
+        let free = [
+            scale * r[3 * i + 1],
+            scale * r[3 * i + 2],
+            scale * r[3 * i] / radius,
+        ];
+        let st = p.step(free, c, c, false, None).unwrap();
+        let disk = upm_core::disk::implicit_step([free[0], free[1]], radius * free[2], c, c, false);
+        assert_eq!(st.stuck, disk.stuck, "twist {i}");
+        let err = (st.w[0] - disk.w[0]).abs()
+            + (st.w[1] - disk.w[1]).abs()
+            + (radius * st.w[2] - disk.s).abs();
+        assert!(err < 2e-5 * scale, "twist {i}: {st:?} vs {disk:?}");
+    }
+}
