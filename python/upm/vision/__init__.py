@@ -17,6 +17,7 @@ except ImportError:  # tested with cv2 blocked in a subprocess
 
 from .._errors import VisionError
 from .parts import THESIS_PALETTE, Palette, Parts, find_parts
+from .poses import Poses, find_poses
 from .remote import RemoteCamera
 from .table import PLATE_SIZE, Table, find_table, plate_corners
 from .tracker import Tracker, Tracks
@@ -26,12 +27,14 @@ __all__ = [
     "THESIS_PALETTE",
     "Palette",
     "Parts",
+    "Poses",
     "RemoteCamera",
     "Table",
     "Tracker",
     "Tracks",
     "VisionError",
     "find_parts",
+    "find_poses",
     "find_table",
     "plate_corners",
 ]

@@ -1,0 +1,83 @@
+"""Poses (x, y, theta) of polygon parts from synthetic frames with exact ground truth (random
+cameras, noise, blur, lighting), symmetry handled: a square's angle modulo 90°."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import upm
+from upm.vision import find_poses, find_table
+from upm.vision.poses import angle_error, outline_moments, symmetry
+from upm.vision.synthetic import Camera, render
+
+PENTAGON = np.array([[0.0, 0.0], [0.030, -0.004], [0.041, 0.016], [0.022, 0.031], [-0.006, 0.019]])
+SHAPES = {
+    "square": upm.Polygon.rectangle(0.025, 0.025),
+    "rectangle 2:1": upm.Polygon.rectangle(0.04, 0.02),
+    "triangle": upm.Polygon.regular(3, 0.016),
+    "irregular pentagon": upm.Polygon(PENTAGON),  # its frame's origin is not its centroid
+}
+
+
+def test_symmetry_orders_and_angle_errors():
+    assert [symmetry(p) for p in SHAPES.values()] == [4, 2, 3, 1]
+    assert symmetry(upm.Polygon.regular(6, 0.01)) == 6
+    assert angle_error(np.radians(89.0), 0.0, 4) == pytest.approx(-1.0)
+    assert angle_error(np.radians(181.0), 0.0, 2) == pytest.approx(1.0)
+    assert angle_error(np.radians(-179.0), np.radians(179.0), 1) == pytest.approx(2.0)
+
+
+def test_outline_moments_match_a_fine_grid():
+    part = SHAPES["irregular pentagon"]
+    v = part.vertices - part.centroid
+    h = 5e-5
+    xs = np.arange(v[:, 0].min(), v[:, 0].max(), h) + h / 2
+    ys = np.arange(v[:, 1].min(), v[:, 1].max(), h) + h / 2
+    x, y = np.meshgrid(xs, ys)
+    inside = np.ones_like(x, bool)
+    for a, b in zip(v, np.roll(v, -1, axis=0), strict=True):
+        inside &= (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]) >= 0
+    z = (x + 1j * y)[inside]
+    for j, t in zip(range(2, 13), outline_moments(part), strict=True):
+        assert abs((z**j).sum() * h * h - t) < 2e-3 * part.radius**j * part.area
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_poses_of_four_shapes_within_a_degree_and_half_a_millimetre(seed):
+    rng = np.random.default_rng(seed)
+    cam = Camera(tilt=float(rng.uniform(-0.2, 0.2)), yaw=float(rng.uniform(-0.15, 0.15)))
+    errors, offsets = [], []
+    for part in SHAPES.values():
+        centroids = np.array([[x, y] for x in (-0.12, 0.0, 0.12) for y in (-0.1, 0.1)]) + rng.uniform(
+            -0.01, 0.01, 2
+        )
+        angles = rng.uniform(0, 2 * np.pi, len(centroids))
+        frame = render(
+            cam, centroids, "red", shapes={"red": part.vertices - part.centroid}, angles=angles, rng=seed
+        )
+        poses = find_poses(frame.image, find_table(frame.image), part)
+        assert len(poses) == len(centroids)
+        j = [int(np.argmin(np.hypot(*(poses.centroids - p).T))) for p in centroids]
+        k = symmetry(part)
+        errors.append(angle_error(poses.angles[j], angles, k))
+        assert ((poses.angles >= 0) & (poses.angles < 2 * np.pi / k)).all()
+        # the pose redraws the part: its frame's origin where the truth puts it
+        c, s = np.cos(angles), np.sin(angles)
+        origin = centroids - np.stack([c * part.centroid[0] - s * part.centroid[1],
+                                       s * part.centroid[0] + c * part.centroid[1]], -1)  # fmt: skip
+        offsets.append(np.hypot(*(poses.positions[j] - origin).T))
+    err, off = np.abs(np.concatenate(errors)), np.concatenate(offsets)
+    assert np.median(err) < 0.5 and err.max() < 1.5, np.round(err, 2)
+    assert off.max() < 5e-4, off
+
+
+def test_bad_input():
+    frame = render(Camera(), np.zeros((1, 2)), "red", shapes={"red": SHAPES["square"].vertices}, rng=0)
+    table = find_table(frame.image)
+    with pytest.raises(upm.ParameterError, match=r"part must be a upm\.Polygon"):
+        find_poses(frame.image, table, np.zeros((4, 2)))
+    with pytest.raises(upm.ParameterError, match="min_contrast"):
+        find_poses(frame.image, table, SHAPES["square"], min_contrast=-1)
+    with pytest.raises(upm.VisionError, match="frame is"):
+        find_poses(frame.image[:100], table, SHAPES["square"])
