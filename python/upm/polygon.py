@@ -61,7 +61,8 @@ class Polygon:
     the reason.
 
     :func:`upm.simulate` and :func:`upm.simulate_batch` step it with its exact stick–slip step
-    (planar motions, no contacts, for now); its friction is :meth:`wrench`.
+    (planar motions, for now), with contacts through rapier's convex polygon colliders; its
+    friction is :meth:`wrench`.
     """
 
     vertices: Any

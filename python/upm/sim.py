@@ -157,19 +157,26 @@ class SimResult:
 
 
 def _masses(parts: Any) -> np.ndarray | None:
-    """The disks' masses (M,) if every disk gives one, None if none does (points count 1)."""
-    if not (isinstance(parts, (list, tuple)) and parts and all(isinstance(p, (Point, Disk)) for p in parts)):
+    """The disks' and polygons' masses (M,) if every one gives one, None if none does (points
+    count 1)."""
+    from .polygon import Polygon
+
+    sized = (Disk, Polygon)
+    if not (
+        isinstance(parts, (list, tuple)) and parts and all(isinstance(p, (Point, *sized)) for p in parts)
+    ):
         return None
-    given = [p.mass is not None for p in parts if isinstance(p, Disk)]
+    given = [p.mass is not None for p in parts if isinstance(p, sized)]
     if not any(given):
         return None
     if not all(given):
-        missing = next(i for i, p in enumerate(parts) if isinstance(p, Disk) and p.mass is None)
+        missing = next(i for i, p in enumerate(parts) if isinstance(p, sized) and p.mass is None)
         raise ParameterError(
-            f"mass must be given for every Disk or for none; part {missing} has none "
+            f"mass must be given for every Disk or for none (every Polygon likewise); part {missing} "
+            "has none "
             "(without masses, contacts take them proportional to the area)"
         )
-    masses = [p.mass if isinstance(p, Disk) and p.mass is not None else 1.0 for p in parts]
+    masses = [p.mass if isinstance(p, sized) and p.mass is not None else 1.0 for p in parts]
     return as_float("parts[i].mass", masses)
 
 
@@ -311,17 +318,17 @@ def _run(
     if span < step * (1 - 1e-9):
         raise ParameterError(f"duration must be at least one step dt = {step:g} s; got {span:g}")
     pos, vel, radius, angle, spin, polygons = _parts(parts)
-    if contacts and polygons:
-        raise ParameterError(
-            f"contacts=True needs every part to be a upm.Disk; parts[{polygons[0][0]}] is a upm.Polygon "
-            "(polygon contacts are to come): simulate polygons without contacts"
-        )
-    if contacts and (radius is None or np.any(radius == 0)):
-        first = 0 if radius is None else int(np.flatnonzero(radius == 0)[0])
-        raise ParameterError(
-            f"contacts=True needs every part to be a upm.Disk (points have no size to collide or meet a "
-            f"wall); parts[{first}] is a point: give it a radius, or simulate without contacts"
-        )
+    if contacts:
+        sized = np.zeros(pos.shape[0], bool) if radius is None else radius > 0
+        for i, _ in polygons or ():
+            sized[i] = True
+        if not sized.all():
+            first = int(np.flatnonzero(~sized)[0])
+            raise ParameterError(
+                "contacts=True needs every part to be a upm.Disk or a upm.Polygon (points have no size to "
+                f"collide or meet a wall); parts[{first}] is a point: give it a size, or simulate "
+                "without contacts"
+            )
     m = pos.shape[0]
     mu_a = _per_part("mu", mu, m)
     mu_s_a = mu_a if mu_s is None else _per_part("mu_s", mu_s, m)
@@ -415,7 +422,7 @@ def simulate(
     stick or slide together (a polygon sticks exactly when the wrench that keeps it with the plate
     lies in its limit set: docs/polygons.md). A polygon's recorded position is its frame's origin
     (with ``angles``, the pose: ``Polygon(vertices, position, angle)`` redraws it), its velocity
-    its centroid's. Polygons run on planar motions, without contacts, for now.
+    its centroid's. Polygons run on planar motions, for now.
 
     Parameters
     ----------
@@ -438,8 +445,9 @@ def simulate(
         rows, whatever the number of steps.
     contacts : bool
         Resolve disk–disk and disk–wall contacts with the rapier2d physics engine after every
-        friction step (``docs/simulation.md``, "Contacts"). Every part must be a `upm.Disk` (a
-        point has no extent to collide or meet a wall) and disks must not overlap at the start.
+        friction step (``docs/simulation.md``, "Contacts"). Every part must be a `upm.Disk` or a
+        `upm.Polygon` (a point has no extent to collide or meet a wall) and parts must not overlap
+        at the start.
         With ``False`` parts pass through each other.
     restitution : float
         Coefficient of restitution of every contact, in ``[0, 1]``.

@@ -1,9 +1,10 @@
-//! Part–part and wall contacts of disk parts, resolved by the rapier2d physics engine (f64).
+//! Part–part and wall contacts of disk and convex polygon parts, resolved by the rapier2d physics
+//! engine (f64; polygons are its convex polygon colliders about their centroids).
 //!
 //! Each step is split in two (first-order operator splitting):
 //!
-//! 1. the exact plate-friction step of [`crate::disk`] gives every disk its new velocity and spin,
-//!    as without contacts;
+//! 1. the exact plate-friction step of [`crate::disk`] (of [`crate::polygon`] for polygons) gives
+//!    every part its new velocity and spin, as without contacts;
 //! 2. rapier takes those as the bodies' velocities and runs one step of its contact solver
 //!    (non-penetration, restitution, part–part and part–wall Coulomb friction), integrating the
 //!    positions with the velocities it returns.
@@ -38,8 +39,25 @@
 
 use rapier2d_f64::prelude::*;
 
-use super::{Config, DiskState, Rec};
+use rapier2d_f64::parry;
+
+use super::polygons::PolygonState;
+use super::{Config, DiskState, PartsView, Rec};
 use crate::error::{Error, Result};
+use crate::polygon::Polygon;
+
+/// A polygon part for the start-up check: centroid [m], angle [rad], shape, index among all parts.
+pub(super) type PolygonAt<'a> = ([f64; 2], f64, &'a Polygon, usize);
+
+/// `shape`'s rapier (parry) shape in units of `1 / scale` metres, about its centroid.
+fn convex(shape: &Polygon, scale: f64) -> Option<parry::shape::ConvexPolygon> {
+    let points = shape
+        .vertices
+        .iter()
+        .map(|v| Vector::new(v[0] * scale, v[1] * scale))
+        .collect();
+    parry::shape::ConvexPolygon::from_convex_polyline(points)
+}
 
 /// Contact settings of a simulation.
 #[derive(Debug, Clone, PartialEq)]
@@ -89,6 +107,55 @@ impl Contacts {
     /// among all parts): coefficients in range, finite walls, and no disk overlapping another or
     /// a wall at the start.
     pub fn check(&self, disks: &[([f64; 2], f64, usize)], parts: usize) -> Result<()> {
+        self.check_with(disks, &[], parts)
+    }
+
+    /// Checks the settings and the parts' start (as [`Contacts::check_with`]) and returns the
+    /// mass of every disk (`disks`: their indices among `parts`) and then of every polygon: the
+    /// given ones, or by default proportional to the area (`r²` for a disk, `area / pi` for a
+    /// polygon: equal thickness and density).
+    pub(super) fn prepare(&self, parts: &PartsView, disks: &[usize]) -> Result<Vec<f64>> {
+        let round: Vec<_> = disks
+            .iter()
+            .map(|&i| (parts.position[i], parts.radius(i), i))
+            .collect();
+        let polygons: Vec<PolygonAt> = parts
+            .polygons
+            .iter()
+            .map(|(i, shape)| {
+                let (p, a) = (parts.position[*i], parts.angle(*i));
+                let (c, s) = (a.cos(), a.sin());
+                let o = shape.centroid;
+                (
+                    [p[0] + c * o[0] - s * o[1], p[1] + s * o[0] + c * o[1]],
+                    a,
+                    shape,
+                    *i,
+                )
+            })
+            .collect();
+        self.check_with(&round, &polygons, parts.len())?;
+        let default = |i: usize, area: f64| self.mass.as_ref().map_or(area, |m| m[i]);
+        Ok(disks
+            .iter()
+            .map(|&i| default(i, parts.radius(i) * parts.radius(i)))
+            .chain(
+                parts
+                    .polygons
+                    .iter()
+                    .map(|(i, shape)| default(*i, shape.area / std::f64::consts::PI)),
+            )
+            .collect())
+    }
+
+    /// [`Contacts::check`] with polygon parts too: none may overlap a disk, another polygon or a
+    /// wall at the start (parry's contact queries, where bounding circles meet).
+    pub(super) fn check_with(
+        &self,
+        disks: &[([f64; 2], f64, usize)],
+        polygons: &[PolygonAt],
+        parts: usize,
+    ) -> Result<()> {
         if !(self.restitution.is_finite() && (0.0..=1.0).contains(&self.restitution)) {
             return Err(Error::parameter(
                 "restitution",
@@ -128,7 +195,11 @@ impl Contacts {
                     mass.len()
                 )));
             }
-            for &(_, _, i) in disks {
+            let with_mass = disks
+                .iter()
+                .map(|d| d.2)
+                .chain(polygons.iter().map(|p| p.3));
+            for i in with_mass {
                 if !(mass[i].is_finite() && mass[i] > 0.0) {
                     return Err(Error::parameter(
                         "mass",
@@ -152,6 +223,7 @@ impl Contacts {
                 ));
             }
         }
+        self.check_polygons(disks, polygons)?;
         for &(p, r, i) in disks {
             if let Some((gap, k)) = wall_gap(p, r, &self.walls) {
                 if gap < -1e-9 * r {
@@ -163,6 +235,66 @@ impl Contacts {
                             -gap
                         ),
                     ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Contacts {
+    /// The polygons against the disks, each other and the walls (see [`Contacts::check_with`]).
+    fn check_polygons(
+        &self,
+        disks: &[([f64; 2], f64, usize)],
+        polygons: &[PolygonAt],
+    ) -> Result<()> {
+        use parry::shape::{Ball, Segment, Shape};
+        let pose = |c: [f64; 2], angle: f64| parry::math::Pose::new(Vector::new(c[0], c[1]), angle);
+        let overlap =
+            |a: (parry::math::Pose, &dyn Shape), b: (parry::math::Pose, &dyn Shape), size: f64| {
+                parry::query::contact(&a.0, a.1, &b.0, b.1, 0.0)
+                    .ok()
+                    .flatten()
+                    .map(|c| -c.dist)
+                    .filter(|&depth| depth > 1e-9 * size)
+            };
+        let shapes: Vec<_> = polygons
+            .iter()
+            .map(|&(c, angle, shape, i)| (pose(c, angle), convex(shape, 1.0), shape.radius, c, i))
+            .collect();
+        let fail = |what: String, depth: f64| {
+            Err(Error::parameter(
+                "parts",
+                format!(
+                    "{what} overlap by {depth:.6e} m at the start; contacts need separated parts"
+                ),
+            ))
+        };
+        for (n, (pa, sa, ra, ca, i)) in shapes.iter().enumerate() {
+            let Some(sa) = sa else { continue };
+            for (pb, sb, rb, cb, j) in &shapes[n + 1..] {
+                let Some(sb) = sb else { continue };
+                if (ca[0] - cb[0]).hypot(ca[1] - cb[1]) < ra + rb {
+                    if let Some(depth) = overlap((*pa, sa), (*pb, sb), ra + rb) {
+                        return fail(format!("polygons {i} and {j}"), depth);
+                    }
+                }
+            }
+            for &(p, r, j) in disks {
+                if (ca[0] - p[0]).hypot(ca[1] - p[1]) < ra + r {
+                    let ball = Ball::new(r);
+                    if let Some(depth) = overlap((*pa, sa), (pose(p, 0.0), &ball), ra + r) {
+                        return fail(format!("polygon {i} and disk {j}"), depth);
+                    }
+                }
+            }
+            for (k, &[a, b]) in self.walls.iter().enumerate() {
+                if segment_distance(*ca, [a, b]) < *ra {
+                    let seg = Segment::new(Vector::new(a[0], a[1]), Vector::new(b[0], b[1]));
+                    if let Some(depth) = overlap((*pa, sa), (pose([0.0; 2], 0.0), &seg), *ra) {
+                        return fail(format!("wall {k} and polygon {i}"), depth);
+                    }
                 }
             }
         }
@@ -211,6 +343,8 @@ pub(super) struct ContactWorld {
     world: PhysicsWorld,
     /// The body of each disk (in the order of the world's disks); `None` once it left the plate.
     bodies: Vec<Option<RigidBodyHandle>>,
+    /// The body of each polygon part, likewise.
+    shapes: Vec<Option<RigidBodyHandle>>,
     /// The walls' body when they move with the plate.
     plate: Option<RigidBodyHandle>,
     /// Lengths in rapier = metres x `scale`.
@@ -226,14 +360,20 @@ pub(super) struct ContactWorld {
 const UNTOUCHED: f64 = 1e-12;
 
 impl ContactWorld {
-    /// Bodies for `disks` (`mass[j]`: the j-th disk's mass, any unit) and colliders for the walls.
+    /// Bodies for `disks` and `polygons` (`mass[j]`: the j-th disk's mass, then the polygons',
+    /// any unit) and colliders for the walls.
     pub(super) fn new(
         disks: &[DiskState],
+        polygons: &[PolygonState],
         mass: &[f64],
         contacts: &Contacts,
         cfg: &Config,
     ) -> Self {
-        let mean_r = disks.iter().map(|d| d.radius).sum::<f64>() / disks.len().max(1) as f64;
+        let radii = disks
+            .iter()
+            .map(|d| d.radius)
+            .chain(polygons.iter().map(|p| p.stepper.shape.radius));
+        let mean_r = radii.sum::<f64>() / (disks.len() + polygons.len()).max(1) as f64;
         let scale = if mean_r > 0.0 { 1.0 / mean_r } else { 1.0 };
         let mut world = PhysicsWorld::new();
         world.gravity = Vector::ZERO;
@@ -270,6 +410,24 @@ impl ContactWorld {
                 })
             })
             .collect();
+        let shapes = polygons
+            .iter()
+            .zip(&mass[disks.len()..])
+            .map(|(p, &m)| {
+                let shape = convex(&p.stepper.shape, scale)?;
+                p.active.then(|| {
+                    let body = RigidBodyBuilder::dynamic()
+                        .translation(Vector::new(p.c[0] * scale, p.c[1] * scale))
+                        .rotation(p.angle)
+                        .linvel(Vector::new(p.v[0] * scale, p.v[1] * scale))
+                        .angvel(p.spin)
+                        .can_sleep(false);
+                    let collider =
+                        material(ColliderBuilder::new(SharedShape::new(shape))).mass(m / mean_m);
+                    world.insert(body, collider).0
+                })
+            })
+            .collect();
         let plate = if contacts.walls.is_empty() {
             None
         } else {
@@ -291,6 +449,7 @@ impl ContactWorld {
         ContactWorld {
             world,
             bodies,
+            shapes,
             plate,
             scale,
             walls: contacts.walls.clone(),
@@ -304,16 +463,30 @@ impl ContactWorld {
     /// changes by at most `mu_s g dt` a step (friction never exceeds `mu_s m g`), so in time `T`
     /// it moves at most `|v| T + mu_s g T^2 / 2`; no two disks (nor a disk and a fixed wall) can
     /// come within rapier's prediction distance while twice that reach stays below their gap.
-    fn free_steps(&self, disks: &[DiskState], dt: f64) -> usize {
+    fn free_steps(&self, disks: &[DiskState], polygons: &[PolygonState], dt: f64) -> usize {
         if self.plate.is_some() {
             return 0; // walls moving with the plate
         }
-        let on: Vec<&DiskState> = disks.iter().filter(|d| d.active).collect();
-        let centres: Vec<([f64; 2], f64)> = on.iter().map(|d| (d.p, d.radius)).collect();
+        // (centre, bounding radius, speed, largest friction deceleration) of every part on the
+        // plate: a polygon within the circle round its centroid through its farthest vertex
+        let on: Vec<([f64; 2], f64, f64, f64)> = disks
+            .iter()
+            .filter(|d| d.active)
+            .map(|d| (d.p, d.radius, d.v[0].hypot(d.v[1]), d.hold / dt))
+            .chain(polygons.iter().filter(|p| p.active).map(|p| {
+                (
+                    p.c,
+                    p.stepper.shape.radius,
+                    p.v[0].hypot(p.v[1]),
+                    p.hold / dt,
+                )
+            }))
+            .collect();
+        let centres: Vec<([f64; 2], f64)> = on.iter().map(|d| (d.0, d.1)).collect();
         let mut gap = closest_pair(&centres).map_or(f64::INFINITY, |(g, _, _)| g);
         for d in &on {
             // A wall does not move: only one reach is needed, but twice is as safe.
-            if let Some((g, _)) = wall_gap(d.p, d.radius, &self.walls) {
+            if let Some((g, _)) = wall_gap(d.0, d.1, &self.walls) {
                 gap = gap.min(g);
             }
         }
@@ -325,8 +498,8 @@ impl ContactWorld {
         if slack <= 0.0 {
             return 0;
         }
-        let v = on.iter().map(|d| d.v[0].hypot(d.v[1])).fold(0.0, f64::max);
-        let a = on.iter().map(|d| d.hold / dt).fold(0.0, f64::max);
+        let v = on.iter().map(|d| d.2).fold(0.0, f64::max);
+        let a = on.iter().map(|d| d.3).fold(0.0, f64::max);
         // Largest T with v T + a T^2 / 2 <= slack.
         let t = if a > 0.0 {
             2.0 * slack / (v + (v * v + 2.0 * a * slack).sqrt())
@@ -338,23 +511,26 @@ impl ContactWorld {
         (t / dt).floor().min(1e9) as usize
     }
 
-    /// Advances `disks` through one block: `table[k] = (u1, u2, u3)` at the end of step
-    /// `first + k` (as [`DiskState::run`]).
+    /// Advances `disks` and `polygons` through one block: `table[k] = (u1, u2, u3)` at the end
+    /// of step `first + k` (as [`DiskState::run`]); an error from a polygon's friction step
+    /// stops the run.
     pub(super) fn run(
         &mut self,
         disks: &mut [DiskState],
+        polygons: &mut [PolygonState],
         table: &[[f64; 3]],
         first: usize,
         cfg: &Config,
         rec: &Rec,
-    ) {
+    ) -> Result<()> {
         let s = self.scale;
         let dt = cfg.dt;
         let mut wanted = vec![([0.0; 2], 0.0, false); disks.len()];
+        let mut next = Vec::with_capacity(polygons.len());
         for (k, &u) in table.iter().enumerate() {
             let step = first + k;
             if step >= self.free_until && step >= self.recheck_at {
-                match self.free_steps(disks, dt) {
+                match self.free_steps(disks, polygons, dt) {
                     0 => self.recheck_at = step + RECHECK,
                     n => self.free_until = step.saturating_add(n),
                 }
@@ -367,6 +543,15 @@ impl ContactWorld {
                     }
                     d.record_step(Some(step), rec);
                 }
+                for (p, body) in polygons.iter_mut().zip(&mut self.shapes) {
+                    let was = p.active;
+                    p.step(u, step, cfg)?;
+                    if let (true, false, Some(h)) = (was, p.active, *body) {
+                        self.world.remove_body(h);
+                        *body = None;
+                    }
+                    p.record(step + 1, rec);
+                }
                 continue;
             }
             for ((d, body), want) in disks.iter().zip(&self.bodies).zip(wanted.iter_mut()) {
@@ -377,6 +562,20 @@ impl ContactWorld {
                 b.set_translation(Vector::new(d.p[0] * s, d.p[1] * s), false);
                 b.set_linvel(Vector::new(v[0] * s, v[1] * s), true);
                 b.set_angvel(spin, true);
+            }
+            next.clear();
+            for (p, body) in polygons.iter().zip(&self.shapes) {
+                let Some(h) = body else {
+                    next.push(None);
+                    continue;
+                };
+                let n = p.friction(u)?;
+                let b = &mut self.world.bodies[*h];
+                b.set_translation(Vector::new(p.c[0] * s, p.c[1] * s), false);
+                b.set_rotation(Rotation::new(p.angle), false);
+                b.set_linvel(Vector::new(n.v[0] * s, n.v[1] * s), true);
+                b.set_angvel(n.spin, true);
+                next.push(Some(n));
             }
             if let Some(h) = self.plate {
                 // The walls' body moves like the plate surface under its own origin.
@@ -393,11 +592,7 @@ impl ContactWorld {
                 let Some(h) = *body else { continue };
                 let b = &self.world.bodies[h];
                 let (lv, w) = (b.linvel() / s, b.angvel());
-                let tol = UNTOUCHED * (v[0].hypot(v[1]) + (spin * d.radius).abs() + d.radius / dt);
-                let touched = (lv.x - v[0]).abs() > tol
-                    || (lv.y - v[1]).abs() > tol
-                    || ((w - spin) * d.radius).abs() > tol;
-                if touched {
+                if touched([lv.x, lv.y], w, v, spin, d.radius, dt) {
                     let t = b.translation() / s;
                     d.angle += 0.5 * (d.spin + w) * dt;
                     (d.p, d.v, d.spin, d.stuck) = ([t.x, t.y], [lv.x, lv.y], w, false);
@@ -409,9 +604,40 @@ impl ContactWorld {
                     *body = None;
                 }
             }
+            for ((p, body), n) in polygons.iter_mut().zip(&mut self.shapes).zip(&next) {
+                let (Some(h), Some(n)) = (*body, *n) else {
+                    continue;
+                };
+                let b = &self.world.bodies[h];
+                let (lv, w) = (b.linvel() / s, b.angvel());
+                if touched([lv.x, lv.y], w, n.v, n.spin, p.stepper.shape.radius, dt) {
+                    let t = b.translation() / s;
+                    // rapier's angle is wrapped to (-pi, pi]; ours keeps counting turns
+                    let turn = b.rotation().angle() - p.angle;
+                    let angle = p.angle + turn.sin().atan2(turn.cos());
+                    p.collided([t.x, t.y], angle, [lv.x, lv.y], w);
+                } else {
+                    p.advance(n, dt);
+                }
+                if p.leaves(first + k, cfg) {
+                    self.world.remove_body(h);
+                    *body = None;
+                }
+            }
             for d in disks.iter_mut() {
                 d.record_step(Some(first + k), rec);
             }
+            for p in polygons.iter() {
+                p.record(first + k + 1, rec);
+            }
         }
+        Ok(())
     }
+}
+
+/// Whether rapier changed a part's velocity `lv` or spin `w` from the friction step's `v` and
+/// `spin` (a part of size `radius`): a contact touched it.
+fn touched(lv: [f64; 2], w: f64, v: [f64; 2], spin: f64, radius: f64, dt: f64) -> bool {
+    let tol = UNTOUCHED * (v[0].hypot(v[1]) + (spin * radius).abs() + radius / dt);
+    (lv[0] - v[0]).abs() > tol || (lv[1] - v[1]).abs() > tol || ((w - spin) * radius).abs() > tol
 }

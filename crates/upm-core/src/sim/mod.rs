@@ -364,7 +364,7 @@ struct World<'a> {
     points: points::Points,
     /// Disk parts.
     disks: Vec<DiskState>,
-    /// The disks' rapier world when contacts are on.
+    /// The disks' and polygons' rapier world when contacts are on.
     contact: Option<contact::ContactWorld>,
     /// Polygon parts.
     polygons: Vec<polygons::PolygonState>,
@@ -484,13 +484,6 @@ where
         .map(PlateMotion::is_spatial)
         .collect::<Vec<_>>();
     if let Some(&(i, _)) = parts.polygons.first() {
-        if contacts.is_some() {
-            return Err(Error::parameter(
-                "contacts",
-                format!("need every part to be a disk; part {i} is a polygon (polygon contacts are to come)"),
-            )
-            .into());
-        }
         if spatial.iter().any(|&s| s) {
             return Err(Error::parameter(
                 "motion",
@@ -524,23 +517,10 @@ where
                 .collect()
         });
     let index = point_index.as_deref();
-    let disk_mass: Vec<f64> = match contacts {
+    // Checked, with every disk's and then every polygon's mass.
+    let mass: Vec<f64> = match contacts {
         None => Vec::new(),
-        Some(c) => {
-            let disks: Vec<_> = disk_index
-                .iter()
-                .map(|&i| (parts.position[i], parts.radius(i), i))
-                .collect();
-            c.check(&disks, m)?;
-            disk_index
-                .iter()
-                .map(|&i| {
-                    c.mass
-                        .as_ref()
-                        .map_or(parts.radius(i) * parts.radius(i), |mass| mass[i])
-                })
-                .collect()
-        }
+        Some(c) => c.prepare(parts, &disk_index)?,
     };
     rows.checked_mul(m).ok_or_else(|| {
         Error::parameter(
@@ -562,17 +542,18 @@ where
             .iter()
             .map(|&i| DiskState::new(parts, i, cfg, u0))
             .collect();
+        let shapes: Vec<polygons::PolygonState> = parts
+            .polygons
+            .iter()
+            .map(|(i, shape)| polygons::PolygonState::new(parts, *i, shape, cfg, u0))
+            .collect();
         let rec = recorder.rec(b, steps, cfg.record_every);
         worlds.push(World {
             motion,
             points: points::Points::new(parts, index, cfg, u0, spatial[b]),
-            contact: contacts.map(|c| contact::ContactWorld::new(&disks, &disk_mass, c, cfg)),
+            contact: contacts.map(|c| contact::ContactWorld::new(&disks, &shapes, &mass, c, cfg)),
             disks,
-            polygons: parts
-                .polygons
-                .iter()
-                .map(|(i, shape)| polygons::PolygonState::new(parts, *i, shape, cfg, u0))
-                .collect(),
+            polygons: shapes,
             rec,
             table: Vec::with_capacity(block),
             spatial: spatial[b],
@@ -603,19 +584,20 @@ where
             let (table, normals, rec) = (&w.table, &w.normals, &w.rec);
             let (points, disks, contact) = (&mut w.points, &mut w.disks, &mut w.contact);
             let shapes = &mut w.polygons;
-            let ((), polygons) = rayon::join(
-                || {
-                    rayon::join(
-                        || points.run(table, normals, first, cfg, rec, index),
-                        || match contact {
-                            Some(c) => c.run(disks, table, first, cfg, rec),
-                            None => run_disks(disks, table, normals, first, cfg, rec),
-                        },
-                    );
+            let ((), rest) = rayon::join(
+                || points.run(table, normals, first, cfg, rec, index),
+                || match contact {
+                    Some(c) => c.run(disks, shapes, table, first, cfg, rec),
+                    None => {
+                        let (_, polygons) = rayon::join(
+                            || run_disks(disks, table, normals, first, cfg, rec),
+                            || polygons::run(shapes, table, first, cfg, rec),
+                        );
+                        polygons
+                    }
                 },
-                || polygons::run(shapes, table, first, cfg, rec),
             );
-            polygons
+            rest
         })?;
         recorder.times(first + 1, end, steps, cfg.record_every, cfg.dt);
         between(end)?;

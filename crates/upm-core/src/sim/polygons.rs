@@ -13,21 +13,32 @@ use crate::polygon::{Polygon, Stepper};
 use super::record::Rec;
 use super::{half_side, moves_with_plate, off_plate, Config, PartsView};
 
+/// A polygon part's state after a friction step ([`PolygonState::friction`]).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Next {
+    /// The centroid's velocity [m/s] and the spin [rad/s].
+    pub(super) v: [f64; 2],
+    pub(super) spin: f64,
+    pub(super) stuck: bool,
+    /// The twist relative to the plate in the part's frame (the next solve's guess).
+    relative: [f64; 3],
+}
+
 /// One polygon part: its state and friction thresholds.
 pub(super) struct PolygonState {
-    stepper: Stepper,
+    pub(super) stepper: Stepper,
     /// Centroid [m], its velocity [m/s], the frame's angle [rad] and the spin [rad/s].
-    c: [f64; 2],
-    v: [f64; 2],
-    angle: f64,
-    spin: f64,
+    pub(super) c: [f64; 2],
+    pub(super) v: [f64; 2],
+    pub(super) angle: f64,
+    pub(super) spin: f64,
     stuck: bool,
     /// The relative twist in the part's frame after the last step (the next solve's guess).
     last: [f64; 3],
-    active: bool,
+    pub(super) active: bool,
     pub(super) left: Option<f64>,
     slide: f64,
-    hold: f64,
+    pub(super) hold: f64,
     /// Its place among all parts.
     pub(super) index: usize,
 }
@@ -74,10 +85,19 @@ impl PolygonState {
     }
 
     /// One step (0-based `s`) under the plate velocity `u`, if the part is still on the plate.
-    fn step(&mut self, [u1, u2, u3]: [f64; 3], s: usize, cfg: &Config) -> Result<()> {
+    pub(super) fn step(&mut self, u: [f64; 3], s: usize, cfg: &Config) -> Result<()> {
         if !self.active {
             return Ok(());
         }
+        let next = self.friction(u)?;
+        self.advance(next, cfg.dt);
+        self.leaves(s, cfg);
+        Ok(())
+    }
+
+    /// The centroid's velocity, the spin, the stuck flag and the relative twist in the part's
+    /// frame after the friction step under the plate velocity `u`; the state is not changed.
+    pub(super) fn friction(&self, [u1, u2, u3]: [f64; 3]) -> Result<Next> {
         let [x, y] = self.c;
         let surface = [u1 - u3 * y, u2 + u3 * x];
         let free = [self.v[0] - surface[0], self.v[1] - surface[1]];
@@ -93,21 +113,41 @@ impl PolygonState {
                 (!self.stuck).then_some(self.last),
             )
             .map_err(|e| e.with_context(&format!("part {}", self.index)))?;
-        self.last = st.w;
         let w = turn(cs, [st.w[0], st.w[1]]);
-        let (v, spin) = ([surface[0] + w[0], surface[1] + w[1]], u3 + st.w[2]);
-        let dt = cfg.dt;
+        Ok(Next {
+            v: [surface[0] + w[0], surface[1] + w[1]],
+            spin: u3 + st.w[2],
+            stuck: st.stuck,
+            relative: st.w,
+        })
+    }
+
+    /// Moves to the state `next` over one step of `dt`: the centroid and angle by the trapezoid.
+    pub(super) fn advance(&mut self, next: Next, dt: f64) {
+        let [x, y] = self.c;
         self.c = [
-            x + 0.5 * (self.v[0] + v[0]) * dt,
-            y + 0.5 * (self.v[1] + v[1]) * dt,
+            x + 0.5 * (self.v[0] + next.v[0]) * dt,
+            y + 0.5 * (self.v[1] + next.v[1]) * dt,
         ];
-        self.angle += 0.5 * (self.spin + spin) * dt;
-        (self.v, self.spin, self.stuck) = (v, spin, st.stuck);
-        if off_plate(self.c[0], self.c[1], half_side(cfg)) {
+        self.angle += 0.5 * (self.spin + next.spin) * dt;
+        (self.v, self.spin, self.stuck, self.last) = (next.v, next.spin, next.stuck, next.relative);
+    }
+
+    /// Takes the state a contact solve gave (centroid, angle, velocity, spin); the part slides
+    /// into the next friction step.
+    pub(super) fn collided(&mut self, c: [f64; 2], angle: f64, v: [f64; 2], spin: f64) {
+        (self.c, self.angle, self.v, self.spin, self.stuck) = (c, angle, v, spin, false);
+        self.last = [0.0; 3]; // no guess: the contact changed the twist
+    }
+
+    /// Whether the centroid left the plate in step `s` (0-based); the part is then frozen.
+    pub(super) fn leaves(&mut self, s: usize, cfg: &Config) -> bool {
+        let out = self.active && off_plate(self.c[0], self.c[1], half_side(cfg));
+        if out {
             self.active = false;
-            self.left = Some((s + 1) as f64 * dt);
+            self.left = Some((s + 1) as f64 * cfg.dt);
         }
-        Ok(())
+        out
     }
 
     /// Records the state after step `s` (1-based; 0: the initial state) if that step is recorded.
