@@ -81,3 +81,67 @@ def test_bad_input():
         find_poses(frame.image, table, SHAPES["square"], min_contrast=-1)
     with pytest.raises(upm.VisionError, match="frame is"):
         find_poses(frame.image[:100], table, SHAPES["square"])
+
+
+def test_the_simulated_plant_moves_polygons_and_its_camera_shows_their_poses():
+    from upm.plant import SimulatedUPM
+
+    part = SHAPES["irregular pentagon"]
+    plant = SimulatedUPM(
+        parts=[[-0.06, 0.02], [0.05, -0.03], [0.0, 0.08]], part_shape=part, angles=[0.0, 1.0, 2.0]
+    )
+    # the thesis's optimal two-harmonic drive as a rotation: parts near the centre turn with it
+    spin = upm.PlateMotion.rotation(
+        (0.0, 0.0), upm.TwoHarmonic(0.5, np.pi / 2, amplitude=2.0, frequency=20.0)
+    )
+    before = plant.angles.copy()
+    plant.play(spin.for_duration(0.5))
+    assert np.abs(plant.angles - before).max() > 0.01  # they turned
+    camera = plant.camera("red")
+    ok, image = camera.read()
+    assert ok
+    poses = find_poses(image, find_table(image), part)
+    assert len(poses) == 3
+    j = [int(np.argmin(np.hypot(*(poses.positions - p).T))) for p in plant.parts]
+    assert np.abs(angle_error(poses.angles[j], plant.angles, 1)).max() < 1.5
+    assert np.hypot(*(poses.positions[j] - plant.parts).T).max() < 5e-4
+    with pytest.raises(upm.ParameterError, match="not both"):
+        SimulatedUPM(part_radius=0.01, part_shape=part)
+    with pytest.raises(upm.ShapeError, match="one angle per part"):
+        plant.move_parts(plant.parts, angles=[0.0])
+
+
+def test_the_board_emulator_process_carries_polygon_parts_its_camera_shows(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    from upm.board import Board
+    from upm.control import BoardDevice
+    from upm.vision import RemoteCamera
+
+    part = SHAPES["rectangle 2:1"]
+    scene = tmp_path / "scene.json"
+    scene.write_text(json.dumps({"parts": [[0.06, 0.0], [-0.05, 0.04]], "part_shape": part.vertices.tolist(),
+                                 "angles": [0.3, 1.2], "labels": "red"}))  # fmt: skip
+    cmd = [sys.executable, "-m", "upm.board.emulator", "--scene", str(scene), "--camera-port", "0"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
+    try:
+        url = proc.stdout.readline().strip()
+        camera_url = proc.stdout.readline().strip().split()[-1]
+        with Board(url) as board, RemoteCamera(camera_url) as camera:
+            before = camera.truth()
+            BoardDevice(board, wait_rest=False).execute(
+                [upm.Pulse.jet((0.0, 0.0), (1, 0), 0.05, 0.08, 35.0, 0.1, 0.3, 0.1)]
+            )
+            after = camera.truth()
+            assert np.hypot(*(after - before).T).max() > 1e-3  # the pulse moved them
+            ok, image = camera.read()
+            assert ok and image is not None
+            poses = find_poses(image, find_table(image), part)
+            assert len(poses) == 2
+            j = [int(np.argmin(np.hypot(*(poses.positions - p).T))) for p in after]
+            assert np.hypot(*(poses.positions[j] - after).T).max() < 5e-4
+    finally:
+        proc.kill()
+        proc.wait()

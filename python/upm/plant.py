@@ -24,6 +24,7 @@ from ._errors import ParameterError, ShapeError
 from .actuation import Axis, Plate
 from .drive import DEFAULT_PLATE, PLATE_SIZE, DriveLimits, StrokeError, flexures, wrench_matrix
 from .motion import PlateMotion
+from .polygon import Polygon
 from .sim import Disk, simulate
 
 if TYPE_CHECKING:
@@ -124,6 +125,13 @@ class SimulatedUPM:
         ``contacts=True``, ``restitution`` and ``part_friction``); ``None``: point parts that pass
         through each other. ``min_gap`` [m] is then the smallest distance between two disks' rims
         seen so far (sampled every ``gap_every`` steps; negative: they overlapped).
+    part_shape : upm.Polygon or None
+        Parts are convex polygons of this outline (its vertices; its own pose is ignored) that
+        collide with each other: ``parts`` are then their frames' origins and :attr:`angles`
+        their orientations [rad] (the pose ``upm.simulate`` records; the camera draws them).
+        Exclusive with ``part_radius``.
+    angles : (M,) array_like
+        The polygon parts' orientations [rad] (zeros by default; ignored for disks and points).
     """
 
     plate: Plate = DEFAULT_PLATE
@@ -142,6 +150,8 @@ class SimulatedUPM:
     stroke: float = 0.010
     motor_force: float = 200.0
     part_radius: float | None = None
+    part_shape: Polygon | None = None
+    angles: FloatArray | None = None
     restitution: float = 0.5
     part_friction: float = 0.3
     gap_every: int = 20
@@ -150,6 +160,14 @@ class SimulatedUPM:
         self.parts = np.array(as_float("parts", self.parts), dtype=np.float64).reshape(-1, 2)
         if self.part_radius is not None and not (np.isfinite(self.part_radius) and self.part_radius > 0):
             raise ParameterError(f"part_radius must be None or finite and > 0; got {self.part_radius}")
+        if self.part_shape is not None:
+            if not isinstance(self.part_shape, Polygon):
+                raise ParameterError(
+                    f"part_shape must be a upm.Polygon or None; got {type(self.part_shape).__name__}"
+                )
+            if self.part_radius is not None:
+                raise ParameterError("give part_radius (disks) or part_shape (polygons), not both")
+        self.angles = self._angles(self.angles)
         self.min_gap = math.inf
         if not (self.full_scale > 0 and self.sample_rate > 0):
             raise ParameterError("full_scale and sample_rate must be > 0")
@@ -279,7 +297,18 @@ class SimulatedUPM:
         opts: dict[str, Any] = {"duration": motion.duration or 0.0, "dt": dt, "mu": self.mu,
                                 "mu_s": self.mu_s, "plate_size": self.plate_size}  # fmt: skip
         r = self.part_radius
-        if r is None:
+        shape = self.part_shape
+        if shape is not None:
+            angles = self._angles(self.angles)
+            polygons = [Polygon(shape.vertices, (float(x), float(y)), float(a))
+                        for (x, y), a in zip(self.parts[on], angles[on], strict=True)]  # fmt: skip
+            result = simulate(
+                motion, polygons, record_every=10**9, contacts=True,
+                restitution=self.restitution, part_friction=self.part_friction, **opts,
+            )  # fmt: skip
+            angles[on] = result.angles[-1]
+            self.angles = angles
+        elif r is None:
             result = simulate(motion, self.parts[on], record_every=10**9, **opts)
         else:
             disks = [Disk((float(x), float(y)), r) for x, y in self.parts[on]]
@@ -311,6 +340,29 @@ class SimulatedUPM:
 
         return synthetic.VirtualCamera(self, camera or synthetic.Camera(), labels, dict(options), seed)
 
-    def move_parts(self, parts: ArrayLike) -> None:
-        """Place the parts [m]."""
+    def move_parts(self, parts: ArrayLike, angles: ArrayLike | None = None) -> None:
+        """Place the parts [m] (polygons: their frames' origins, turned by ``angles`` [rad])."""
         self.parts = np.array(as_float("parts", parts), dtype=np.float64).reshape(-1, 2)
+        self.angles = self._angles(angles)
+
+    def _angles(self, angles: ArrayLike | None) -> FloatArray:
+        """``angles`` (M,) for the parts (zeros when None), checked."""
+        m = len(self.parts)
+        if angles is None:
+            return np.zeros(m)
+        a = np.array(as_float("angles", angles), dtype=np.float64).reshape(-1)
+        if a.shape != (m,):
+            raise ShapeError(f"angles must hold one angle per part ({m}); got shape {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ParameterError("angles must be finite")
+        return a
+
+    def centroids(self) -> FloatArray:
+        """The parts' centroids [m] (for polygons, ``parts`` are their frames' origins; NaN rows:
+        fallen off)."""
+        if self.part_shape is None:
+            return self.parts.copy()
+        c, s = np.cos(self._angles(self.angles)), np.sin(self._angles(self.angles))
+        o = self.part_shape.centroid
+        out: FloatArray = self.parts + np.stack([c * o[0] - s * o[1], s * o[0] + c * o[1]], axis=1)
+        return out

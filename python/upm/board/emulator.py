@@ -88,7 +88,7 @@ class BoardEmulator:
         max_version: int = p.VERSION,
     ) -> None:
         self.plant = plant if plant is not None else SimulatedUPM()
-        if plate6 is not None and self.plant.part_radius is not None:
+        if plate6 is not None and (self.plant.part_radius is not None or self.plant.part_shape is not None):
             raise ParameterError("a six-axis board moves point parts: give the plant part_radius=None")
         if max_version not in p.VERSIONS:
             raise ParameterError(f"max_version must be one of {p.VERSIONS}; got {max_version!r}")
@@ -549,7 +549,8 @@ def main(argv: list[str] | None = None) -> int:
         type=str,
         default=None,
         help='the plate\'s contents, a JSON file: {"parts": [[x, y], ...], "labels": [...], "mu": 0.3, '
-        '"plate": [m, I, r], "stroke": 0.01, "camera": {...}, "render": {...}}',
+        '"part_radius": r (colliding disks) or "part_shape": [[x, y], ...] and "angles": [...] (colliding '
+        'convex polygons), "plate": [m, I, r], "stroke": 0.01, "camera": {...}, "render": {...}}',
     )
     args = parser.parse_args(argv)
     faults = Faults(
@@ -570,11 +571,16 @@ def main(argv: list[str] | None = None) -> int:
         options["stroke"] = float(scene["stroke"])
     if args.stroke is not None:
         options["stroke"] = float(args.stroke)
+    if "part_shape" in scene:  # a convex outline [[x, y], ...] [m]: polygon parts
+        from ..polygon import Polygon
+
+        options["part_shape"] = Polygon(scene["part_shape"])
+        options["angles"] = scene.get("angles")
     plant = SimulatedUPM(snr_db=args.snr_db, seed=args.seed, parts=scene.get("parts", np.zeros((0, 2))),
                          mu=float(scene.get("mu", 0.3)), part_radius=scene.get("part_radius"),
                          **options)  # fmt: skip
-    if args.axes == 6 and plant.part_radius is not None:
-        parser.error("--axes 6 moves point parts: leave part_radius out of the scene")
+    if args.axes == 6 and (plant.part_radius is not None or plant.part_shape is not None):
+        parser.error("--axes 6 moves point parts: leave part_radius and part_shape out of the scene")
     six = Plate6() if args.axes == 6 else None
     emulator = BoardEmulator(plant, watchdog_ms=args.watchdog_ms, faults=faults, plate6=six,
                              max_version=args.max_version)  # fmt: skip

@@ -373,7 +373,16 @@ class VirtualCamera:
             if isinstance(self.labels, str)
             else [k for k, h in zip(self.labels, here, strict=True) if h]
         )
-        self.last = render(self.camera, parts[here], labels, rng=self._rng, **self.options)
+        options = dict(self.options)
+        shape = getattr(self.source, "part_shape", None)
+        if shape is not None:  # polygons: drawn at their centroids, turned by their angles
+            source: Any = self.source
+            parts = np.asarray(source.centroids(), dtype=np.float64).reshape(-1, 2)
+            outline = np.asarray(shape.vertices) - shape.centroid
+            kinds = [labels] if isinstance(labels, str) else list(labels)
+            options["shapes"] = {k: outline for k in kinds}
+            options["angles"] = np.asarray(source.angles)[here]
+        self.last = render(self.camera, parts[here], labels, rng=self._rng, **options)
         return True, self.last.image
 
     def isOpened(self) -> bool:
