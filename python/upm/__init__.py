@@ -30,6 +30,7 @@ from .feeding import feed_rate, force_table, mean_force, theorem1_force
 from .field_design import FieldDesign, design_field
 from .fields import average_field, jet_field, rotation_curl, rotation_field
 from .motion import PlateMotion
+from .orienting import Equilibria, SqueezeField, orientation_equilibria
 from .plan import (
     PredictivePlanner,
     jet_plan,
@@ -75,6 +76,7 @@ __all__ = [
     "Disk",
     "DisplacementPlan",
     "DriveLimits",
+    "Equilibria",
     "FieldDesign",
     "FieldResult",
     "Harmonics",
@@ -92,6 +94,7 @@ __all__ = [
     "RotationPlan",
     "ShapeError",
     "SimResult",
+    "SqueezeField",
     "StrokeError",
     "TwoHarmonic",
     "UpmError",
@@ -116,6 +119,7 @@ __all__ = [
     "jet_pulses",
     "mchip",
     "mean_force",
+    "orientation_equilibria",
     "plan_pulses",
     "plan_to_motion",
     "ring_centers",

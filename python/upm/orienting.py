@@ -1,0 +1,217 @@
+"""Sensorless orienting: the orientations a squeeze field brings a polygon part to (issue 27,
+docs/polygons.md, after Böhringer, Donald, Kavraki, Lamiraux, IEEE T-RA 2000).
+
+A squeeze field pushes every point of the plate perpendicularly towards a line. Under friction
+the force on an element of a part at rest is ``mu p dA`` along the field's *direction* there,
+whatever its magnitude, so the part's wrench depends only on which side of the line each element
+lies: it is at force balance where the line bisects its area, and its moment about the centroid
+then depends on its angle alone: the *turn function* ``M(theta)``. Its roots are the equilibria;
+those where it falls (``dM/dtheta < 0``) are stable: a part released near one turns to it. Both
+come here exactly, from the two halves the line cuts the polygon into (areas and centroids in
+closed form), the roots refined by bisection.
+
+Rotating the whole picture by half a turn maps a squeeze field onto itself, so equilibria repeat
+every half turn, and every ``2 pi / k`` for a part with ``k``-fold symmetry.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ._arrays import as_float, instance, integer, real
+from ._errors import ParameterError
+from .polygon import Polygon
+
+__all__ = ["Equilibria", "SqueezeField", "orientation_equilibria"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class SqueezeField:
+    """A field pushing every point perpendicularly towards the line through ``point`` [m] along
+    ``angle`` [rad] (0: the x axis), on both sides."""
+
+    point: tuple[float, float] = (0.0, 0.0)
+    angle: float = 0.0
+
+    def __post_init__(self) -> None:
+        p = as_float("point", self.point)
+        if p.shape != (2,) or not np.all(np.isfinite(p)):
+            raise ParameterError(f"point must be two finite numbers (x, y) [m]; got {self.point!r}")
+        object.__setattr__(self, "point", (float(p[0]), float(p[1])))
+        object.__setattr__(self, "angle", real("angle", self.angle))
+
+
+@dataclass(frozen=True)
+class Equilibria:
+    """Where a part comes to rest in a field.
+
+    Attributes
+    ----------
+    stable, unstable : (S,) and (U,) ndarray
+        The part's frame angles [rad] at its stable and unstable equilibria, in ``[0, period)``.
+    period : float
+        The equilibria repeat every this many radians (half a turn, or less for a symmetric part).
+    offsets : (S,) ndarray
+        At each stable angle, the signed distance [m] of the centroid from the line (positive to
+        its right, looking along the line's direction): where the line bisects the part's area.
+    positions : (S, 2) ndarray
+        At each stable angle, where the part's frame origin comes to rest if its centroid starts
+        on the line's normal through ``point`` (the field does not move a part along the line).
+    turn : (T, 2) ndarray
+        The turn function sampled: angle [rad] and moment about the centroid per ``mu N`` [m]
+        (positive: counter-clockwise) at force balance.
+    """
+
+    stable: FloatArray
+    unstable: FloatArray
+    period: float
+    offsets: FloatArray
+    positions: FloatArray
+    turn: FloatArray
+
+
+def _clip_left(poly: FloatArray, s: float) -> FloatArray:
+    """The part of a convex polygon (counter-clockwise) with ``x < s`` (Sutherland–Hodgman)."""
+    out = []
+    n = len(poly)
+    for k in range(n):
+        a, b = poly[k], poly[(k + 1) % n]
+        ina, inb = a[0] < s, b[0] < s
+        if ina:
+            out.append(a)
+        if ina != inb:
+            t = (s - a[0]) / (b[0] - a[0])
+            out.append(a + t * (b - a))
+    return np.array(out) if out else np.zeros((0, 2))
+
+
+def _area_centroid(poly: FloatArray) -> tuple[float, FloatArray]:
+    if len(poly) < 3:
+        return 0.0, np.zeros(2)
+    x, y = poly[:, 0], poly[:, 1]
+    xn, yn = np.roll(x, -1), np.roll(y, -1)
+    cross = x * yn - xn * y
+    area = 0.5 * float(cross.sum())
+    if area <= 0:
+        return 0.0, np.zeros(2)
+    c = np.array([((x + xn) * cross).sum(), ((y + yn) * cross).sum()]) / (6 * area)
+    return area, c
+
+
+def _balance(v: FloatArray, area: float) -> tuple[float, float]:
+    """For the outline ``v`` about its centroid, in the line's frame (line: the y axis, field
+    towards it along x): the centroid's x at force balance and the moment there per ``mu N``."""
+    # The line at x = s cuts off area(x < s), rising from 0 to A; between two vertices' x the
+    # cut's length is linear in s, so the area is a quadratic there: found exactly.
+    half = 0.5 * area
+    xs = np.unique(v[:, 0])
+    cut = [_area_centroid(_clip_left(v, x))[0] for x in xs[1:-1]]
+    areas = np.array([0.0, *cut, area])
+    k = int(np.clip(np.searchsorted(areas, half) - 1, 0, len(xs) - 2))
+    lo, hi = float(xs[k]), float(xs[k + 1])
+    mid = 0.5 * (lo + hi)
+    a0, a1, a2 = areas[k], _area_centroid(_clip_left(v, mid))[0], areas[k + 1]
+    # a(t) = a0 + b t + c t², t in [0, 1] over [lo, hi]
+    c = 2 * (a2 - 2 * a1 + a0)
+    b = a2 - a0 - c
+    d = a0 - half
+    if abs(b) <= 1e-14 * area and abs(c) <= 1e-14 * area:
+        t = 0.5  # a bracket of no width (two vertices at one x, to rounding)
+    elif abs(c) <= 1e-14 * area:
+        t = -d / b
+    else:
+        q = -0.5 * (b + math.copysign(math.sqrt(max(b * b - 4 * c * d, 0.0)), b))
+        roots = [r for r in (q / c, d / q if q != 0 else math.inf) if -1e-9 <= r <= 1 + 1e-9]
+        t = roots[0] if roots else (-d / b if b else 0.5)
+    s = lo + min(max(t, 0.0), 1.0) * (hi - lo)
+    a_left, c_left = _area_centroid(_clip_left(v, s))
+    c_right = -c_left * a_left / max(area - a_left, 1e-300)  # the whole centroid is at 0
+    # left half pushed +x, right half -x; (r x x_hat) = -r_y: M = (-c_left_y A_l + c_right_y A_r) / A
+    moment = (-c_left[1] * a_left + c_right[1] * (area - a_left)) / area
+    return -s, moment
+
+
+def _turned(part: Polygon, theta: float, line: float) -> FloatArray:
+    """The outline about its centroid, frame angle ``theta``, in the frame of a line at angle
+    ``line`` turned onto the y axis."""
+    v = np.asarray(part.vertices, np.float64) - part.centroid
+    a = theta - (line - math.pi / 2)
+    c, s = math.cos(a), math.sin(a)
+    out: FloatArray = v @ np.array([[c, s], [-s, c]])
+    return out
+
+
+def _distinct(angles: list[float], period: float) -> FloatArray:
+    """``angles`` in ``[0, period)``, sorted, the same root found twice (at a sample, or across
+    the period's end) kept once."""
+    out: list[float] = []
+    for a in sorted(float(np.mod(a, period)) for a in angles):
+        a = 0.0 if period - a < 1e-9 else a
+        if not out or a - out[-1] > 1e-9:
+            out.append(a)
+    if len(out) > 1 and out[0] + period - out[-1] < 1e-9:
+        out.pop()
+    return np.array(out)
+
+
+def orientation_equilibria(part: Polygon, field: SqueezeField, *, samples: int = 720) -> Equilibria:
+    """The stable and unstable orientations of ``part`` in ``field`` (module docs): roots of its
+    turn function sampled at ``samples`` angles over a period and refined by bisection to 1e-12
+    rad."""
+    instance("part", part, Polygon, "a upm.Polygon")
+    instance("field", field, SqueezeField, "a upm.SqueezeField")
+    samples = integer("samples", samples, low=16, high=1_000_000)
+    from .vision.poses import symmetry
+
+    k = symmetry(part)
+    period = 2 * math.pi / math.lcm(2, k)
+    area = part.area
+
+    def moment(theta: float) -> float:
+        return _balance(_turned(part, theta, field.angle), area)[1]
+
+    grid = np.arange(samples) * period / samples
+    m = np.array([moment(t) for t in grid])
+    scale = float(np.abs(m).max())
+    stable: list[float] = []
+    unstable: list[float] = []
+    for i in range(samples):
+        a, b = grid[i], grid[i] + period / samples
+        ma, mb = m[i], m[(i + 1) % samples]
+        if abs(ma) <= 1e-12 * scale:
+            root = a
+        elif ma * mb < 0:
+            for _ in range(60):
+                mid = 0.5 * (a + b)
+                if moment(mid) * ma > 0:
+                    a = mid
+                else:
+                    b = mid
+            root = 0.5 * (a + b)
+        else:
+            continue
+        (stable if mb < ma else unstable).append(float(np.mod(root, period)))
+    stable_a, unstable_a = _distinct(stable, period), _distinct(unstable, period)
+    offsets = np.array([_balance(_turned(part, t, field.angle), area)[0] for t in stable_a])
+    positions = np.zeros((len(stable_a), 2))
+    line = field.angle
+    right = np.array([math.sin(line), -math.cos(line)])  # the line frame's +x
+    for j, (t, off) in enumerate(zip(stable_a, offsets, strict=True)):
+        centroid = np.asarray(field.point) + off * right
+        c, s = math.cos(t), math.sin(t)
+        o = part.centroid
+        positions[j] = centroid - np.array([c * o[0] - s * o[1], s * o[0] + c * o[1]])
+    return Equilibria(
+        stable=stable_a,
+        unstable=unstable_a,
+        period=period,
+        offsets=offsets,
+        positions=positions,
+        turn=np.column_stack([grid, m]),
+    )
