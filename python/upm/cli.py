@@ -317,15 +317,25 @@ def _main(argv: list[str]) -> int:
 
             for name, (summary, _) in PPOD.items():
                 print(f"{name:14s} {'6-DOF plate':12s} {summary}")
+            from .orient_demos import DEMOS as ORIENT
+
+            for name, (summary, _) in ORIENT.items():
+                print(f"{name:12s} {'polygons':14s} {summary}")
             return 0
-        if args.name.startswith("mchip-") or args.name == "ppod" or args.name.startswith("ppod-"):
+        if args.name.startswith("mchip-") or args.name in ("ppod", "orient") or args.name.startswith("ppod-"):
             from ._experiments import run_named
             from .mchip_demos import DEMOS as MCHIP_TABLE
+            from .orient_demos import DEMOS as ORIENT_TABLE
             from .ppod_demos import DEMOS as PPOD_TABLE
 
             try:
                 run_named(
-                    {**MCHIP_TABLE, **PPOD_TABLE}, args.name, args.out, args.quick, verbose=True, rrd=args.rrd
+                    {**MCHIP_TABLE, **PPOD_TABLE, **ORIENT_TABLE},
+                    args.name,
+                    args.out,
+                    args.quick,
+                    verbose=True,
+                    rrd=args.rrd,
                 )
             except UpmError as error:
                 print(f"upm demo: {error}", file=sys.stderr)
@@ -336,7 +346,7 @@ def _main(argv: list[str]) -> int:
         from .ppod_demos import DEMOS as PPOD
 
         if args.name not in DEMOS:
-            every = ["feeding", "list", *sorted(DEMOS), *sorted(MCHIP), *sorted(PPOD)]
+            every = ["feeding", "list", *sorted(DEMOS), *sorted(MCHIP), *sorted(PPOD), "orient"]
             print(f"upm demo: no demo {args.name!r}; the demos: {', '.join(every)}", file=sys.stderr)
             return 2
         try:

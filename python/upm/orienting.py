@@ -167,9 +167,7 @@ def orientation_equilibria(part: Polygon, field: SqueezeField, *, samples: int =
     instance("part", part, Polygon, "a upm.Polygon")
     instance("field", field, SqueezeField, "a upm.SqueezeField")
     samples = integer("samples", samples, low=16, high=1_000_000)
-    from .vision.poses import symmetry
-
-    k = symmetry(part)
+    k = part.symmetry
     period = 2 * math.pi / math.lcm(2, k)
     area = part.area
 

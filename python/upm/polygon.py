@@ -137,6 +137,17 @@ class Polygon:
         still plate feels the moment ``mu N mean_distance``."""
         return float(self._geometry[4])
 
+    @property
+    def symmetry(self) -> int:
+        """The order ``k`` of the outline's rotational symmetry about its centroid (1: none; a
+        square 4, a rectangle 2, a regular n-gon n): its pose's angle is known modulo ``2 pi / k``."""
+        z = (self.vertices[:, 0] - self.centroid[0]) + 1j * (self.vertices[:, 1] - self.centroid[1])
+        n, tol = len(z), 1e-9 * self.radius
+        for k in range(n, 1, -1):
+            if n % k == 0 and all(np.abs(z - t).min() <= tol for t in z * np.exp(2j * np.pi / k)):
+                return k
+        return 1
+
     def outline(self) -> FloatArray:
         """The vertices on the plate [m], ``(K, 2)``: turned by ``angle`` and moved to
         ``position``."""

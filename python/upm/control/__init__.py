@@ -18,11 +18,13 @@ from ..plan import (
     FixedPlanner,
     JetPlanner,
     Planner,
+    PosePlanner,
     PredictivePlanner,
     RotationsPlanner,
 )
 from .devices import BoardDevice, Device, SimulatedDevice, SimulatedDevice6, as_device
 from .loop import LoadedLog, Log, Loop, load_log
+from .orient import PoseLog, PoseLoop, PoseTask
 from .parts import PartsTask
 from .tasks import GatherTask, GotoTask, SortTask, State, Task, TrajectoryTask, WatchTask
 
@@ -40,6 +42,10 @@ __all__ = [
     "Loop",
     "PartsTask",
     "Planner",
+    "PoseLog",
+    "PoseLoop",
+    "PosePlanner",
+    "PoseTask",
     "PredictivePlanner",
     "RotationsPlanner",
     "SimulatedDevice",

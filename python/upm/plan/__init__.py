@@ -9,6 +9,8 @@
   (:mod:`~upm.plan.candidates`) and long-pulse look-ahead (:mod:`~upm.plan.macros`);
 * :mod:`~upm.plan.fields`: :class:`FieldPlanner`, velocity fields of a plate that moves out of
   its plane (docs/ppod.md);
+* :mod:`~upm.plan.orient`: :class:`PosePlanner`, pulses that turn and place polygon parts,
+  chosen by simulating every candidate (docs/polygons.md);
 * :mod:`~upm.plan.sizing`: sizing one pulse against the integrator, shared by all;
 * :mod:`~upm.plan.fixed`: the :class:`Planner` protocol and :class:`FixedPlanner`.
 
@@ -24,6 +26,7 @@ from .fields import FieldPlanner
 from .fixed import FixedPlanner, Planner
 from .jets import JetPlanner, jet_plan, jet_pulses
 from .macros import MacroTable
+from .orient import PosePlanner
 from .predictive import PredictivePlanner
 from .rotations import RotationsPlanner, rotation_pulses
 from .sizing import trim_rests
@@ -36,6 +39,7 @@ __all__ = [
     "JetPlanner",
     "MacroTable",
     "Planner",
+    "PosePlanner",
     "PredictivePlanner",
     "RotationsPlanner",
     "aligned_centres",

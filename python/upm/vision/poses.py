@@ -69,19 +69,9 @@ class Poses:
 
 
 def symmetry(part: Polygon) -> int:
-    """The order ``k`` of the outline's rotational symmetry about its centroid (1: none; a square
-    4, a rectangle 2, a regular n-gon n)."""
+    """The order ``k`` of the outline's rotational symmetry (:attr:`upm.Polygon.symmetry`)."""
     instance("part", part, Polygon, "a upm.Polygon")
-    v = _about_centroid(part)
-    z = v[:, 0] + 1j * v[:, 1]
-    n, tol = len(z), 1e-9 * part.radius
-    for k in range(n, 1, -1):
-        if n % k:
-            continue
-        turned = z * np.exp(2j * np.pi / k)
-        if all(np.abs(z - t).min() <= tol for t in turned):
-            return k
-    return 1
+    return part.symmetry
 
 
 def angle_error(measured: ArrayLike, true: ArrayLike, symmetry: int = 1) -> FloatArray:

@@ -1,0 +1,75 @@
+"""Orientation control through the closed loop: polygon parts seen by the camera, pulses chosen
+by simulating candidates, played by the motors on flexures within the stroke."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import upm
+from upm.control import PoseLoop, PosePlanner, PoseTask, SimulatedDevice
+from upm.plant import SimulatedUPM
+
+PART = upm.Polygon.rectangle(0.04, 0.02)
+
+
+def setup(starts, angles, seed=0):
+    plant = SimulatedUPM(parts=starts, part_shape=PART, angles=angles, seed=seed)
+    device = SimulatedDevice(plant)
+    return plant, device, PosePlanner(PART, device.limits)
+
+
+def test_two_brackets_turned_and_placed_to_their_poses():
+    starts, angles = [[-0.05, 0.03], [0.06, -0.04]], [0.5, 2.0]
+    targets = np.array([[-0.05, 0.035, 0.0], [0.055, -0.04, 1.5]])
+    plant, device, planner = setup(starts, angles)
+    log = PoseLoop(device, plant.camera("red"), planner, PoseTask(targets)).run(cycles=40)
+    assert log.done and log.stopped == "done", (log.stopped, log.errors[-1])
+    assert plant.fallen == 0
+    # the truth (the plant), not only what the camera saw: within the tolerances and a margin
+    truth = np.column_stack([plant.parts, plant.angles])
+    d = np.hypot(*(truth[:, :2] - targets[:, :2]).T)
+    a = np.degrees(np.mod(truth[:, 2] - targets[:, 2] + math.pi / 2, math.pi) - math.pi / 2)
+    assert d.max() < 0.004 and np.abs(a).max() < 6.0, (d, a)
+    assert np.abs(log.errors[0][:, 1]).max() > 20  # it had turning to do
+    assert log.plate_time > 0 and len(log.pulses) == len(log.times) - 1
+
+
+def test_the_planner_predicts_what_the_plate_does():
+    starts, angles = np.array([[-0.08, 0.06], [0.07, 0.07]]), np.array([0.3, 1.0])
+    targets = np.array([[-0.06, 0.05, 0.0], [0.06, 0.05, math.pi / 4]])
+    plant, device, planner = setup(starts, angles)
+    poses = np.column_stack([starts, angles])
+    pulses = planner.candidates(poses, targets)
+    kinds = {p.kind for p in pulses}
+    assert kinds == {"rotation", "jet"}
+    assert all(device.limits.headroom(p) >= 1.0 - 1e-9 for p in pulses)  # within force and stroke
+    predicted = planner.predict(poses, pulses)
+    for k in range(0, len(pulses), 3):
+        plant.move_parts(starts, angles)
+        device.execute([pulses[k]])
+        moved = np.hypot(*(plant.parts - starts).T)
+        assert np.hypot(*(predicted[k, :, :2] - plant.parts).T).max() < max(1.5e-3, 0.2 * moved.max())
+        assert np.degrees(np.abs(predicted[k, :, 2] - plant.angles)).max() < 1.5
+    best = planner.plan(poses, targets)
+    assert best is not None and best in pulses
+
+
+def test_bad_input():
+    with pytest.raises(upm.ShapeError, match="targets"):
+        PoseTask([[0.0, 0.0]])
+    with pytest.raises(upm.ParameterError, match="tolerance"):
+        PoseTask([[0.0, 0.0, 0.0]], tolerance=0.0)
+    with pytest.raises(upm.ParameterError, match=r"part must be a upm\.Polygon"):
+        PosePlanner(np.zeros((4, 2)), SimulatedUPM().limits)
+    plant, device, planner = setup([[0.0, 0.0]], [0.0])
+    with pytest.raises(upm.ShapeError, match=r"\(N, 3\)"):
+        planner.plan(np.zeros((1, 3)), np.zeros((2, 3)))
+    other = PosePlanner(PART, upm.DriveLimits(stroke=0.005))
+    with pytest.raises(upm.ParameterError, match="drive limits differ"):
+        PoseLoop(device, plant.camera("red"), other, PoseTask([[0.0, 0.0, 0.0]]))
+    loop = PoseLoop(device, plant.camera("red"), planner, PoseTask([[0.0, 0.0, 0.0], [0.05, 0.0, 0.0]]))
+    with pytest.raises(upm.VisionError, match="sees 1 parts; the task has 2"):
+        loop.run(cycles=1)
