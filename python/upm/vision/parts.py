@@ -397,6 +397,19 @@ def find_parts(
     Parts
         Centres on the plate [m] and in the image [px], labels, contrast, visible area.
     """
+    return seen_parts(frame, table, part_radius, palette, min_contrast, max_parts)[0]
+
+
+def seen_parts(
+    frame: ArrayLike,
+    table: Table,
+    part_radius: float,
+    palette: Palette | None,
+    min_contrast: float,
+    max_parts: int | None,
+) -> tuple[Parts, Rectifier, NDArray[np.uint8], F32]:
+    """:func:`find_parts` (its arguments checked) with the top view it worked in: the parts, the
+    :class:`Rectifier`, the rectified frame and the plate's fitted colour."""
     img = check_frame(frame)
     instance("table", table, Table, "a upm.vision.Table (from find_table)")
     if palette is not None:
@@ -411,7 +424,7 @@ def find_parts(
     rect = Rectifier(table, part_radius)
     top = rect.warp(img)
     background = rect.fit_background(top)
-    return parts_from_top(top, background, rect, palette, min_contrast, max_parts)
+    return parts_from_top(top, background, rect, palette, min_contrast, max_parts), rect, top, background
 
 
 def parts_from_top(top: NDArray[np.uint8], background: F32, rect: Rectifier, palette: Palette | None,

@@ -23,11 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._arrays import as_float, instance, integer, real
-from .._errors import VisionError
+from .._arrays import as_float, instance, integer
 from ..polygon import Polygon
-from .parts import THESIS_PALETTE, Palette, Parts, Rectifier, parts_from_top
-from .table import Table, check_frame
+from .parts import THESIS_PALETTE, Palette, Parts, Rectifier, seen_parts
+from .table import Table
 
 __all__ = ["Poses", "angle_error", "find_poses", "symmetry"]
 
@@ -128,22 +127,9 @@ def find_poses(
     palette, min_contrast, max_parts
         As :func:`upm.vision.find_parts`.
     """
-    img = check_frame(frame)
-    instance("table", table, Table, "a upm.vision.Table (from find_table)")
     instance("part", part, Polygon, "a upm.Polygon")
-    if palette is not None:
-        instance("palette", palette, Palette, "a upm.vision.Palette or None")
-    min_contrast = real("min_contrast", min_contrast, low=0.0, low_open=True)
-    if max_parts is not None:
-        max_parts = integer("max_parts", max_parts, low=1)
-    if (img.shape[1], img.shape[0]) != tuple(table.image_size):
-        raise VisionError(f"frame is {img.shape[1]} x {img.shape[0]} px but the table was found in "
-                          f"{table.image_size[0]} x {table.image_size[1]} px frames")  # fmt: skip
-    rect = Rectifier(table, part.radius)
-    top = rect.warp(img)
-    background = rect.fit_background(top)
-    parts = parts_from_top(top, background, rect, palette, min_contrast, max_parts)
-    k = symmetry(part)
+    parts, rect, top, background = seen_parts(frame, table, part.radius, palette, min_contrast, max_parts)
+    k = part.symmetry
     templates = outline_moments(part)
     diff = top.astype(np.float32) - background
     centres = rect.to_top(parts.positions) if len(parts) else np.zeros((0, 2))
