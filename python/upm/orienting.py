@@ -201,10 +201,7 @@ def orientation_equilibria(part: Polygon, field: SqueezeField, *, samples: int =
     line = field.angle
     right = np.array([math.sin(line), -math.cos(line)])  # the line frame's +x
     for j, (t, off) in enumerate(zip(stable_a, offsets, strict=True)):
-        centroid = np.asarray(field.point) + off * right
-        c, s = math.cos(t), math.sin(t)
-        o = part.centroid
-        positions[j] = centroid - np.array([c * o[0] - s * o[1], s * o[0] + c * o[1]])
+        positions[j] = np.asarray(field.point) + off * right - part.centroid_offset(t)
     return Equilibria(
         stable=stable_a,
         unstable=unstable_a,

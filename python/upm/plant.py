@@ -362,7 +362,5 @@ class SimulatedUPM:
         fallen off)."""
         if self.part_shape is None:
             return self.parts.copy()
-        c, s = np.cos(self._angles(self.angles)), np.sin(self._angles(self.angles))
-        o = self.part_shape.centroid
-        out: FloatArray = self.parts + np.stack([c * o[0] - s * o[1], s * o[0] + c * o[1]], axis=1)
+        out: FloatArray = self.parts + self.part_shape.centroid_offset(self._angles(self.angles))
         return out

@@ -148,6 +148,15 @@ class Polygon:
                 return k
         return 1
 
+    def centroid_offset(self, angles: Any) -> FloatArray:
+        """Where the centroid is from the frame's origin on the plate [m], ``(..., 2)``, with the
+        frame turned by ``angles`` [rad] ``(...)``: a pose's centroid is its position plus this."""
+        a = np.asarray(angles, dtype=np.float64)
+        c, s = np.cos(a), np.sin(a)
+        o = self.centroid
+        out: FloatArray = np.stack([c * o[0] - s * o[1], s * o[0] + c * o[1]], axis=-1)
+        return out
+
     def outline(self) -> FloatArray:
         """The vertices on the plate [m], ``(K, 2)``: turned by ``angle`` and moved to
         ``position``."""

@@ -78,9 +78,7 @@ class PosePlanner:
             raise ParameterError(f"sustains must be positive times [s]; got {self.sustains!r}")
 
     def _centroids(self, poses: FloatArray) -> FloatArray:
-        c, s = np.cos(poses[..., 2]), np.sin(poses[..., 2])
-        o = self.part.centroid
-        out: FloatArray = poses[..., :2] + np.stack([c * o[0] - s * o[1], s * o[0] + c * o[1]], axis=-1)
+        out: FloatArray = poses[..., :2] + self.part.centroid_offset(poses[..., 2])
         return out
 
     def score(self, poses: FloatArray, targets: FloatArray) -> FloatArray:

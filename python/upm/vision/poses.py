@@ -134,12 +134,8 @@ def find_poses(
     diff = top.astype(np.float32) - background
     centres = rect.to_top(parts.positions) if len(parts) else np.zeros((0, 2))
     angles = np.array([_angle(diff, c, rect, part, templates, k) for c in centres])
-    c, s = np.cos(angles), np.sin(angles)
-    offset = np.stack(
-        [c * part.centroid[0] - s * part.centroid[1], s * part.centroid[0] + c * part.centroid[1]], -1
-    )
     return Poses(
-        positions=parts.positions - offset.reshape(-1, 2),
+        positions=parts.positions - part.centroid_offset(angles).reshape(-1, 2),
         centroids=parts.positions,
         angles=angles,
         symmetry=k,
