@@ -8,7 +8,7 @@ import pytest
 
 import upm
 from upm.vision import find_poses, find_table
-from upm.vision.poses import angle_error, outline_moments, symmetry
+from upm.vision.poses import angle_error, outline_moments
 from upm.vision.synthetic import Camera, render
 
 PENTAGON = np.array([[0.0, 0.0], [0.030, -0.004], [0.041, 0.016], [0.022, 0.031], [-0.006, 0.019]])
@@ -21,8 +21,8 @@ SHAPES = {
 
 
 def test_symmetry_orders_and_angle_errors():
-    assert [symmetry(p) for p in SHAPES.values()] == [4, 2, 3, 1]
-    assert symmetry(upm.Polygon.regular(6, 0.01)) == 6
+    assert [p.symmetry for p in SHAPES.values()] == [4, 2, 3, 1]
+    assert upm.Polygon.regular(6, 0.01).symmetry == 6
     assert angle_error(np.radians(89.0), 0.0, 4) == pytest.approx(-1.0)
     assert angle_error(np.radians(181.0), 0.0, 2) == pytest.approx(1.0)
     assert angle_error(np.radians(-179.0), np.radians(179.0), 1) == pytest.approx(2.0)
@@ -59,7 +59,7 @@ def test_poses_of_four_shapes_within_a_degree_and_half_a_millimetre(seed):
         poses = find_poses(frame.image, find_table(frame.image), part)
         assert len(poses) == len(centroids)
         j = [int(np.argmin(np.hypot(*(poses.centroids - p).T))) for p in centroids]
-        k = symmetry(part)
+        k = part.symmetry
         errors.append(angle_error(poses.angles[j], angles, k))
         assert ((poses.angles >= 0) & (poses.angles < 2 * np.pi / k)).all()
         # the pose redraws the part: its frame's origin where the truth puts it

@@ -66,7 +66,6 @@ class PosePlanner:
     edge: float = 0.04
     edge_weight: float = 10.0
     symmetry: int = field(init=False)
-    candidates_tried: int = field(init=False, default=0)
 
     def __post_init__(self) -> None:
         instance("part", self.part, Polygon, "a upm.Polygon")
@@ -164,7 +163,6 @@ class PosePlanner:
         if not (np.all(np.isfinite(p)) and np.all(np.isfinite(t))):
             raise ParameterError("poses and targets must be finite")
         cands = self.candidates(p, t)
-        self.candidates_tried = len(cands)
         if not cands:
             return None
         scores = self.score(self.predict(p, cands), t)

@@ -28,7 +28,7 @@ from ..polygon import Polygon
 from .parts import THESIS_PALETTE, Palette, Parts, Rectifier, seen_parts
 from .table import Table
 
-__all__ = ["Poses", "angle_error", "find_poses", "symmetry"]
+__all__ = ["Poses", "angle_error", "find_poses"]
 
 FloatArray = NDArray[np.float64]
 
@@ -65,12 +65,6 @@ class Poses:
 
     def __len__(self) -> int:
         return len(self.angles)
-
-
-def symmetry(part: Polygon) -> int:
-    """The order ``k`` of the outline's rotational symmetry (:attr:`upm.Polygon.symmetry`)."""
-    instance("part", part, Polygon, "a upm.Polygon")
-    return part.symmetry
 
 
 def angle_error(measured: ArrayLike, true: ArrayLike, symmetry: int = 1) -> FloatArray:
