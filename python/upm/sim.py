@@ -224,7 +224,8 @@ def _parts(parts: Any) -> tuple[Any, ...]:
             )
         polygons = [(i, p.vertices) for i, p in enumerate(parts) if isinstance(p, Polygon)] or None
     else:
-        pos = as_float("parts", parts)
+        # The core checks that every position is finite and names the first part that is not.
+        pos = as_float("parts", parts, finite=False)
         vel = radius = angle = spin = None
     if pos.ndim != 2 or pos.shape[1] != 2 or pos.shape[0] == 0:
         allowed = "an (M, 2) array of positions or a list of upm.Point/upm.Disk/upm.Polygon"

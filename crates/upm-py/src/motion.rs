@@ -4,7 +4,7 @@ use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArra
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use upm_core::motion::PlateMotion as CoreMotion;
-use upm_core::sim::{self, Config, PartsView, Trajectory};
+use upm_core::sim::{self, Config, PartsView, Stacked};
 use upm_core::{Error, Waveform};
 
 use crate::errors::{core, detached, on_threads, shape_error, Failure};
@@ -218,28 +218,37 @@ fn recycled(py: Python<'_>, v: Vec<f64>) -> PyResult<Bound<'_, PyArray1<f64>>> {
     }
 }
 
+/// `v` as an array of `shape`, recycled when it goes; where the core left it out (empty: zero
+/// throughout), a read-only view of one zero broadcast to `shape` (no memory to clear or map).
+fn or_zeros<'py>(py: Python<'py>, v: Vec<f64>, shape: &[usize]) -> PyResult<Bound<'py, PyAny>> {
+    if v.is_empty() && shape.iter().product::<usize>() > 0 {
+        let zero = PyArray1::from_vec(py, vec![0.0]);
+        let shape = PyTuple::new(py, shape)?;
+        return py
+            .import("numpy")?
+            .getattr("broadcast_to")?
+            .call1((zero.reshape(Vec::<usize>::new())?, shape));
+    }
+    Ok(recycled(py, v)?.reshape(shape.to_vec())?.into_any())
+}
+
 /// The stacked trajectory of `b` worlds as NumPy arrays: its buffers become the arrays as they
 /// are, no copy: `(t, positions, velocities, stuck, angles, spins, left_time, flight)`.
 fn to_arrays<'py>(
     py: Python<'py>,
-    run: Trajectory,
+    run: Stacked,
     b: usize,
     m: usize,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let rows = run.t.len();
-    let left: Vec<f64> = run
-        .left_plate
-        .iter()
-        .map(|l| l.unwrap_or(f64::NAN))
-        .collect();
     let t = PyArray1::from_vec(py, run.t);
     let pos = recycled(py, run.positions.into_flattened())?.reshape([b, rows, m, 2])?;
     let vel = recycled(py, run.velocities.into_flattened())?.reshape([b, rows, m, 2])?;
     let stuck = PyArray1::from_vec(py, run.stuck).reshape([b, rows, m])?;
-    let angles = PyArray1::from_vec(py, run.angles).reshape([b, rows, m])?;
-    let spins = PyArray1::from_vec(py, run.spins).reshape([b, rows, m])?;
-    let left = PyArray1::from_vec(py, left).reshape([b, m])?;
-    let flight = PyArray1::from_vec(py, run.flight).reshape([b, m])?;
+    let angles = or_zeros(py, run.angles, &[b, rows, m])?;
+    let spins = or_zeros(py, run.spins, &[b, rows, m])?;
+    let left = recycled(py, run.left)?.reshape([b, m])?;
+    let flight = or_zeros(py, run.flight, &[b, m])?;
     PyTuple::new(
         py,
         [

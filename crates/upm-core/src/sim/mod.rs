@@ -46,6 +46,7 @@ use disks::{run_disks, DiskState};
 pub use kernel::{simd, Simd};
 pub use parts::{Parts, PartsView, WorldFriction};
 pub use points::CHUNK_PARTS;
+pub use record::Stacked;
 use record::{recorded_rows, Rec, Recorder};
 
 /// Steps of plate velocity tabulated at a time, at most.
@@ -174,7 +175,7 @@ fn half_side(cfg: &Config) -> f64 {
 /// The parts of one world and what has been recorded of it.
 struct World<'a> {
     motion: &'a PlateMotion,
-    points: points::Points,
+    points: points::Points<'a>,
     /// Disk parts.
     disks: Vec<DiskState>,
     /// The disks' and polygons' rapier world when contacts are on.
@@ -246,18 +247,29 @@ where
                 positions: all.positions[r.clone()].to_vec(),
                 velocities: all.velocities[r.clone()].to_vec(),
                 stuck: all.stuck[r.clone()].to_vec(),
-                angles: all.angles[r.clone()].to_vec(),
-                spins: all.spins[r].to_vec(),
-                left_plate: all.left_plate[w * m..(w + 1) * m].to_vec(),
-                flight: all.flight[w * m..(w + 1) * m].to_vec(),
+                angles: all_or_zeros(&all.angles, r.clone()),
+                spins: all_or_zeros(&all.spins, r),
+                left_plate: all.left[w * m..(w + 1) * m]
+                    .iter()
+                    .map(|&l| (!l.is_nan()).then_some(l))
+                    .collect(),
+                flight: all_or_zeros(&all.flight, w * m..(w + 1) * m),
             }
         })
         .collect())
 }
 
-/// [`simulate_worlds_with`] with the worlds' results stacked in one [`Trajectory`], written in
-/// place: `positions`, `velocities`, `stuck`, `angles` and `spins` are `(worlds, rows, parts)`,
-/// `left_plate` is `(worlds, parts)` and `t` is `(rows,)`, shared (the binding hands these
+/// `all[r]`, or zeros where `all` is empty (a stacked result leaves out what is zero throughout).
+fn all_or_zeros(all: &[f64], r: std::ops::Range<usize>) -> Vec<f64> {
+    if all.is_empty() {
+        vec![0.0; r.len()]
+    } else {
+        all[r].to_vec()
+    }
+}
+
+/// [`simulate_worlds_with`] with the worlds' results stacked in one [`Stacked`], written in
+/// place (see there). (The binding hands these
 /// buffers to NumPy as they are). With `friction`, world `b` has its own friction coefficients
 /// (a friction sweep in one parallel run): `parts`' are replaced by that world's rows.
 pub fn simulate_stacked<E, B>(
@@ -267,7 +279,7 @@ pub fn simulate_stacked<E, B>(
     contacts: Option<&Contacts>,
     friction: Option<&WorldFriction>,
     mut between: B,
-) -> std::result::Result<Trajectory, E>
+) -> std::result::Result<Stacked, E>
 where
     E: From<Error>,
     B: FnMut(usize) -> std::result::Result<(), E>,
@@ -346,7 +358,8 @@ where
     let block = block_steps(motions.len(), n_points, heavy);
     let mut worlds: Vec<World> = Vec::with_capacity(motions.len());
     // Reserved fallibly (an error, not an abort, when it cannot fit), reusing recycled results.
-    let mut recorder = Recorder::new(motions.len(), rows, m)?;
+    let turning = !disk_index.is_empty() || !parts.polygons.is_empty();
+    let mut recorder = Recorder::new(motions.len(), rows, m, turning)?;
     for (b, motion) in motions.iter().enumerate() {
         let u0 = motion.velocity(0.0);
         let own = friction.map(|f| f.world(parts, b));
@@ -363,7 +376,7 @@ where
         let rec = recorder.rec(b, steps, cfg.record_every);
         worlds.push(World {
             motion,
-            points: points::Points::new(parts, index, cfg, u0, spatial[b]),
+            points: points::Points::new(parts, index, cfg, u0, spatial[b], steps <= block),
             contact: contacts.map(|c| contact::ContactWorld::new(&disks, &shapes, &mass, c, cfg)),
             disks,
             polygons: shapes,
@@ -416,13 +429,20 @@ where
         between(end)?;
         first = end;
     }
-    let mut left = vec![None; motions.len() * m];
-    let mut flight = vec![0.0; motions.len() * m];
-    for ((w, left), flight) in worlds
-        .iter()
-        .zip(left.chunks_mut(m.max(1)))
-        .zip(flight.chunks_mut(m.max(1)))
-    {
+    // Each part's time of leaving the plate (NaN: never) and of flight (left out on a planar
+    // plate), in buffers the result may hand back for reuse.
+    let mut left = crate::buffer::scratch(motions.len() * m);
+    left.resize(motions.len() * m, f64::NAN);
+    let mut flight = Vec::new();
+    if spatial.iter().any(|&s| s) {
+        flight = crate::buffer::scratch(motions.len() * m);
+        flight.resize(motions.len() * m, 0.0);
+    }
+    for ((w, left), flight) in worlds.iter().zip(left.chunks_mut(m.max(1))).zip(
+        flight
+            .chunks_mut(m.max(1))
+            .chain(std::iter::repeat_with(|| &mut [][..])),
+    ) {
         for (j, l) in w.points.left(cfg.dt).enumerate() {
             left[index.map_or(j, |ix| ix[j])] = l;
         }
@@ -430,11 +450,13 @@ where
             flight[index.map_or(j, |ix| ix[j])] = f;
         }
         for d in &w.disks {
-            left[d.index] = d.left;
-            flight[d.index] = d.flight as f64 * cfg.dt;
+            left[d.index] = d.left.unwrap_or(f64::NAN);
+            if let Some(f) = flight.get_mut(d.index) {
+                *f = d.flight as f64 * cfg.dt;
+            }
         }
         for p in &w.polygons {
-            left[p.index] = p.left;
+            left[p.index] = p.left.unwrap_or(f64::NAN);
         }
     }
     drop(worlds);

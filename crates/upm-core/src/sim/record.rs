@@ -4,13 +4,11 @@
 //!
 //! Positions, velocities and stuck flags are reserved uninitialised (positions and velocities in
 //! buffers handed back by earlier results when they fit: see [`buffer::result_pairs`]) and written
-//! exactly once per `(row, part)`; angles and spins are allocated zeroed (pages the kernel maps lazily), so a world
-//! of point parts never touches them.
+//! exactly once per `(row, part)`; angles and spins are allocated zeroed, and only when some part
+//! turns (a run of point parts leaves them empty: see [`super::simulate_stacked`]).
 
 use crate::buffer;
 use crate::error::Result;
-
-use super::Trajectory;
 
 /// Whether step `s` (1-based) is recorded: every `every`-th step, and always the last one.
 #[inline]
@@ -23,10 +21,35 @@ pub(super) fn recorded_rows(steps: usize, every: usize) -> usize {
     steps / every + 1 + usize::from(!steps.is_multiple_of(every))
 }
 
+/// What the worlds of a run recorded, stacked: world `b`'s rows follow world `b - 1`'s. Arrays
+/// are row-major: `positions`, `velocities`, `stuck`, `angles` and `spins` are
+/// `(worlds, rows, parts)`, `left` and `flight` `(worlds, parts)`, and `t` `(rows,)`, shared.
+/// What is zero throughout is left empty, never allocated: `angles` and `spins` when no part
+/// turns (no disk, no polygon), and `flight` on a plate that stays in its plane.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stacked {
+    /// Recorded times [s].
+    pub t: Vec<f64>,
+    /// Positions [m].
+    pub positions: Vec<[f64; 2]>,
+    /// Velocities [m/s].
+    pub velocities: Vec<[f64; 2]>,
+    /// Whether each part was stuck to the plate.
+    pub stuck: Vec<bool>,
+    /// Orientations [rad] (empty: all zero).
+    pub angles: Vec<f64>,
+    /// Angular velocities [rad/s] (empty: all zero).
+    pub spins: Vec<f64>,
+    /// Time each part's centre left the plate [s] (NaN: it did not).
+    pub left: Vec<f64>,
+    /// Time each part spent in flight [s] (empty: all zero).
+    pub flight: Vec<f64>,
+}
+
 /// The result buffers of every world of a run while it runs, stacked: world `b`'s rows follow
 /// world `b - 1`'s, so a batch is one set of arrays `(worlds, rows, parts)`.
 pub(super) struct Recorder {
-    out: Trajectory,
+    out: Stacked,
     m: usize,
     rows: usize,
     worlds: usize,
@@ -54,8 +77,8 @@ unsafe impl Sync for Rec {}
 
 impl Recorder {
     /// Buffers for `worlds` worlds of `rows` rows of `m` parts (reserved fallibly: an error, not
-    /// an abort).
-    pub(super) fn new(worlds: usize, rows: usize, m: usize) -> Result<Self> {
+    /// an abort); angles and spins only if some part `turning` (else they are left empty).
+    pub(super) fn new(worlds: usize, rows: usize, m: usize, turning: bool) -> Result<Self> {
         let cells = worlds
             .checked_mul(rows)
             .and_then(|r| r.checked_mul(m))
@@ -65,14 +88,14 @@ impl Recorder {
                     "is too small: the number of records overflows",
                 )
             })?;
-        let mut out = Trajectory {
+        let mut out = Stacked {
             t: Vec::new(),
             positions: buffer::result_pairs(cells, "the positions")?,
             velocities: buffer::result_pairs(cells, "the velocities")?,
             stuck: Vec::new(),
-            angles: buffer::zeroed(cells, "the angles")?,
-            spins: buffer::zeroed(cells, "the spins")?,
-            left_plate: Vec::new(),
+            angles: buffer::zeroed(if turning { cells } else { 0 }, "the angles")?,
+            spins: buffer::zeroed(if turning { cells } else { 0 }, "the spins")?,
+            left: Vec::new(),
             flight: Vec::new(),
         };
         buffer::reserve(&mut out.t, rows, "the recorded times")?;
@@ -104,21 +127,17 @@ impl Recorder {
         }
     }
 
-    /// The stacked trajectory (`left_plate` and `flight` are `(worlds, parts)`), once every `(row, part)` of
+    /// The stacked result (`left` and `flight` are `(worlds, parts)`), once every `(row, part)` of
     /// every world has been written through its [`Rec`].
     ///
     /// # Safety
     /// Every cell of every row of every world must have been written.
-    pub(super) unsafe fn finish(
-        mut self,
-        left_plate: Vec<Option<f64>>,
-        flight: Vec<f64>,
-    ) -> Trajectory {
+    pub(super) unsafe fn finish(mut self, left: Vec<f64>, flight: Vec<f64>) -> Stacked {
         let cells = self.worlds * self.rows * self.m;
         self.out.positions.set_len(cells);
         self.out.velocities.set_len(cells);
         self.out.stuck.set_len(cells);
-        self.out.left_plate = left_plate;
+        self.out.left = left;
         self.out.flight = flight;
         self.out
     }
