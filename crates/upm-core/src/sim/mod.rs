@@ -359,7 +359,8 @@ where
     let mut worlds: Vec<World> = Vec::with_capacity(motions.len());
     // Reserved fallibly (an error, not an abort, when it cannot fit), reusing recycled results.
     let turning = !disk_index.is_empty() || !parts.polygons.is_empty();
-    let mut recorder = Recorder::new(motions.len(), rows, m, turning)?;
+    let flying = spatial.iter().any(|&s| s);
+    let mut recorder = Recorder::new(motions.len(), rows, m, turning, flying)?;
     for (b, motion) in motions.iter().enumerate() {
         let u0 = motion.velocity(0.0);
         let own = friction.map(|f| f.world(parts, b));
@@ -429,38 +430,22 @@ where
         between(end)?;
         first = end;
     }
-    // Each part's time of leaving the plate (NaN: never) and of flight (left out on a planar
-    // plate), in buffers the result may hand back for reuse.
-    let mut left = crate::buffer::scratch(motions.len() * m);
-    left.resize(motions.len() * m, f64::NAN);
-    let mut flight = Vec::new();
-    if spatial.iter().any(|&s| s) {
-        flight = crate::buffer::scratch(motions.len() * m);
-        flight.resize(motions.len() * m, 0.0);
-    }
-    for ((w, left), flight) in worlds.iter().zip(left.chunks_mut(m.max(1))).zip(
-        flight
-            .chunks_mut(m.max(1))
-            .chain(std::iter::repeat_with(|| &mut [][..])),
-    ) {
-        for (j, l) in w.points.left(cfg.dt).enumerate() {
-            left[index.map_or(j, |ix| ix[j])] = l;
-        }
-        for (j, f) in w.points.flight(cfg.dt).enumerate() {
-            flight[index.map_or(j, |ix| ix[j])] = f;
-        }
+    // The points recorded their times of leaving the plate and of flight as their last block
+    // ended; the disks and polygons record theirs now.
+    for w in &worlds {
         for d in &w.disks {
-            left[d.index] = d.left.unwrap_or(f64::NAN);
-            if let Some(f) = flight.get_mut(d.index) {
-                *f = d.flight as f64 * cfg.dt;
-            }
+            // SAFETY: d.index < m, and this thread alone writes now.
+            unsafe { w.rec.ended(d.index, d.left, d.flight as f64 * cfg.dt) };
         }
         for p in &w.polygons {
-            left[p.index] = p.left.unwrap_or(f64::NAN);
+            // SAFETY: as above.
+            unsafe { w.rec.ended(p.index, p.left, 0.0) };
         }
     }
     drop(worlds);
-    // SAFETY: every row of every world was written: row 0 before the first block, and every
-    // recorded step's row by the chunk or disk that owns each part, in the block of that step.
-    Ok(unsafe { recorder.finish(left, flight) })
+    // SAFETY: every row of every world was written: row 0 before the first block (by the points
+    // in it), and every recorded step's row by the chunk or disk that owns each part, in the
+    // block of that step; every point's times in its last block, every disk's and polygon's
+    // just above.
+    Ok(unsafe { recorder.finish() })
 }

@@ -50,18 +50,17 @@ pub(super) struct Points<'p> {
     /// The parts to read the state from, until the first block has read it.
     source: Option<Source<'p>>,
     /// The run is one block: each chunk's state lives in its task's own buffer (in the core's
-    /// cache) and only what is read after the run (`left`, `flight`) is kept in the arrays.
+    /// cache), and no array is kept.
     once: bool,
 }
 
 /// One chunk's state for a run of one block (see [`Points::once`]).
 type Local = [[f64; CHUNK_PARTS]; ARRAYS];
 
-/// Whether array `i` is kept for the whole run (see [`ARRAYS`]): the planar state, and the air
-/// state on a plate out of its plane; in a run of one block only `left` and `flight`.
+/// Whether array `i` is kept from block to block (see [`ARRAYS`]): the planar state, and the
+/// air state on a plate out of its plane; nothing in a run of one block.
 fn kept(i: usize, spatial: bool, once: bool) -> bool {
-    let used = i < if spatial { ARRAYS } else { PLANAR };
-    used && (!once || i == 6 || i == 11)
+    !once && i < if spatial { ARRAYS } else { PLANAR }
 }
 
 /// The arrays' base addresses, shared by the chunk tasks (each reads and writes only its own
@@ -246,15 +245,12 @@ impl<'p> Points<'p> {
                     write(&l, start, row, rec, index);
                 }
             }
-            if once {
-                // Keep what is read after the run: when each part left the plate, its flight.
-                // SAFETY: `left` and `flight` (on a plate out of its plane) are kept, with room
-                // for every point; this task alone addresses the chunk's range.
-                unsafe {
-                    std::ptr::copy_nonoverlapping(l.left.as_ptr(), base.0[6].add(start), k);
-                    if let Some(a) = &air {
-                        std::ptr::copy_nonoverlapping(a.flight.as_ptr(), base.0[11].add(start), k);
-                    }
+            if rec.last(first, table.len()) {
+                for q in 0..k {
+                    let left = (l.left[q] != NEVER).then(|| l.left[q] * cfg.dt);
+                    let flown = air.as_ref().map_or(0.0, |a| a.flight[q] * cfg.dt);
+                    // SAFETY: the part is below m, and belongs to this chunk alone.
+                    unsafe { rec.ended(index.map_or(start + q, |ix| ix[start + q]), left, flown) };
                 }
             }
         };
@@ -262,18 +258,6 @@ impl<'p> Points<'p> {
         if source.is_some() {
             self.written();
         }
-    }
-
-    /// The time each point spent in flight [s], in the points' order (empty on a planar plate).
-    pub(super) fn flight(&self, dt: f64) -> impl Iterator<Item = f64> + '_ {
-        self.arrays[11].iter().map(move |&k| k * dt)
-    }
-
-    /// The time each point left the plate [s] (NaN: it did not), in the points' order.
-    pub(super) fn left(&self, dt: f64) -> impl Iterator<Item = f64> + '_ {
-        self.arrays[6]
-            .iter()
-            .map(move |&l| if l == NEVER { f64::NAN } else { l * dt })
     }
 }
 
@@ -285,31 +269,57 @@ impl Source<'_> {
     /// and nothing else addresses it meanwhile.
     unsafe fn fill(&self, base: &Base, at: usize, start: usize, k: usize, spatial: bool) {
         let p = &self.parts;
-        let put = |a: usize, j: usize, v: f64| base.0[a].add(at + j - start).write(v);
-        for j in start..start + k {
-            let i = self.index.map_or(j, |ix| ix[j]);
-            let [x, y] = p.position[i];
-            let [vx, vy] = p.velocity.map_or([0.0, 0.0], |v| v[i]);
-            // On an unbounded plate (infinite `half`) every part is on it.
-            let on = !off_plate(x, y, self.half);
-            put(0, j, x);
-            put(1, j, y);
-            put(2, j, vx);
-            put(3, j, vy);
+        let out = |a: usize| std::slice::from_raw_parts_mut(base.0[a].add(at).cast(), k);
+        let [x, y, vx, vy, stuck, active, left, slide, hold]: [&mut [std::mem::MaybeUninit<f64>];
+            9] = std::array::from_fn(out);
+        let ix = |q: usize| self.index.map_or(start + q, |ix| ix[start + q]);
+        // One array at a time, in loops the compiler vectorises when the points are all the
+        // parts (no index).
+        let (pos, vel) = match self.index {
+            None => (
+                &p.position[start..start + k],
+                p.velocity.map(|v| &v[start..start + k]),
+            ),
+            Some(_) => (&[][..], None),
+        };
+        for q in 0..k {
+            let [a, b] = if self.index.is_none() {
+                pos[q]
+            } else {
+                p.position[ix(q)]
+            };
+            x[q].write(a);
+            y[q].write(b);
+        }
+        for q in 0..k {
+            let [a, b] = match (self.index, vel, p.velocity) {
+                (_, _, None) => [0.0, 0.0],
+                (None, Some(v), _) => v[q],
+                (_, _, Some(v)) => v[ix(q)],
+            };
+            vx[q].write(a);
+            vy[q].write(b);
+        }
+        let [x, y, vx, vy] =
+            [x, y, vx, vy].map(|a| &*(a as *const [std::mem::MaybeUninit<f64>] as *const [f64]));
+        for q in 0..k {
             // A part that starts moving with the plate surface starts stuck.
-            put(
-                4,
-                j,
-                f64::from(u8::from(moves_with_plate([x, y], [vx, vy], self.u0))),
-            );
-            put(5, j, f64::from(u8::from(on)));
-            put(6, j, if on { NEVER } else { 0.0 });
-            put(7, j, p.mu(i) * self.scale);
-            put(8, j, p.mu_s(i) * self.scale);
-            if spatial {
-                put(9, j, 0.0);
-                put(10, j, 0.0);
-                put(11, j, 0.0);
+            let s = moves_with_plate([x[q], y[q]], [vx[q], vy[q]], self.u0);
+            stuck[q].write(f64::from(u8::from(s)));
+            // On an unbounded plate (infinite `half`) every part is on it.
+            let on = !off_plate(x[q], y[q], self.half);
+            active[q].write(f64::from(u8::from(on)));
+            left[q].write(if on { NEVER } else { 0.0 });
+        }
+        let one = p.mu.len() == 1 && p.mu_s.len() == 1;
+        for q in 0..k {
+            let i = if one { 0 } else { ix(q) };
+            slide[q].write(p.mu(i) * self.scale);
+            hold[q].write(p.mu_s(i) * self.scale);
+        }
+        if spatial {
+            for a in 9..ARRAYS {
+                out(a).fill(std::mem::MaybeUninit::new(0.0));
             }
         }
     }
@@ -329,7 +339,7 @@ fn write(l: &Lanes, start: usize, row: usize, rec: &Rec, index: Option<&[usize]>
         let part = index.map_or(start + q, |ix| ix[start + q]);
         // SAFETY: row < rows (from Rec::row), part < m, and each part belongs to one chunk.
         unsafe {
-            rec.point(
+            rec.point_streamed(
                 row,
                 part,
                 [l.x[q], l.y[q]],
@@ -338,4 +348,5 @@ fn write(l: &Lanes, start: usize, row: usize, rec: &Rec, index: Option<&[usize]>
             );
         }
     }
+    rec.fence();
 }

@@ -64,11 +64,20 @@ pub(super) struct Rec {
     stuck: *mut bool,
     angle: *mut f64,
     spin: *mut f64,
+    /// The world's `(parts,)` times of leaving the plate and of flight (null: none recorded).
+    left: *mut f64,
+    flight: *mut f64,
     m: usize,
     rows: usize,
     steps: usize,
     every: usize,
+    /// Points' positions and velocities go to memory with non-temporal stores (a result larger
+    /// than the caches, which nothing reads during the run: no line is read for ownership).
+    stream: bool,
 }
+
+/// Results of more bytes than this are written with non-temporal stores (see [`Rec::stream`]).
+const STREAM_BYTES: usize = 16 << 20;
 
 // SAFETY: the pointers address the Recorder's buffers, which outlive every use of a Rec (the
 // world's run); threads write disjoint (row, part) cells.
@@ -77,8 +86,15 @@ unsafe impl Sync for Rec {}
 
 impl Recorder {
     /// Buffers for `worlds` worlds of `rows` rows of `m` parts (reserved fallibly: an error, not
-    /// an abort); angles and spins only if some part `turning` (else they are left empty).
-    pub(super) fn new(worlds: usize, rows: usize, m: usize, turning: bool) -> Result<Self> {
+    /// an abort); angles and spins only if some part `turning`, flight times only if some world
+    /// is `flying` (moves out of the plate's plane); else they are left empty.
+    pub(super) fn new(
+        worlds: usize,
+        rows: usize,
+        m: usize,
+        turning: bool,
+        flying: bool,
+    ) -> Result<Self> {
         let cells = worlds
             .checked_mul(rows)
             .and_then(|r| r.checked_mul(m))
@@ -95,8 +111,12 @@ impl Recorder {
             stuck: Vec::new(),
             angles: buffer::zeroed(if turning { cells } else { 0 }, "the angles")?,
             spins: buffer::zeroed(if turning { cells } else { 0 }, "the spins")?,
-            left: Vec::new(),
-            flight: Vec::new(),
+            left: buffer::scratch(worlds * m),
+            flight: if flying {
+                buffer::scratch(worlds * m)
+            } else {
+                Vec::new()
+            },
         };
         buffer::reserve(&mut out.t, rows, "the recorded times")?;
         buffer::reserve(&mut out.stuck, cells, "the stuck flags")?;
@@ -114,12 +134,25 @@ impl Recorder {
         let base = world * self.rows * self.m;
         // SAFETY: base is within the reserved capacity (world < worlds).
         let at = |p: *mut f64| unsafe { p.add(base) };
+        let flight = if self.out.flight.capacity() == 0 {
+            std::ptr::null_mut()
+        } else {
+            // SAFETY: world * m < worlds * m, the flight times' length.
+            unsafe { self.out.flight.as_mut_ptr().add(world * self.m) }
+        };
         Rec {
             pos: unsafe { self.out.positions.as_mut_ptr().add(base) },
             vel: unsafe { self.out.velocities.as_mut_ptr().add(base) },
             stuck: unsafe { self.out.stuck.as_mut_ptr().add(base) },
             angle: at(self.out.angles.as_mut_ptr()),
             spin: at(self.out.spins.as_mut_ptr()),
+            // SAFETY: as for `flight`.
+            left: unsafe { self.out.left.as_mut_ptr().add(world * self.m) },
+            flight,
+            stream: cfg!(target_arch = "x86_64")
+                && self.worlds * self.rows * self.m * 32 > STREAM_BYTES
+                && (self.out.positions.as_ptr() as usize).is_multiple_of(16)
+                && (self.out.velocities.as_ptr() as usize).is_multiple_of(16),
             m: self.m,
             rows: self.rows,
             steps,
@@ -127,18 +160,20 @@ impl Recorder {
         }
     }
 
-    /// The stacked result (`left` and `flight` are `(worlds, parts)`), once every `(row, part)` of
-    /// every world has been written through its [`Rec`].
+    /// The stacked result, once every `(row, part)` of every world has been written through its
+    /// [`Rec`], and every part's times ([`Rec::ended`]).
     ///
     /// # Safety
-    /// Every cell of every row of every world must have been written.
-    pub(super) unsafe fn finish(mut self, left: Vec<f64>, flight: Vec<f64>) -> Stacked {
+    /// Every cell of every row of every world must have been written, and every part's times.
+    pub(super) unsafe fn finish(mut self) -> Stacked {
         let cells = self.worlds * self.rows * self.m;
+        self.out.left.set_len(self.worlds * self.m);
+        if self.out.flight.capacity() > 0 {
+            self.out.flight.set_len(self.worlds * self.m);
+        }
         self.out.positions.set_len(cells);
         self.out.velocities.set_len(cells);
         self.out.stuck.set_len(cells);
-        self.out.left = left;
-        self.out.flight = flight;
         self.out
     }
 
@@ -190,6 +225,65 @@ impl Rec {
         self.pos.add(i).write(p);
         self.vel.add(i).write(v);
         self.stuck.add(i).write(stuck);
+    }
+
+    /// [`Rec::point`] for a point; after a run of these calls the writer calls [`Rec::fence`].
+    ///
+    /// # Safety
+    /// As [`Rec::point`].
+    #[inline(always)]
+    pub(super) unsafe fn point_streamed(
+        &self,
+        row: usize,
+        part: usize,
+        p: [f64; 2],
+        v: [f64; 2],
+        stuck: bool,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if self.stream {
+            use std::arch::x86_64::{_mm_set_pd, _mm_stream_pd};
+            debug_assert!(row < self.rows && part < self.m);
+            let i = row * self.m + part;
+            // SAFETY (alignment): both buffers start 16-byte aligned (checked with `stream`),
+            // and each cell is 16 bytes.
+            _mm_stream_pd(self.pos.add(i).cast(), _mm_set_pd(p[1], p[0]));
+            _mm_stream_pd(self.vel.add(i).cast(), _mm_set_pd(v[1], v[0]));
+            self.stuck.add(i).write(stuck);
+            return;
+        }
+        self.point(row, part, p, v, stuck);
+    }
+
+    /// Orders the non-temporal stores of [`Rec::point_streamed`] before whatever the thread does
+    /// next (the run's end is seen by other threads only after them).
+    #[inline]
+    pub(super) fn fence(&self) {
+        #[cfg(target_arch = "x86_64")]
+        if self.stream {
+            // SAFETY: SSE is part of x86-64.
+            unsafe { std::arch::x86_64::_mm_sfence() };
+        }
+    }
+
+    /// Whether the block of `len` steps after `first` ends the run.
+    #[inline]
+    pub(super) fn last(&self, first: usize, len: usize) -> bool {
+        first + len == self.steps
+    }
+
+    /// Records when `part` left the plate (`None`: it did not, recorded as NaN) and how long it
+    /// flew [s] (kept only where flight times are recorded).
+    ///
+    /// # Safety
+    /// `part < m`, and no other thread writes this part's times.
+    #[inline]
+    pub(super) unsafe fn ended(&self, part: usize, left: Option<f64>, flight: f64) {
+        debug_assert!(part < self.m);
+        self.left.add(part).write(left.unwrap_or(f64::NAN));
+        if !self.flight.is_null() {
+            self.flight.add(part).write(flight);
+        }
     }
 
     /// Writes a disk's state.
