@@ -298,6 +298,23 @@ struct Run<'a> {
 }
 
 impl Run<'_> {
+    /// The first step from `s` (whose place is the run's) up to `end` that lies in another
+    /// item or stretch (`end` if none does). Places only move forward in time (an item's
+    /// stretches follow each other, then the next item's), so a binary search finds it.
+    fn stop(&self, s: usize) -> usize {
+        let here = (self.i, self.stretch);
+        let (mut lo, mut hi) = (s, self.end); // place(lo) == here; the answer is in (lo, hi]
+        while hi - lo > 1 {
+            let mid = lo + (hi - lo) / 2;
+            if self.motion.place(mid, self.dt) == here {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        hi
+    }
+
     /// Appends the velocity of steps `s..` while they stay in the run's stretch, from the
     /// segment's velocity `u(phasors, local time)` (the envelope applied here), and returns the
     /// item and stretch of the step that leaves it (`s` then that step), or `None` at `end`.
@@ -313,6 +330,7 @@ impl Run<'_> {
         let item = &motion.items[i];
         let start = motion.starts[i];
         let envelope = item.envelope.is_some();
+        let stop = self.stop(*s);
         let mut t = sample_time(*s, self.dt);
         loop {
             let v = u(ph, t - start);
@@ -326,18 +344,10 @@ impl Run<'_> {
                 }
             });
             *s += 1;
-            if *s >= self.end {
-                return None;
+            if *s >= stop {
+                return (stop < self.end).then(|| motion.place(stop, self.dt));
             }
             t = sample_time(*s, self.dt);
-            let mut j = i;
-            while j + 1 < motion.starts.len() && motion.starts[j + 1] <= t {
-                j += 1;
-            }
-            let now = motion.stretch(j, t);
-            if (j, now) != (i, stretch) {
-                return Some((j, now));
-            }
             if s.is_multiple_of(RESEED) {
                 ph.seed(item, stretch, t - start);
             } else {

@@ -30,6 +30,7 @@
 
 pub mod contact;
 mod disks;
+mod group;
 pub mod kernel;
 pub mod lift;
 mod parts;
@@ -356,6 +357,12 @@ where
     let n_points = m - disk_index.len() - parts.polygons.len();
     let heavy = disk_index.len() + POLYGON_DISKS * parts.polygons.len();
     let block = block_steps(motions.len(), n_points, heavy);
+    // Small worlds of point parts alone run side by side, several to a register tile.
+    let grouped = motions.len() > 1
+        && n_points == m
+        && m <= group::MAX_POINTS
+        && contacts.is_none()
+        && !spatial.iter().any(|&s| s);
     let mut worlds: Vec<World> = Vec::with_capacity(motions.len());
     // Reserved fallibly (an error, not an abort, when it cannot fit), reusing recycled results.
     let turning = !disk_index.is_empty() || !parts.polygons.is_empty();
@@ -377,12 +384,20 @@ where
         let rec = recorder.rec(b, steps, cfg.record_every);
         worlds.push(World {
             motion,
-            points: points::Points::new(parts, index, cfg, u0, spatial[b], steps <= block),
+            points: points::Points::new(
+                parts,
+                index,
+                cfg,
+                u0,
+                spatial[b],
+                grouped || steps <= block,
+            ),
             contact: contacts.map(|c| contact::ContactWorld::new(&disks, &shapes, &mass, c, cfg)),
             disks,
             polygons: shapes,
             rec,
-            table: Vec::with_capacity(block),
+            // (reserved as the first block is tabulated: a world run in a group never is)
+            table: Vec::new(),
             spatial: spatial[b],
             normals: Vec::with_capacity(if spatial[b] { block } else { 0 }),
         });
@@ -397,35 +412,49 @@ where
             p.record(0, &w.rec);
         }
     });
+    let per_group = group::worlds_per_group(m);
+    let mut groups: Vec<group::Group> = Vec::new();
+    if grouped {
+        groups.resize_with(motions.len().div_ceil(per_group), Default::default);
+    }
     let mut first = 0;
     while first < steps {
         let end = (first + block).min(steps);
-        worlds.par_iter_mut().try_for_each(|w| {
-            w.table.clear();
-            // Sampled a hair before each step's end (see `velocities_into`).
-            w.motion.velocities_into(first..end, cfg.dt, &mut w.table);
-            if w.spatial {
-                w.normals.clear();
-                w.motion.normals_into(first..end, cfg.dt, &mut w.normals);
-            }
-            let (table, normals, rec) = (&w.table, &w.normals, &w.rec);
-            let (points, disks, contact) = (&mut w.points, &mut w.disks, &mut w.contact);
-            let shapes = &mut w.polygons;
-            let ((), rest) = rayon::join(
-                || points.run(table, normals, first, cfg, rec, index),
-                || match contact {
-                    Some(c) => c.run(disks, shapes, table, first, cfg, rec),
-                    None => {
-                        let (_, polygons) = rayon::join(
-                            || run_disks(disks, table, normals, first, cfg, rec),
-                            || polygons::run(shapes, table, first, cfg, rec),
-                        );
-                        polygons
-                    }
-                },
-            );
-            rest
-        })?;
+        if grouped {
+            worlds
+                .par_chunks_mut(per_group)
+                .zip(groups.par_iter_mut())
+                .for_each_init(Vec::new, |tables, (ws, g)| {
+                    g.run(ws, tables, first..end, cfg)
+                });
+        } else {
+            worlds.par_iter_mut().try_for_each(|w| {
+                w.table.clear();
+                // Sampled a hair before each step's end (see `velocities_into`).
+                w.motion.velocities_into(first..end, cfg.dt, &mut w.table);
+                if w.spatial {
+                    w.normals.clear();
+                    w.motion.normals_into(first..end, cfg.dt, &mut w.normals);
+                }
+                let (table, normals, rec) = (&w.table, &w.normals, &w.rec);
+                let (points, disks, contact) = (&mut w.points, &mut w.disks, &mut w.contact);
+                let shapes = &mut w.polygons;
+                let ((), rest) = rayon::join(
+                    || points.run(table, normals, first, cfg, rec, index),
+                    || match contact {
+                        Some(c) => c.run(disks, shapes, table, first, cfg, rec),
+                        None => {
+                            let (_, polygons) = rayon::join(
+                                || run_disks(disks, table, normals, first, cfg, rec),
+                                || polygons::run(shapes, table, first, cfg, rec),
+                            );
+                            polygons
+                        }
+                    },
+                );
+                rest
+            })?;
+        }
         recorder.times(first + 1, end, steps, cfg.record_every, cfg.dt);
         between(end)?;
         first = end;

@@ -11,7 +11,7 @@ use rayon::prelude::*;
 
 use crate::buffer::{recycle, scratch};
 
-use super::kernel::{self, Lanes, NEVER};
+use super::kernel::{self, Lanes, Plate, NEVER};
 use super::lift::{self, Air};
 use super::record::Rec;
 use super::{half_side, moves_with_plate, off_plate, Config, PartsView};
@@ -23,12 +23,12 @@ pub const CHUNK_PARTS: usize = 256;
 /// left (steps done when the part left the plate, [`NEVER`] while on it), slide (`mu g dt`),
 /// hold (`mu_s g dt`), and on a plate that moves out of its plane the height above the plate,
 /// its rate and the steps spent in flight.
-const ARRAYS: usize = 12;
+pub(super) const ARRAYS: usize = 12;
 const PLANAR: usize = 9;
 
 /// Where the points' initial state comes from, until every chunk has read it.
 #[derive(Clone, Copy)]
-struct Source<'p> {
+pub(super) struct Source<'p> {
     parts: PartsView<'p>,
     /// The points' places among the parts (`None`: the same).
     index: Option<&'p [usize]>,
@@ -49,13 +49,13 @@ pub(super) struct Points<'p> {
     spatial: bool,
     /// The parts to read the state from, until the first block has read it.
     source: Option<Source<'p>>,
-    /// The run is one block: each chunk's state lives in its task's own buffer (in the core's
-    /// cache), and no array is kept.
+    /// The run is one block, or a group keeps the state: each chunk's state lives in its task's
+    /// own buffer (in the core's cache) or the group's, and no array is kept.
     once: bool,
 }
 
 /// One chunk's state for a run of one block (see [`Points::once`]).
-type Local = [[f64; CHUNK_PARTS]; ARRAYS];
+pub(super) type Local = [[f64; CHUNK_PARTS]; ARRAYS];
 
 /// Whether array `i` is kept from block to block (see [`ARRAYS`]): the planar state, and the
 /// air state on a plate out of its plane; nothing in a run of one block.
@@ -66,7 +66,7 @@ fn kept(i: usize, spatial: bool, once: bool) -> bool {
 /// The arrays' base addresses, shared by the chunk tasks (each reads and writes only its own
 /// range).
 #[derive(Clone, Copy)]
-struct Base([*mut f64; ARRAYS]);
+pub(super) struct Base([*mut f64; ARRAYS]);
 
 // SAFETY: the chunk tasks address disjoint ranges of the arrays, which outlive them.
 unsafe impl Send for Base {}
@@ -74,7 +74,7 @@ unsafe impl Sync for Base {}
 
 impl Base {
     /// A chunk's own buffer.
-    fn local(local: &mut Local) -> Self {
+    pub(super) fn local(local: &mut Local) -> Self {
         Base(std::array::from_fn(|i| local[i].as_mut_ptr()))
     }
 
@@ -83,7 +83,12 @@ impl Base {
     /// # Safety
     /// The range is within every array's capacity and initialised, and no other live borrow
     /// overlaps it.
-    unsafe fn chunk<'c>(&self, at: usize, k: usize, spatial: bool) -> (Lanes<'c>, Option<Air<'c>>) {
+    pub(super) unsafe fn chunk<'c>(
+        &self,
+        at: usize,
+        k: usize,
+        spatial: bool,
+    ) -> (Lanes<'c>, Option<Air<'c>>) {
         let a = |i: usize| std::slice::from_raw_parts_mut(self.0[i].add(at), k);
         let lanes = Lanes {
             x: a(0),
@@ -108,7 +113,7 @@ impl Base {
 impl<'p> Points<'p> {
     /// The parts `index` of `parts` (all of them with `None`), under the plate velocity `u0` at
     /// the start: room for their state, read from `parts` later, chunk by chunk; `once`: the
-    /// whole run is one block.
+    /// whole run is one block, or a [`super::group::Group`] keeps the state (no array is kept).
     pub(super) fn new(
         parts: &PartsView<'p>,
         index: Option<&'p [usize]>,
@@ -136,6 +141,36 @@ impl<'p> Points<'p> {
                 half: half_side(cfg),
                 scale: cfg.g * cfg.dt,
             }),
+        }
+    }
+
+    /// The number of points.
+    pub(super) fn len(&self) -> usize {
+        self.n
+    }
+
+    /// The source of the initial state, taken by a caller that keeps the state itself (a
+    /// [`super::group::Group`]); the points keep no array then.
+    pub(super) fn take_source(&mut self) -> Option<Source<'p>> {
+        assert!(self.once, "the points' arrays would be left unwritten");
+        self.source.take()
+    }
+
+    /// Records when the points of `l` (from the world's point `start` on) left the plate and how
+    /// long they flew, at the end of the run.
+    pub(super) fn ended(
+        l: &Lanes,
+        air: Option<&Air>,
+        start: usize,
+        index: Option<&[usize]>,
+        rec: &Rec,
+        dt: f64,
+    ) {
+        for q in 0..l.x.len() {
+            let left = (l.left[q] != NEVER).then(|| l.left[q] * dt);
+            let flown = air.map_or(0.0, |a| a.flight[q] * dt);
+            // SAFETY: the part is below m, and belongs to this chunk alone.
+            unsafe { rec.ended(index.map_or(start + q, |ix| ix[start + q]), left, flown) };
         }
     }
 
@@ -227,7 +262,7 @@ impl<'p> Points<'p> {
                 let end = (rec.next_after(first + done) - first).min(table.len());
                 let (t, dt) = (&table[done..end], cfg.dt);
                 match air.as_mut() {
-                    None => kernel::run(t, first + done, dt, half, &mut l),
+                    None => kernel::run(Plate::shared(&t), first + done, dt, half, &mut l),
                     Some(a) => {
                         let steps = lift::Steps {
                             u: t,
@@ -246,12 +281,7 @@ impl<'p> Points<'p> {
                 }
             }
             if rec.last(first, table.len()) {
-                for q in 0..k {
-                    let left = (l.left[q] != NEVER).then(|| l.left[q] * cfg.dt);
-                    let flown = air.as_ref().map_or(0.0, |a| a.flight[q] * cfg.dt);
-                    // SAFETY: the part is below m, and belongs to this chunk alone.
-                    unsafe { rec.ended(index.map_or(start + q, |ix| ix[start + q]), left, flown) };
-                }
+                Points::ended(&l, air.as_ref(), start, index, rec, cfg.dt);
             }
         };
         self.chunks().into_par_iter().for_each_init(|| None, task);
@@ -267,7 +297,14 @@ impl Source<'_> {
     /// # Safety
     /// The range `at .. at + k` is within the capacity of every array of `base` the run uses,
     /// and nothing else addresses it meanwhile.
-    unsafe fn fill(&self, base: &Base, at: usize, start: usize, k: usize, spatial: bool) {
+    pub(super) unsafe fn fill(
+        &self,
+        base: &Base,
+        at: usize,
+        start: usize,
+        k: usize,
+        spatial: bool,
+    ) {
         let p = &self.parts;
         let out = |a: usize| std::slice::from_raw_parts_mut(base.0[a].add(at).cast(), k);
         let [x, y, vx, vy, stuck, active, left, slide, hold]: [&mut [std::mem::MaybeUninit<f64>];
@@ -334,7 +371,7 @@ impl Drop for Points<'_> {
 }
 
 /// Writes a chunk's state into `row`.
-fn write(l: &Lanes, start: usize, row: usize, rec: &Rec, index: Option<&[usize]>) {
+pub(super) fn write(l: &Lanes, start: usize, row: usize, rec: &Rec, index: Option<&[usize]>) {
     for q in 0..l.x.len() {
         let part = index.map_or(start + q, |ix| ix[start + q]);
         // SAFETY: row < rows (from Rec::row), part < m, and each part belongs to one chunk.

@@ -5,7 +5,7 @@
 
 use std::arch::x86_64::*;
 
-use super::Lanes;
+use super::{Lanes, Plate};
 
 /// Vectors (of four parts) per register tile: 32 parts whose steps are independent, enough to hide
 /// the step's long dependency chain (about 80 cycles with the conversions to and from single
@@ -86,7 +86,7 @@ pub(in crate::sim) fn mark_left(bits: i32, left: &mut [f64], at: usize, step: us
 /// The CPU must support AVX2 and FMA.
 #[target_feature(enable = "avx2,fma")]
 pub(super) unsafe fn run<const EDGE: bool>(
-    table: &[[f64; 3]],
+    plate: Plate,
     first: usize,
     dt: f64,
     half: f64,
@@ -100,20 +100,20 @@ pub(super) unsafe fn run<const EDGE: bool>(
         // not pay for a full tile)
         let vectors = (n - start).div_ceil(4);
         start += 4 * match vectors {
-            1 => tile::<EDGE, 1>(table, first, dt, half, s, start),
-            2 => tile::<EDGE, 2>(table, first, dt, half, s, start),
-            3 | 4 => tile::<EDGE, 4>(table, first, dt, half, s, start),
-            _ => tile::<EDGE, TILE>(table, first, dt, half, s, start),
+            1 => tile::<EDGE, 1>(plate, first, dt, half, s, start),
+            2 => tile::<EDGE, 2>(plate, first, dt, half, s, start),
+            3 | 4 => tile::<EDGE, 4>(plate, first, dt, half, s, start),
+            _ => tile::<EDGE, TILE>(plate, first, dt, half, s, start),
         };
     }
 }
 
 /// One tile of `T` vectors: the parts `start .. start + 4 T` (fewer at the end) through every
-/// step of `table`; returns `T`.
+/// step of `plate`; returns `T`.
 #[target_feature(enable = "avx2,fma")]
 #[inline]
 unsafe fn tile<const EDGE: bool, const T: usize>(
-    table: &[[f64; 3]],
+    plate: Plate,
     first: usize,
     dt: f64,
     half: f64,
@@ -155,9 +155,13 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
         let hold = _mm256_maskload_pd(s.hold.as_ptr().add(at(j)), k);
         h2[j] = _mm256_mul_pd(hold, hold);
     }
-    for (k, &[u1, u2, u3]) in table.iter().enumerate() {
-        let (u1, u2, u3) = (_mm256_set1_pd(u1), _mm256_set1_pd(u2), _mm256_set1_pd(u3));
+    // Each vector's table (one for all, or its world's); every table has `steps` rows.
+    let rows: [&[[f64; 3]]; T] = std::array::from_fn(|j| plate.row(at(j)));
+    for k in 0..plate.steps() {
         for j in 0..T {
+            // SAFETY: k < steps, the length of every table (`Plate`).
+            let [u1, u2, u3] = *rows[j].get_unchecked(k);
+            let (u1, u2, u3) = (_mm256_set1_pd(u1), _mm256_set1_pd(u2), _mm256_set1_pd(u3));
             let sx = _mm256_fnmadd_pd(u3, y[j], u1);
             let sy = _mm256_fmadd_pd(u3, x[j], u2);
             let (wx, wy) = (_mm256_sub_pd(vx[j], sx), _mm256_sub_pd(vy[j], sy));

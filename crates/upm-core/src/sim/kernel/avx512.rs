@@ -5,7 +5,7 @@
 
 use std::arch::x86_64::*;
 
-use super::Lanes;
+use super::{Lanes, Plate};
 
 /// Vectors (of eight parts) per register tile: 64 parts whose steps are independent, enough to
 /// hide the step's long dependency chain (about 60 cycles). 8 measured best of 2, 4, 6, 8 and 12
@@ -59,7 +59,7 @@ pub(in crate::sim) fn mark_left(off: __mmask8, left: &mut [f64], at: usize, step
 /// The CPU must support AVX-512F.
 #[target_feature(enable = "avx512f")]
 pub(super) unsafe fn run<const EDGE: bool>(
-    table: &[[f64; 3]],
+    plate: Plate,
     first: usize,
     dt: f64,
     half: f64,
@@ -73,20 +73,20 @@ pub(super) unsafe fn run<const EDGE: bool>(
         // not pay for a full tile)
         let vectors = (n - start).div_ceil(8);
         start += 8 * match vectors {
-            1 => tile::<EDGE, 1>(table, first, dt, half, s, start),
-            2 => tile::<EDGE, 2>(table, first, dt, half, s, start),
-            3 | 4 => tile::<EDGE, 4>(table, first, dt, half, s, start),
-            _ => tile::<EDGE, TILE>(table, first, dt, half, s, start),
+            1 => tile::<EDGE, 1>(plate, first, dt, half, s, start),
+            2 => tile::<EDGE, 2>(plate, first, dt, half, s, start),
+            3 | 4 => tile::<EDGE, 4>(plate, first, dt, half, s, start),
+            _ => tile::<EDGE, TILE>(plate, first, dt, half, s, start),
         };
     }
 }
 
 /// One tile of `T` vectors: the parts `start .. start + 8 T` (fewer at the end) through every
-/// step of `table`; returns `T`.
+/// step of `plate`; returns `T`.
 #[target_feature(enable = "avx512f")]
 #[inline]
 unsafe fn tile<const EDGE: bool, const T: usize>(
-    table: &[[f64; 3]],
+    plate: Plate,
     first: usize,
     dt: f64,
     half: f64,
@@ -126,9 +126,13 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
         let hold = _mm512_maskz_loadu_pd(k, s.hold.as_ptr().add(at(j)));
         h2[j] = _mm512_mul_pd(hold, hold);
     }
-    for (k, &[u1, u2, u3]) in table.iter().enumerate() {
-        let (u1, u2, u3) = (_mm512_set1_pd(u1), _mm512_set1_pd(u2), _mm512_set1_pd(u3));
+    // Each vector's table (one for all, or its world's); every table has `steps` rows.
+    let rows: [&[[f64; 3]]; T] = std::array::from_fn(|j| plate.row(at(j)));
+    for k in 0..plate.steps() {
         for j in 0..T {
+            // SAFETY: k < steps, the length of every table (`Plate`).
+            let [u1, u2, u3] = *rows[j].get_unchecked(k);
+            let (u1, u2, u3) = (_mm512_set1_pd(u1), _mm512_set1_pd(u2), _mm512_set1_pd(u3));
             let sx = _mm512_fnmadd_pd(u3, y[j], u1);
             let sy = _mm512_fmadd_pd(u3, x[j], u2);
             let (wx, wy) = (_mm512_sub_pd(vx[j], sx), _mm512_sub_pd(vy[j], sy));

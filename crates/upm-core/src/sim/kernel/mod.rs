@@ -117,23 +117,65 @@ pub fn simd() -> Simd {
     })
 }
 
-/// Advances every part of `s` through the steps of `table` (the plate velocity at the end of
+/// The plate's velocity at the end of each step of a segment, for the parts of a chunk: one
+/// table for every part, or (small worlds of a batch run side by side) one table per world,
+/// world `w` in the lanes `w * stride .. (w + 1) * stride`.
+#[derive(Clone, Copy)]
+pub(super) struct Plate<'t> {
+    tables: &'t [&'t [[f64; 3]]],
+    stride: usize,
+}
+
+impl<'t> Plate<'t> {
+    /// One table for every part.
+    pub(super) fn shared(table: &'t &'t [[f64; 3]]) -> Self {
+        Plate {
+            tables: std::slice::from_ref(table),
+            stride: usize::MAX,
+        }
+    }
+
+    /// One table per world of `stride` lanes (a multiple of every vector's width); the tables
+    /// must have one length (checked).
+    pub(super) fn worlds(tables: &'t [&'t [[f64; 3]]], stride: usize) -> Self {
+        assert!(
+            !tables.is_empty() && stride.is_multiple_of(8),
+            "tables of worlds"
+        );
+        assert!(
+            tables.iter().all(|t| t.len() == tables[0].len()),
+            "tables of unequal length"
+        );
+        Plate { tables, stride }
+    }
+
+    /// The number of steps.
+    pub(super) fn steps(&self) -> usize {
+        self.tables[0].len()
+    }
+
+    /// The table of the part in `lane` (the last world's for lanes past every world: they hold
+    /// no part).
+    #[inline]
+    pub(super) fn row(&self, lane: usize) -> &'t [[f64; 3]] {
+        if self.tables.len() == 1 {
+            self.tables[0]
+        } else {
+            self.tables[(lane / self.stride).min(self.tables.len() - 1)]
+        }
+    }
+}
+
+/// Advances every part of `s` through the steps of `plate` (the plate velocity at the end of
 /// each step), of length `dt`; `first` steps are already done. With a finite `half` (half the
 /// plate's side) a part whose centre leaves the plate is frozen (`active = 0`) and its step count
 /// stored in `left`.
-pub(super) fn run(table: &[[f64; 3]], first: usize, dt: f64, half: f64, s: &mut Lanes) {
-    run_with(simd(), table, first, dt, half, s);
+pub(super) fn run(plate: Plate, first: usize, dt: f64, half: f64, s: &mut Lanes) {
+    run_with(simd(), plate, first, dt, half, s);
 }
 
 /// [`run`] with the build `simd` (which the CPU must have; checked).
-pub(super) fn run_with(
-    simd: Simd,
-    table: &[[f64; 3]],
-    first: usize,
-    dt: f64,
-    half: f64,
-    s: &mut Lanes,
-) {
+pub(super) fn run_with(simd: Simd, table: Plate, first: usize, dt: f64, half: f64, s: &mut Lanes) {
     assert!(
         Simd::available().contains(&simd),
         "build {simd:?} is not available on this CPU"
@@ -164,33 +206,47 @@ pub(super) fn run_with(
 }
 
 /// The portable build: correctly rounded root and division, one step of the whole chunk at a time.
-fn run_portable(table: &[[f64; 3]], first: usize, dt: f64, half: f64, s: &mut Lanes) {
+fn run_portable(plate: Plate, first: usize, dt: f64, half: f64, s: &mut Lanes) {
     s.check();
     let n = s.x.len();
-    for (k, &[u1, u2, u3]) in table.iter().enumerate() {
-        for i in 0..n {
-            let (x, y, vx, vy) = (s.x[i], s.y[i], s.vx[i], s.vy[i]);
-            let (sx, sy) = (u1 - u3 * y, u2 + u3 * x);
-            let (wx, wy) = (vx - sx, vy - sy);
-            let wn = (wx * wx + wy * wy).sqrt();
-            let (slide, hold) = (s.slide[i], s.hold[i]);
-            let stick = (wn <= slide) | ((s.stuck[i] > 0.0) & (wn <= hold));
-            let keep = if stick { 0.0 } else { 1.0 - slide / wn };
-            let (nvx, nvy) = (sx + wx * keep, sy + wy * keep);
-            // Parts that left the plate (active = 0) keep their state.
-            let a = s.active[i];
-            let (nvx, nvy) = (a * nvx + (1.0 - a) * vx, a * nvy + (1.0 - a) * vy);
-            // Trapezoidal position update: second order where the velocity is smooth.
-            s.x[i] = x + 0.5 * (vx + nvx) * dt * a;
-            s.y[i] = y + 0.5 * (vy + nvy) * dt * a;
-            s.vx[i] = nvx;
-            s.vy[i] = nvy;
-            s.stuck[i] = a * f64::from(u8::from(stick)) + (1.0 - a) * s.stuck[i];
-            if a > 0.0 && (s.x[i].abs() > half || s.y[i].abs() > half) {
-                s.active[i] = 0.0;
-                s.left[i] = (first + k + 1) as f64;
+    let shared = plate.tables.len() == 1;
+    for k in 0..plate.steps() {
+        if shared {
+            let u = plate.tables[0][k];
+            for i in 0..n {
+                portable_step(s, i, u, first + k, dt, half);
+            }
+        } else {
+            for i in 0..n {
+                portable_step(s, i, plate.row(i)[k], first + k, dt, half);
             }
         }
+    }
+}
+
+/// Part `i`'s step `step` (0-based) under the plate velocity `u`, as [`run_portable`] takes it.
+#[inline(always)]
+fn portable_step(s: &mut Lanes, i: usize, [u1, u2, u3]: [f64; 3], step: usize, dt: f64, half: f64) {
+    let (x, y, vx, vy) = (s.x[i], s.y[i], s.vx[i], s.vy[i]);
+    let (sx, sy) = (u1 - u3 * y, u2 + u3 * x);
+    let (wx, wy) = (vx - sx, vy - sy);
+    let wn = (wx * wx + wy * wy).sqrt();
+    let (slide, hold) = (s.slide[i], s.hold[i]);
+    let stick = (wn <= slide) | ((s.stuck[i] > 0.0) & (wn <= hold));
+    let keep = if stick { 0.0 } else { 1.0 - slide / wn };
+    let (nvx, nvy) = (sx + wx * keep, sy + wy * keep);
+    // Parts that left the plate (active = 0) keep their state.
+    let a = s.active[i];
+    let (nvx, nvy) = (a * nvx + (1.0 - a) * vx, a * nvy + (1.0 - a) * vy);
+    // Trapezoidal position update: second order where the velocity is smooth.
+    s.x[i] = x + 0.5 * (vx + nvx) * dt * a;
+    s.y[i] = y + 0.5 * (vy + nvy) * dt * a;
+    s.vx[i] = nvx;
+    s.vy[i] = nvy;
+    s.stuck[i] = a * f64::from(u8::from(stick)) + (1.0 - a) * s.stuck[i];
+    if a > 0.0 && (s.x[i].abs() > half || s.y[i].abs() > half) {
+        s.active[i] = 0.0;
+        s.left[i] = (step + 1) as f64;
     }
 }
 
@@ -258,7 +314,7 @@ mod tests {
                 slide,
                 hold,
             };
-            run_with(simd, table, 0, 1e-4, half, &mut lanes);
+            run_with(simd, Plate::shared(&table), 0, 1e-4, half, &mut lanes);
         }
     }
 

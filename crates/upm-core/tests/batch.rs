@@ -1,0 +1,135 @@
+//! Batches of small worlds (run side by side, several worlds to a register tile) against the
+//! same worlds simulated one at a time: bitwise the same.
+
+use upm_core::motion::PlateMotion;
+use upm_core::sim::{simulate, simulate_batch, simulate_stacked, Config, Parts, WorldFriction};
+use upm_core::{Error, Harmonics, Waveform};
+
+/// Deterministic numbers in [-1, 1).
+fn noise(seed: u64, n: usize) -> Vec<f64> {
+    let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    (0..n)
+        .map(|_| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        })
+        .collect()
+}
+
+/// `b` different motions: rotations about scattered centres and translations, at 35 Hz.
+fn motions(b: usize) -> Vec<PlateMotion> {
+    let r = noise(b as u64, 4 * b);
+    (0..b)
+        .map(|w| {
+            let wave: Waveform = Harmonics::new(
+                vec![0.3 * r[4 * w]],
+                vec![0.5, -0.25 + 0.1 * r[4 * w + 1]],
+                35.0,
+            )
+            .unwrap()
+            .into();
+            if w % 3 == 2 {
+                PlateMotion::translation([0.6, 0.8], wave).unwrap()
+            } else {
+                PlateMotion::rotation([0.05 * r[4 * w + 2], 0.05 * r[4 * w + 3]], wave).unwrap()
+            }
+        })
+        .collect()
+}
+
+fn parts(m: usize) -> Parts {
+    let r = noise(100 + m as u64, 4 * m);
+    let position = (0..m).map(|i| [0.08 * r[i], 0.08 * r[m + i]]).collect();
+    let velocity = (0..m)
+        .map(|i| {
+            if i % 4 == 0 {
+                [0.0, 0.0]
+            } else {
+                [0.1 * r[2 * m + i], 0.1 * r[3 * m + i]]
+            }
+        })
+        .collect();
+    let mu = (0..m)
+        .map(|i| 0.2 + 0.02 * (i % 5) as f64)
+        .collect::<Vec<_>>();
+    let mu_s = mu.iter().map(|u| u + 0.1).collect();
+    Parts::points(position, velocity, mu, mu_s)
+}
+
+#[test]
+fn small_worlds_in_a_batch_are_bitwise_each_world_alone() {
+    // 5000 steps: more than one block; parts leave a 0.17 m plate; every 7th step recorded.
+    let cfg = Config {
+        dt: 1.0 / 35.0 / 100.0,
+        duration: 5000.0 / 3500.0,
+        g: 9.81,
+        plate_size: Some(0.17),
+        record_every: 7,
+    };
+    for (m, b) in [(1, 3), (5, 9), (8, 17), (11, 5), (30, 3)] {
+        let (motions, parts) = (motions(b), parts(m));
+        let batch = simulate_batch(&motions, &parts, &cfg).unwrap();
+        let mut left = 0;
+        for (w, motion) in motions.iter().enumerate() {
+            let alone = simulate(motion, &parts, &cfg).unwrap();
+            assert_eq!(batch[w], alone, "{m} parts, world {w} of {b}");
+            left += alone
+                .left_plate
+                .iter()
+                .flatten()
+                .filter(|&&t| t > 0.0)
+                .count();
+        }
+        assert!(
+            m < 5 || left > 0,
+            "{m} parts: some should leave the plate during the run"
+        );
+    }
+}
+
+#[test]
+fn each_world_of_a_batch_keeps_its_own_friction() {
+    let cfg = Config {
+        dt: 1.0 / 35.0 / 100.0,
+        duration: 0.3,
+        g: 9.81,
+        plate_size: None,
+        record_every: 10,
+    };
+    let (m, b) = (6, 10);
+    let (motions, parts) = (motions(b), parts(m));
+    let mu: Vec<f64> = (0..b * m).map(|k| 0.15 + 0.01 * (k % 13) as f64).collect();
+    let mu_s: Vec<f64> = mu.iter().map(|u| u * 1.3).collect();
+    let friction = WorldFriction {
+        mu: &mu,
+        mu_s: &mu_s,
+        width: m,
+    };
+    let all = simulate_stacked(&motions, &parts.view(), &cfg, None, Some(&friction), |_| {
+        Ok::<(), Error>(())
+    })
+    .unwrap();
+    let rows = all.t.len();
+    for (w, motion) in motions.iter().enumerate() {
+        let own = Parts {
+            mu: mu[w * m..(w + 1) * m].to_vec(),
+            mu_s: mu_s[w * m..(w + 1) * m].to_vec(),
+            ..parts.clone()
+        };
+        let alone = simulate(motion, &own, &cfg).unwrap();
+        let cells = w * rows * m..(w + 1) * rows * m;
+        assert_eq!(
+            all.positions[cells.clone()],
+            alone.positions[..],
+            "world {w}"
+        );
+        assert_eq!(
+            all.velocities[cells.clone()],
+            alone.velocities[..],
+            "world {w}"
+        );
+        assert_eq!(all.stuck[cells], alone.stuck[..], "world {w}");
+    }
+}
