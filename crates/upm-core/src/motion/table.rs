@@ -88,12 +88,15 @@ impl Turn {
     }
 }
 
-/// The phasors of one stretch: the segment's phase, a jet's `2/3` phase, the envelope's ramp.
+/// The phasors of one stretch: the segment's phase, a jet's `2/3` phase, the envelope's ramp
+/// (each turned only where the stretch reads it).
 #[derive(Debug, Clone, Copy, Default)]
 struct Phasors {
     wave: Turn,
     slow: Turn,
     ramp: Turn,
+    /// Which of `wave`, `slow` and `ramp` the stretch reads.
+    used: [bool; 3],
 }
 
 impl Phasors {
@@ -110,10 +113,12 @@ impl Phasors {
                 ..
             } => {
                 out.wave = Turn::new(h.omega_scale().0 * dt);
+                out.used[0] = true;
             }
             Segment::Jet { omega, .. } => {
                 out.wave = Turn::new(omega * dt);
                 out.slow = Turn::new(2.0 * omega * dt / 3.0);
+                out.used[..2].fill(true);
             }
             _ => {}
         }
@@ -123,6 +128,10 @@ impl Phasors {
                 Stretch::Decay => out.ramp = Turn::new(-PI * dt / env.decay),
                 Stretch::Off | Stretch::Hold => {}
             }
+            out.used[2] = matches!(stretch, Stretch::Attack | Stretch::Decay);
+        }
+        if stretch == Stretch::Off {
+            out.used = [false; 3]; // the plate rests: nothing is read
         }
         out
     }
@@ -130,6 +139,9 @@ impl Phasors {
     /// Every phasor evaluated exactly at local time `local` [s] (the same expressions as
     /// [`Segment::velocity`] and the envelope's value).
     fn seed(&mut self, item: &Item, stretch: Stretch, local: f64) {
+        if stretch == Stretch::Off {
+            return;
+        }
         match &item.segment {
             Segment::Translation {
                 wave: Waveform::Harmonics(h),
@@ -159,9 +171,16 @@ impl Phasors {
 
     #[inline]
     fn advance(&mut self) {
-        self.wave.advance();
-        self.slow.advance();
-        self.ramp.advance();
+        let [wave, slow, ramp] = self.used;
+        if wave {
+            self.wave.advance();
+        }
+        if slow {
+            self.slow.advance();
+        }
+        if ramp {
+            self.ramp.advance();
+        }
     }
 }
 
