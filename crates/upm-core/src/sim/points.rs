@@ -376,13 +376,8 @@ pub(super) fn write(l: &Lanes, start: usize, row: usize, rec: &Rec, index: Optio
         let part = index.map_or(start + q, |ix| ix[start + q]);
         // SAFETY: row < rows (from Rec::row), part < m, and each part belongs to one chunk.
         unsafe {
-            rec.point_streamed(
-                row,
-                part,
-                [l.x[q], l.y[q]],
-                [l.vx[q], l.vy[q]],
-                l.stuck[q] > 0.0,
-            );
+            let state = ([l.x[q], l.y[q]], [l.vx[q], l.vy[q]], l.stuck[q] > 0.0);
+            rec.point_streamed(row, part, state);
         }
     }
     rec.fence();

@@ -236,10 +236,9 @@ impl Rec {
         &self,
         row: usize,
         part: usize,
-        p: [f64; 2],
-        v: [f64; 2],
-        stuck: bool,
+        state: ([f64; 2], [f64; 2], bool),
     ) {
+        let (p, v, stuck) = state;
         #[cfg(target_arch = "x86_64")]
         if self.stream {
             use std::arch::x86_64::{_mm_set_pd, _mm_stream_pd};
