@@ -171,19 +171,30 @@ impl<'t> Plate<'t> {
 /// plate's side) a part whose centre leaves the plate is frozen (`active = 0`) and its step count
 /// stored in `left`.
 pub(super) fn run(plate: Plate, first: usize, dt: f64, half: f64, s: &mut Lanes) {
-    run_with(simd(), plate, first, dt, half, s);
+    // SAFETY: simd() only reports builds the CPU has.
+    unsafe { dispatch(simd(), plate, first, dt, half, s) }
 }
 
 /// [`run`] with the build `simd` (which the CPU must have; checked).
-pub(super) fn run_with(simd: Simd, table: Plate, first: usize, dt: f64, half: f64, s: &mut Lanes) {
+#[cfg(test)]
+pub(super) fn run_with(simd: Simd, plate: Plate, first: usize, dt: f64, half: f64, s: &mut Lanes) {
     assert!(
         Simd::available().contains(&simd),
         "build {simd:?} is not available on this CPU"
     );
+    // SAFETY: checked just above.
+    unsafe { dispatch(simd, plate, first, dt, half, s) }
+}
+
+/// [`run`] with the build `simd` (asked for every segment of every chunk: no check here).
+///
+/// # Safety
+/// The CPU must have the build's features.
+unsafe fn dispatch(simd: Simd, table: Plate, first: usize, dt: f64, half: f64, s: &mut Lanes) {
     let edge = half.is_finite();
     match simd {
         Simd::Portable => run_portable(table, first, dt, half, s),
-        // SAFETY: the CPU has the build's features (asserted above).
+        // SAFETY: the CPU has the build's features (the caller's promise).
         #[cfg(target_arch = "x86_64")]
         Simd::Avx512 => unsafe {
             if edge {
