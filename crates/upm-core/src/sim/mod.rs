@@ -242,32 +242,54 @@ where
     let all = simulate_stacked(motions, parts, cfg, contacts, None, between)?;
     let (b, m) = (motions.len(), parts.len());
     let cells = all.t.len() * m;
+    let left = |w: usize| -> Vec<Option<f64>> {
+        all.left[w * m..(w + 1) * m]
+            .iter()
+            .map(|&l| (!l.is_nan()).then_some(l))
+            .collect()
+    };
+    if b == 1 {
+        // One world: its buffers are the trajectory's, moved, not copied.
+        let left_plate = left(0);
+        return Ok(vec![Trajectory {
+            t: all.t,
+            positions: all.positions,
+            velocities: all.velocities,
+            stuck: all.stuck,
+            angles: or_zeros(all.angles, cells),
+            spins: or_zeros(all.spins, cells),
+            left_plate,
+            flight: or_zeros(all.flight, m),
+        }]);
+    }
     Ok((0..b)
         .map(|w| {
             let r = w * cells..(w + 1) * cells;
+            // world w's rows of `a`, or zeros where the stacked result left `a` out
+            let rows = |a: &[f64], r: std::ops::Range<usize>| {
+                let n = r.len();
+                or_zeros(a.get(r).map_or(Vec::new(), <[f64]>::to_vec), n)
+            };
             Trajectory {
                 t: all.t.clone(),
                 positions: all.positions[r.clone()].to_vec(),
                 velocities: all.velocities[r.clone()].to_vec(),
                 stuck: all.stuck[r.clone()].to_vec(),
-                angles: all_or_zeros(&all.angles, r.clone()),
-                spins: all_or_zeros(&all.spins, r),
-                left_plate: all.left[w * m..(w + 1) * m]
-                    .iter()
-                    .map(|&l| (!l.is_nan()).then_some(l))
-                    .collect(),
-                flight: all_or_zeros(&all.flight, w * m..(w + 1) * m),
+                angles: rows(&all.angles, r.clone()),
+                spins: rows(&all.spins, r),
+                left_plate: left(w),
+                flight: rows(&all.flight, w * m..(w + 1) * m),
             }
         })
         .collect())
 }
 
-/// `all[r]`, or zeros where `all` is empty (a stacked result leaves out what is zero throughout).
-fn all_or_zeros(all: &[f64], r: std::ops::Range<usize>) -> Vec<f64> {
-    if all.is_empty() {
-        vec![0.0; r.len()]
+/// `v`, or `n` zeros where it is empty (a stacked result leaves out what is zero throughout).
+fn or_zeros(v: Vec<f64>, n: usize) -> Vec<f64> {
+    if v.is_empty() {
+        vec![0.0; n]
     } else {
-        all[r].to_vec()
+        v
     }
 }
 
