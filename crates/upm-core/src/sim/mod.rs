@@ -427,8 +427,8 @@ where
         });
     }
     recorder.times(0, 0, steps, cfg.record_every, cfg.dt);
+    // (the points record their initial state as their first block reads them)
     worlds.par_iter_mut().for_each(|w| {
-        w.points.record(0, &w.rec, index);
         for d in &w.disks {
             d.record_step(None, &w.rec);
         }

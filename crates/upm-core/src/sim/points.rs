@@ -54,7 +54,7 @@ pub(super) struct Points<'p> {
     once: bool,
 }
 
-/// One chunk's state for a run of one block (see [`Points::once`]).
+/// One chunk's state in a run of one block, or a group's (see [`Points::once`]).
 pub(super) type Local = [[f64; CHUNK_PARTS]; ARRAYS];
 
 /// Whether array `i` is kept from block to block (see [`ARRAYS`]): the planar state, and the
@@ -191,31 +191,12 @@ impl<'p> Points<'p> {
         for (i, v) in self.arrays.iter_mut().enumerate() {
             if kept(i, self.spatial, self.once) {
                 assert!(v.capacity() >= self.n);
-                // SAFETY: every chunk wrote its range of every kept array (`fill`, or its copy
-                // of `left` and `flight` in a run of one block), so the first n elements are
-                // initialised.
+                // SAFETY: every chunk wrote its range of every kept array (`fill`), so the first
+                // n elements are initialised.
                 unsafe { v.set_len(self.n) };
             }
         }
         self.source = None;
-    }
-
-    /// Records every point's state after step `s` (1-based; 0: the initial state) if that step is
-    /// recorded; `index` maps the points to their places among all parts (`None`: the same).
-    /// The initial state is recorded by the first block (as each chunk reads it), not here.
-    pub(super) fn record(&mut self, s: usize, rec: &Rec, index: Option<&[usize]>) {
-        if self.source.is_some() {
-            return;
-        }
-        assert!(!self.once, "a run of one block records as it runs");
-        if let Some(row) = rec.row(s) {
-            let (base, spatial) = (self.base(), self.spatial);
-            self.chunks().par_iter().for_each(|&(start, k)| {
-                // SAFETY: the arrays are written (no source left); chunks are disjoint.
-                let (l, _) = unsafe { base.chunk(start, k, spatial) };
-                write(&l, start, row, rec, index);
-            });
-        }
     }
 
     /// Advances every point through one block: `table[k]` is the plate velocity at the end of
