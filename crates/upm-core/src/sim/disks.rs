@@ -105,12 +105,7 @@ impl DiskState {
 
     /// Whether the disk's centre left the plate in step `s` (0-based); it is then frozen.
     pub(super) fn leaves(&mut self, s: usize, cfg: &Config) -> bool {
-        let out = self.active && off_plate(self.p[0], self.p[1], half_side(cfg));
-        if out {
-            self.active = false;
-            self.left = Some((s + 1) as f64 * cfg.dt);
-        }
-        out
+        super::leaves(&mut self.active, &mut self.left, self.p, s, cfg)
     }
 
     /// Records the state after step `s` (0-based; the initial state: `None`) if that step is

@@ -170,6 +170,17 @@ fn off_plate(x: f64, y: f64, half: f64) -> bool {
     x.abs() > half || y.abs() > half
 }
 
+/// Whether a part still on the plate (`active`) with its centre at `c` left it in step `s`
+/// (0-based): it is then frozen (`active` cleared) and its time of leaving kept in `left`.
+fn leaves(active: &mut bool, left: &mut Option<f64>, c: [f64; 2], s: usize, cfg: &Config) -> bool {
+    let out = *active && off_plate(c[0], c[1], half_side(cfg));
+    if out {
+        *active = false;
+        *left = Some((s + 1) as f64 * cfg.dt);
+    }
+    out
+}
+
 /// Half the plate's side [m], infinite for an unbounded plate.
 fn half_side(cfg: &Config) -> f64 {
     cfg.plate_size.map_or(f64::INFINITY, |s| 0.5 * s)
@@ -333,8 +344,10 @@ where
         .iter()
         .map(PlateMotion::is_spatial)
         .collect::<Vec<_>>();
+    // Some world's plate leaves its plane (parts may fly).
+    let flying = spatial.iter().any(|&s| s);
     if let Some(&(i, _)) = parts.polygons.first() {
-        if spatial.iter().any(|&s| s) {
+        if flying {
             return Err(Error::parameter(
                 "motion",
                 format!(
@@ -345,7 +358,7 @@ where
             .into());
         }
     }
-    if contacts.is_some() && spatial.iter().any(|&s| s) {
+    if contacts.is_some() && flying {
         return Err(Error::parameter(
             "contacts",
             "are not supported on a plate that moves out of its plane (parts may lift off); \
@@ -386,11 +399,10 @@ where
         && n_points == m
         && m <= group::MAX_POINTS
         && contacts.is_none()
-        && !spatial.iter().any(|&s| s);
+        && !flying;
     let mut worlds: Vec<World> = Vec::with_capacity(motions.len());
     // Reserved fallibly (an error, not an abort, when it cannot fit), reusing recycled results.
     let turning = !disk_index.is_empty() || !parts.polygons.is_empty();
-    let flying = spatial.iter().any(|&s| s);
     let mut recorder = Recorder::new(motions.len(), rows, m, turning, flying)?;
     for (b, motion) in motions.iter().enumerate() {
         let u0 = motion.velocity(0.0);

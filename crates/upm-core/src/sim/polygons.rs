@@ -142,12 +142,7 @@ impl PolygonState {
 
     /// Whether the centroid left the plate in step `s` (0-based); the part is then frozen.
     pub(super) fn leaves(&mut self, s: usize, cfg: &Config) -> bool {
-        let out = self.active && off_plate(self.c[0], self.c[1], half_side(cfg));
-        if out {
-            self.active = false;
-            self.left = Some((s + 1) as f64 * cfg.dt);
-        }
-        out
+        super::leaves(&mut self.active, &mut self.left, self.c, s, cfg)
     }
 
     /// Records the state after step `s` (1-based; 0: the initial state) if that step is recorded.

@@ -50,6 +50,8 @@ pub struct Stacked {
 /// world `b - 1`'s, so a batch is one set of arrays `(worlds, rows, parts)`.
 pub(super) struct Recorder {
     out: Stacked,
+    /// Flight times are recorded (some world's plate leaves its plane).
+    flying: bool,
     m: usize,
     rows: usize,
     worlds: usize,
@@ -122,6 +124,7 @@ impl Recorder {
         buffer::reserve(&mut out.stuck, cells, "the stuck flags")?;
         Ok(Recorder {
             out,
+            flying,
             m,
             rows,
             worlds,
@@ -134,7 +137,7 @@ impl Recorder {
         let base = world * self.rows * self.m;
         // SAFETY: base is within the reserved capacity (world < worlds).
         let at = |p: *mut f64| unsafe { p.add(base) };
-        let flight = if self.out.flight.capacity() == 0 {
+        let flight = if !self.flying {
             std::ptr::null_mut()
         } else {
             // SAFETY: world * m < worlds * m, the flight times' length.
@@ -168,7 +171,7 @@ impl Recorder {
     pub(super) unsafe fn finish(mut self) -> Stacked {
         let cells = self.worlds * self.rows * self.m;
         self.out.left.set_len(self.worlds * self.m);
-        if self.out.flight.capacity() > 0 {
+        if self.flying {
             self.out.flight.set_len(self.worlds * self.m);
         }
         self.out.positions.set_len(cells);
