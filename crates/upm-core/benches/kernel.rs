@@ -11,7 +11,7 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use upm_core::motion::PlateMotion;
-use upm_core::sim::{simulate, Config, Parts};
+use upm_core::sim::{simulate, simulate_stacked, Config, Parts};
 use upm_core::{Harmonics, Waveform};
 
 fn best_of<T>(runs: usize, mut f: impl FnMut() -> T) -> f64 {
@@ -128,6 +128,10 @@ fn main() {
         }
         return;
     }
+    if std::env::args().any(|a| a.starts_with("--batch")) {
+        batch();
+        return;
+    }
     if std::env::args().any(|a| a == "--one-build") {
         // A child run: this process's build (UPM_SIMD) at every size.
         let row: Vec<String> = sizes
@@ -164,6 +168,66 @@ fn main() {
     let per_call = integrator(&motion, n, 2, dt) * 2.0;
     println!("  a 2-step call on {n} parts: {per_call:.1} ns per part (chosen build)");
     disks(&trans, &rot, dt);
+    batch();
+}
+
+/// Batches of small worlds (the predictive planner's rollouts: 500 enveloped jets at scattered
+/// centres, 8 parts each, 840 steps) against one world of as many parts on the first jet, ns per
+/// part-step on one thread; and the batch's fixed cost (a 2-step call) per world.
+fn batch() {
+    let (b, m, steps) = (500, 8, 840);
+    let dt = 1.0 / 2400.0;
+    let motions: Vec<PlateMotion> = spread(b)
+        .into_iter()
+        .map(|c| {
+            PlateMotion::jet(c, [0.6, 0.8], 0.06, 0.3, 50.0)
+                .unwrap()
+                .with_envelope(0.12, 0.11, 0.12)
+                .unwrap()
+        })
+        .collect();
+    let one = one_thread();
+    let cfg = |steps: usize| Config {
+        dt,
+        duration: steps as f64 * dt,
+        g: 9.81,
+        plate_size: None,
+        record_every: steps,
+    };
+    let small = Parts::points(spread(m), vec![[0.0; 2]; m], vec![0.3; m], vec![0.4; m]);
+    // (stacked, as the Python binding runs a batch)
+    let stacked = |steps: usize| {
+        simulate_stacked(&motions, &small.view(), &cfg(steps), None, None, |_| {
+            Ok::<(), upm_core::Error>(())
+        })
+        .unwrap()
+    };
+    let time = |steps: usize| one.install(|| best_of(5, || stacked(steps)));
+    let (run, fixed) = (time(steps), time(2));
+    let large = Parts::points(
+        spread(b * m),
+        vec![[0.0; 2]; b * m],
+        vec![0.3; b * m],
+        vec![0.4; b * m],
+    );
+    let world = one.install(|| best_of(5, || simulate(&motions[0], &large, &cfg(steps)).unwrap()));
+    let per = |t: f64| t * 1e9 / (b * m * steps) as f64;
+    println!(
+        "batches, {b} enveloped jets x {m} parts x {steps} steps, ns per part-step on 1 thread:"
+    );
+    println!(
+        "  batch {:.2}, one world of {} parts {:.2}: {:.2}x; a 2-step batch call {:.2} us per world",
+        per(run),
+        b * m,
+        per(world),
+        run / world,
+        fixed * 1e6 / b as f64
+    );
+    if std::env::args().any(|a| a == "--batch-profile") {
+        for _ in 0..100 {
+            black_box(one.install(|| stacked(steps)));
+        }
+    }
 }
 
 /// ns per disk-step on one thread: 2000 disks of radius 5 mm at rest on a translating and on a

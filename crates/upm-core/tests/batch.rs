@@ -89,6 +89,61 @@ fn small_worlds_in_a_batch_are_bitwise_each_world_alone() {
     }
 }
 
+/// Enveloped pulses of three timings, interleaved: jets at 50 Hz and 40 Hz, rotations at 50 Hz
+/// (each kind at many places and in many directions), and a program of a jet then a rotation.
+fn pulses(b: usize) -> Vec<PlateMotion> {
+    let r = noise(7 + b as u64, 4 * b);
+    (0..b)
+        .map(|w| {
+            let c = [0.05 * r[4 * w], 0.05 * r[4 * w + 1]];
+            let a = std::f64::consts::TAU * r[4 * w + 2];
+            let jet = |f: f64| {
+                PlateMotion::jet(c, [a.cos(), a.sin()], 0.06, 0.3 + 0.05 * r[4 * w + 3], f)
+                    .unwrap()
+                    .with_envelope(0.06, 0.05, 0.06)
+                    .unwrap()
+            };
+            let wave: Waveform = Harmonics::new(vec![0.0], vec![0.4 * r[4 * w + 3], 0.1], 50.0)
+                .unwrap()
+                .into();
+            let rotation = PlateMotion::rotation(c, wave)
+                .unwrap()
+                .with_envelope(0.06, 0.05, 0.06)
+                .unwrap();
+            match w % 4 {
+                0 => jet(50.0),
+                1 => rotation,
+                2 => jet(40.0),
+                _ => PlateMotion::sequence(vec![jet(50.0), rotation]).unwrap(),
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn pulses_sharing_their_timing_in_a_batch_are_bitwise_each_alone() {
+    // Worlds whose pulses share frequency and envelope run in the same groups, which turn their
+    // phasors once; the others beside them keep their own.
+    let cfg = Config {
+        dt: 1.0 / 50.0 / 48.0,
+        duration: 0.4,
+        g: 9.81,
+        plate_size: Some(0.2),
+        record_every: 5,
+    };
+    let (m, b) = (8, 23);
+    let (motions, parts) = (pulses(b), parts(m));
+    let batch = simulate_batch(&motions, &parts, &cfg).unwrap();
+    for (w, motion) in motions.iter().enumerate() {
+        let alone = simulate(motion, &parts, &cfg).unwrap();
+        assert_eq!(batch[w], alone, "world {w} of {b}");
+    }
+    let moved = batch
+        .iter()
+        .all(|r| r.positions.last() != parts.position.last());
+    assert!(moved, "every pulse moves the parts");
+}
+
 #[test]
 fn each_world_of_a_batch_keeps_its_own_friction() {
     let cfg = Config {

@@ -17,7 +17,7 @@ pub mod spatial;
 mod table;
 
 pub use spatial::{Spatial, Term};
-use table::{about, along, jet, Stretch};
+use table::{about, along, feed, jet, Stretch};
 
 /// One kind of plate motion.
 #[derive(Debug, Clone, PartialEq)]
@@ -232,7 +232,7 @@ impl Segment {
                 let x = omega * t;
                 let (s1, c1) = x.sin_cos();
                 let w = 2.0 * amplitude / rho * (2.0 * x / 3.0).sin();
-                jet(c, (amplitude * d[0], amplitude * d[1]), c1, s1, w)
+                jet(c, (amplitude * d[0], amplitude * d[1]), feed(c1, s1), w)
             }
             Segment::Rest => [0.0; 3],
             Segment::Spatial(sp) => sp.at(t).0,
@@ -511,6 +511,17 @@ impl PlateMotion {
     /// however the steps are split into calls.
     pub fn velocities_into(&self, steps: std::ops::Range<usize>, dt: f64, out: &mut Vec<[f64; 3]>) {
         table::fill(self, steps, dt, out);
+    }
+
+    /// [`PlateMotion::velocities_into`] for each of `motions` (into the same place of `outs`),
+    /// which share their `timing` (the items' times, envelopes and phases): their phasors are turned once for all.
+    pub(crate) fn velocities_of_all(
+        motions: &[&PlateMotion],
+        steps: std::ops::Range<usize>,
+        dt: f64,
+        outs: &mut [Vec<[f64; 3]>],
+    ) {
+        table::fill_many(motions, steps, dt, outs);
     }
 
     /// Start time of each item [s].

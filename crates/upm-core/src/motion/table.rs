@@ -47,11 +47,16 @@ pub(super) fn about(c: &[f64; 2], w: f64) -> [f64; 3] {
     [w * c[1], -w * c[0], w]
 }
 
-/// `u` of a jet about `c` from the cosine and sine of its phase `w t` (`c1`, `s1`) and its
-/// spin `w = 2A/rho sin(2wt/3)`; `(tx, ty) = A d`.
+/// A jet's feeding profile `cos(w t) - cos(2 w t)` from the cosine and sine of its phase.
 #[inline]
-pub(super) fn jet(c: &[f64; 2], (tx, ty): (f64, f64), c1: f64, s1: f64, w: f64) -> [f64; 3] {
-    let g = c1 - (c1 - s1) * (c1 + s1); // cos(w t) - cos(2 w t)
+pub(super) fn feed(c1: f64, s1: f64) -> f64 {
+    c1 - (c1 - s1) * (c1 + s1)
+}
+
+/// `u` of a jet about `c` from its feeding profile `g` ([`feed`]) and its spin
+/// `w = 2A/rho sin(2wt/3)`; `(tx, ty) = A d`.
+#[inline]
+pub(super) fn jet(c: &[f64; 2], (tx, ty): (f64, f64), g: f64, w: f64) -> [f64; 3] {
     [tx * g + w * c[1], ty * g - w * c[0], w]
 }
 
@@ -216,42 +221,176 @@ impl PlateMotion {
     }
 }
 
+/// Steps whose phasor samples are taken at a time, then read by every motion sharing them.
+const PIECE: usize = 256;
+
+/// What every motion of one timing reads at one step: the segment's phase (`c`, `s`), the
+/// envelope's factor (exactly 1 outside its ramps), and for a jet its feeding profile and the
+/// sine of its `2/3` phase, each times the envelope's factor.
+#[derive(Debug, Clone, Copy, Default)]
+struct Sample {
+    c: f64,
+    s: f64,
+    env: f64,
+    feed: f64,
+    spin: f64,
+}
+
+impl Phasors {
+    #[inline]
+    fn sample(&self, stretch: Stretch) -> Sample {
+        // (only an item with an envelope has ramps; times 1 leaves every value as it is)
+        let env = match stretch {
+            Stretch::Attack | Stretch::Decay => 0.5 - 0.5 * self.ramp.c,
+            Stretch::Off | Stretch::Hold => 1.0,
+        };
+        Sample {
+            c: self.wave.c,
+            s: self.wave.s,
+            env,
+            feed: feed(self.wave.c, self.wave.s) * env,
+            spin: self.slow.s * env,
+        }
+    }
+}
+
+impl PlateMotion {
+    /// What the table's phasors and stretches depend on: the items' start times, durations and
+    /// envelopes, and the phases their segments turn (a harmonic drive's fundamental, a jet's).
+    /// Motions with equal keys have the same phasors at every step, so [`fill_many`] turns them
+    /// once for all of them (the planner's rollouts: one kind of pulse at many places).
+    pub(crate) fn timing(&self) -> Vec<u64> {
+        let mut key: Vec<u64> = self.starts.iter().map(|s| s.to_bits()).collect();
+        for item in &self.items {
+            let phase = match &item.segment {
+                Segment::Translation {
+                    wave: Waveform::Harmonics(h),
+                    ..
+                }
+                | Segment::Rotation {
+                    wave: Waveform::Harmonics(h),
+                    ..
+                } => [1, h.omega_scale().0.to_bits()],
+                Segment::Jet { omega, .. } => [2, omega.to_bits()],
+                _ => [0, 0], // no phasor: the segment's own formula at each step's time
+            };
+            let env = item.envelope.map_or([0; 4], |e| {
+                [1.0, e.attack, e.sustain, e.decay].map(f64::to_bits)
+            });
+            let duration = item.duration.map_or([0, 0], |d| [1, d.to_bits()]);
+            key.extend(phase.into_iter().chain(env).chain(duration));
+        }
+        key
+    }
+}
+
 /// Appends the velocity of `motion` at the sample time of every step in `steps` (see
 /// [`PlateMotion::velocities_into`]). A step's phasors were seeded at the latest step, at or
 /// before it, that is a multiple of [`RESEED`] or the first of its stretch.
 pub(super) fn fill(motion: &PlateMotion, steps: Range<usize>, dt: f64, out: &mut Vec<[f64; 3]>) {
-    out.reserve(steps.len());
+    fill_many(&[motion], steps, dt, std::slice::from_mut(out));
+}
+
+/// [`fill`] for each of `motions` into the same place of `outs`, the phasors turned once for
+/// all: the motions share their [`PlateMotion::timing`]. Each table is bitwise the one [`fill`]
+/// makes of its motion alone.
+pub(crate) fn fill_many(
+    motions: &[&PlateMotion],
+    steps: Range<usize>,
+    dt: f64,
+    outs: &mut [Vec<[f64; 3]>],
+) {
+    assert_eq!(motions.len(), outs.len(), "a table for each motion");
+    let Some(&lead) = motions.first() else {
+        return;
+    };
+    debug_assert!(motions.iter().all(|m| m.timing() == lead.timing()));
+    for out in outs.iter_mut() {
+        out.reserve(steps.len());
+    }
     let Some(first) = steps.clone().next() else {
         return;
     };
-    let (mut i, mut stretch) = motion.place(first, dt);
+    let (mut i, mut stretch) = lead.place(first, dt);
     // the anchor of the first step, found by walking back through its stretch
     let mut anchor = first;
-    while !anchor.is_multiple_of(RESEED) && motion.place(anchor - 1, dt) == (i, stretch) {
+    while !anchor.is_multiple_of(RESEED) && lead.place(anchor - 1, dt) == (i, stretch) {
         anchor -= 1;
     }
-    let mut ph = Phasors::new(&motion.items[i], stretch, dt);
+    let mut ph = Phasors::new(&lead.items[i], stretch, dt);
     ph.seed(
-        &motion.items[i],
+        &lead.items[i],
         stretch,
-        sample_time(anchor, dt) - motion.starts[i],
+        sample_time(anchor, dt) - lead.starts[i],
     );
     for _ in anchor..first {
         ph.advance();
     }
     let mut s = first;
-    // run after run of steps in one stretch, each with its segment's arithmetic chosen once
+    let mut samples = [Sample::default(); PIECE];
+    // run after run of steps in one stretch, taken in pieces: the phasors sampled at each step
+    // of the piece, then each motion's segment evaluated on the samples
     loop {
-        let item = &motion.items[i];
         let run = Run {
-            motion,
+            motion: lead,
             i,
             stretch,
             end: steps.end,
             dt,
         };
-        let next = match (&item.segment, stretch) {
-            (_, Stretch::Off) => run.go(&mut ph, &mut s, out, |_, _| [0.0; 3]),
+        let stop = run.stop(s);
+        let (item, start) = (&lead.items[i], lead.starts[i]);
+        while s < stop {
+            let piece = &mut samples[..(stop - s).min(PIECE)];
+            for (k, sample) in piece.iter_mut().enumerate() {
+                *sample = ph.sample(stretch);
+                let next = s + k + 1;
+                if next < stop {
+                    if next.is_multiple_of(RESEED) {
+                        ph.seed(item, stretch, sample_time(next, dt) - start);
+                    } else {
+                        ph.advance();
+                    }
+                }
+            }
+            for (motion, out) in motions.iter().zip(outs.iter_mut()) {
+                let at = At {
+                    first: s,
+                    start,
+                    dt,
+                };
+                at.extend(&motion.items[i].segment, stretch, piece, out);
+            }
+            s += piece.len();
+        }
+        if stop >= steps.end {
+            return;
+        }
+        (i, stretch) = lead.place(stop, dt);
+        ph = Phasors::new(&lead.items[i], stretch, dt);
+        ph.seed(&lead.items[i], stretch, sample_time(s, dt) - lead.starts[i]);
+    }
+}
+
+/// Where a piece of samples lies: its first step, its item's start time [s], the step [s].
+struct At {
+    first: usize,
+    start: f64,
+    dt: f64,
+}
+
+impl At {
+    /// Appends the velocity of `segment` at each of the piece's `samples` in `stretch` (the
+    /// envelope's factor applied), with its arithmetic chosen once for the piece.
+    fn extend(
+        &self,
+        segment: &Segment,
+        stretch: Stretch,
+        samples: &[Sample],
+        out: &mut Vec<[f64; 3]>,
+    ) {
+        match (segment, stretch) {
+            (_, Stretch::Off) => out.resize(out.len() + samples.len(), [0.0; 3]),
             (
                 Segment::Translation {
                     direction: d,
@@ -260,9 +399,9 @@ pub(super) fn fill(motion: &PlateMotion, steps: Range<usize>, dt: f64, out: &mut
                 _,
             ) => {
                 let scale = h.omega_scale().1;
-                run.go(&mut ph, &mut s, out, |ph, _| {
-                    along(d, scale * h.value_of(ph.wave.c, ph.wave.s))
-                })
+                put(out, samples, |_, p| {
+                    along(d, scale * h.value_of(p.c, p.s) * p.env)
+                });
             }
             (
                 Segment::Rotation {
@@ -272,9 +411,9 @@ pub(super) fn fill(motion: &PlateMotion, steps: Range<usize>, dt: f64, out: &mut
                 _,
             ) => {
                 let scale = h.omega_scale().1;
-                run.go(&mut ph, &mut s, out, |ph, _| {
-                    about(c, scale * h.value_of(ph.wave.c, ph.wave.s))
-                })
+                put(out, samples, |_, p| {
+                    about(c, scale * h.value_of(p.c, p.s) * p.env)
+                });
             }
             (
                 Segment::Jet {
@@ -287,24 +426,29 @@ pub(super) fn fill(motion: &PlateMotion, steps: Range<usize>, dt: f64, out: &mut
                 _,
             ) => {
                 let k = 2.0 * amplitude / rho;
-                let scaled = (amplitude * d[0], amplitude * d[1]);
-                run.go(&mut ph, &mut s, out, |ph, _| {
-                    jet(c, scaled, ph.wave.c, ph.wave.s, k * ph.slow.s)
-                })
+                let a = (amplitude * d[0], amplitude * d[1]);
+                put(out, samples, |_, p| jet(c, a, p.feed, k * p.spin));
             }
-            (other, _) => run.go(&mut ph, &mut s, out, |_, local| other.velocity(local)),
-        };
-        let Some((j, now)) = next else {
-            return;
-        };
-        (i, stretch) = (j, now);
-        ph = Phasors::new(&motion.items[i], stretch, dt);
-        ph.seed(
-            &motion.items[i],
-            stretch,
-            sample_time(s, dt) - motion.starts[i],
-        );
+            (other, _) => put(out, samples, |k, p| {
+                let u = other.velocity(sample_time(self.first + k, self.dt) - self.start);
+                u.map(|x| p.env * x)
+            }),
+        }
     }
+}
+
+/// Appends `u(k, sample)` for each of `samples`, written in place (a loop the compiler can
+/// vectorise, not a push at a time).
+#[inline(always)]
+fn put(out: &mut Vec<[f64; 3]>, samples: &[Sample], u: impl Fn(usize, &Sample) -> [f64; 3]) {
+    out.reserve(samples.len());
+    let n = out.len();
+    let room = &mut out.spare_capacity_mut()[..samples.len()];
+    for (k, (o, p)) in room.iter_mut().zip(samples).enumerate() {
+        o.write(u(k, p));
+    }
+    // SAFETY: the first `samples.len()` slots past the length were written just now.
+    unsafe { out.set_len(n + samples.len()) };
 }
 
 /// A run of steps within one stretch of one item.
@@ -332,47 +476,6 @@ impl Run<'_> {
             }
         }
         hi
-    }
-
-    /// Appends the velocity of steps `s..` while they stay in the run's stretch, from the
-    /// segment's velocity `u(phasors, local time)` (the envelope applied here), and returns the
-    /// item and stretch of the step that leaves it (`s` then that step), or `None` at `end`.
-    #[inline(always)]
-    fn go(
-        &self,
-        ph: &mut Phasors,
-        s: &mut usize,
-        out: &mut Vec<[f64; 3]>,
-        u: impl Fn(&Phasors, f64) -> [f64; 3],
-    ) -> Option<(usize, Stretch)> {
-        let (motion, i, stretch) = (self.motion, self.i, self.stretch);
-        let item = &motion.items[i];
-        let start = motion.starts[i];
-        let envelope = item.envelope.is_some();
-        let stop = self.stop(*s);
-        let mut t = sample_time(*s, self.dt);
-        loop {
-            let v = u(ph, t - start);
-            out.push(match stretch {
-                Stretch::Off => [0.0; 3],
-                Stretch::Hold => v, // the envelope's 1, exactly
-                _ if !envelope => v,
-                Stretch::Attack | Stretch::Decay => {
-                    let e = 0.5 - 0.5 * ph.ramp.c;
-                    v.map(|x| e * x)
-                }
-            });
-            *s += 1;
-            if *s >= stop {
-                return (stop < self.end).then(|| motion.place(stop, self.dt));
-            }
-            t = sample_time(*s, self.dt);
-            if s.is_multiple_of(RESEED) {
-                ph.seed(item, stretch, t - start);
-            } else {
-                ph.advance();
-            }
-        }
     }
 }
 
@@ -460,6 +563,91 @@ mod tests {
                 .all(|(a, b)| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()));
             assert!(same && parts.len() == n, "blocks of {block} steps");
         }
+    }
+
+    /// [`program`] with every centre, direction, amplitude and coefficient changed by `k`, and
+    /// its timing kept.
+    fn moved(k: f64) -> PlateMotion {
+        let two = |f: f64| Harmonics::new(vec![0.7 - k, -0.35], vec![0.1, 0.05 + k], f).unwrap();
+        let rot = PlateMotion::rotation([0.03 + k, -0.02], two(35.0).into())
+            .unwrap()
+            .with_envelope(0.05, 0.1, 0.07)
+            .unwrap();
+        let jet = PlateMotion::jet([0.01, 0.02 - k], [0.8, 0.6], 0.06 + k, 0.3, 50.0)
+            .unwrap()
+            .with_envelope(0.12, 0.11, 0.12)
+            .unwrap();
+        let tr = PlateMotion::translation([k, 1.0], two(25.0).into())
+            .unwrap()
+            .with_envelope(0.06, 0.0, 0.06)
+            .unwrap();
+        let bang = PlateMotion::rotation([k, 0.0], BangBang::new(0.3, 20.0, 0.02).unwrap().into())
+            .unwrap()
+            .for_duration(0.05)
+            .unwrap();
+        let samples =
+            PlateMotion::from_samples(&[0.0, 0.01, 0.03], &[[0.0; 3], [0.1, k, 1.0], [0.0; 3]])
+                .unwrap();
+        let rest = PlateMotion::rest(0.013).unwrap();
+        let forever = PlateMotion::rotation([k, k], two(70.0).into()).unwrap();
+        PlateMotion::sequence(vec![rot, jet, rest, tr, bang, samples, forever]).unwrap()
+    }
+
+    #[test]
+    fn motions_sharing_their_timing_share_the_phasors_bitwise() {
+        let motions = [program(), moved(0.01), moved(-0.02), moved(0.03)];
+        let lead = motions[0].timing();
+        assert!(motions.iter().all(|m| m.timing() == lead));
+        let dt = 1.0 / (24.0 * 140.0);
+        let n = (1.2 / dt) as usize;
+        let refs: Vec<&PlateMotion> = motions.iter().collect();
+        for range in [0..n, 517..n - 3, 1000..1001] {
+            let mut all = vec![Vec::new(); motions.len()];
+            fill_many(&refs, range.clone(), dt, &mut all);
+            for (m, got) in motions.iter().zip(&all) {
+                let mut alone = Vec::new();
+                fill(m, range.clone(), dt, &mut alone);
+                let same = alone.len() == got.len()
+                    && alone
+                        .iter()
+                        .zip(got)
+                        .all(|(a, b)| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()));
+                assert!(same, "steps {range:?}");
+            }
+        }
+        // and it is the velocity at each step, motion by motion
+        let mut table = Vec::new();
+        fill(&motions[2], 0..n, dt, &mut table);
+        for (s, got) in table.iter().enumerate() {
+            let (t, want) = (sample_time(s, dt), motions[2].velocity(sample_time(s, dt)));
+            assert!(got
+                .iter()
+                .zip(want)
+                .all(|(g, w)| (g - w).abs() <= tolerance(t)));
+        }
+    }
+
+    #[test]
+    fn another_frequency_envelope_or_duration_is_another_timing() {
+        let jet = |f: f64, attack: f64| {
+            PlateMotion::jet([0.0; 2], [1.0, 0.0], 0.06, 0.3, f)
+                .unwrap()
+                .with_envelope(attack, 0.1, 0.1)
+                .unwrap()
+        };
+        let base = jet(50.0, 0.1).timing();
+        assert_ne!(base, jet(40.0, 0.1).timing());
+        assert_ne!(base, jet(50.0, 0.12).timing());
+        assert_ne!(base, jet(50.0, 0.1).for_duration(0.2).unwrap().timing());
+        let spin = PlateMotion::rotation(
+            [0.0; 2],
+            Harmonics::new(vec![1.0], vec![0.0], 50.0).unwrap().into(),
+        )
+        .unwrap()
+        .with_envelope(0.1, 0.1, 0.1)
+        .unwrap();
+        assert_ne!(base, spin.timing(), "a jet also turns its 2/3 phase");
+        assert_eq!(base, jet(50.0, 0.1).timing());
     }
 
     #[test]

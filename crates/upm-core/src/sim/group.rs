@@ -6,15 +6,16 @@
 //! velocity ([`Plate::worlds`]). Each lane does exactly what it does in a world run alone, so the
 //! results are bitwise the same.
 
+use std::collections::HashMap;
 use std::ops::Range;
 
 use super::kernel::{self, Plate};
-use super::points::{write, Base, Local, Points, ARRAYS, CHUNK_PARTS};
+use super::points::{write, zeroed, Base, Points, ARRAYS};
 use super::{half_side, Config, World};
+use crate::motion::PlateMotion;
 
 /// Lanes of a group: one full register tile of the widest build (within a chunk's buffer).
 const LANES: usize = 64;
-const _: () = assert!(LANES <= CHUNK_PARTS);
 
 /// Worlds with at most this many point parts (and nothing else) are run in groups.
 pub(super) const MAX_POINTS: usize = 32;
@@ -29,14 +30,32 @@ pub(super) fn worlds_per_group(m: usize) -> usize {
     (LANES / stride(m)).max(1)
 }
 
+/// The order in which to run `motions` (indices) so that those with the same timing (see
+/// `PlateMotion::timing`) are neighbours, each timing where it first appears and the motions
+/// in their order within it: a group of neighbours turns its plate's phasors once (each world
+/// records into its own place, so the order is free).
+pub(super) fn by_timing(motions: &[PlateMotion]) -> Vec<usize> {
+    let mut classes: HashMap<Vec<u64>, usize> = HashMap::new();
+    let mut order: Vec<(usize, usize)> = motions
+        .iter()
+        .enumerate()
+        .map(|(b, m)| {
+            let next = classes.len();
+            (*classes.entry(m.timing()).or_insert(next), b)
+        })
+        .collect();
+    order.sort_unstable(); // by class, then index
+    order.into_iter().map(|(_, b)| b).collect()
+}
+
 /// The state of one group's points, kept from block to block.
-pub(super) struct Group(Box<Local>);
+pub(super) struct Group(Box<[[f64; LANES]; ARRAYS]>);
 
 impl Default for Group {
     fn default() -> Self {
         // Zero lanes between worlds: no part, never recorded, and (inactive) frozen on a plate
         // with an edge.
-        Group(Box::new([[0.0; CHUNK_PARTS]; ARRAYS]))
+        Group(zeroed())
     }
 }
 
@@ -53,10 +72,21 @@ impl Group {
     ) {
         let first = steps.start;
         tables.resize_with(worlds.len(), Vec::new);
-        for (w, table) in worlds.iter().zip(tables.iter_mut()) {
-            table.clear();
-            // Sampled a hair before each step's end (see `velocities_into`).
-            w.motion.velocities_into(steps.clone(), cfg.dt, table);
+        tables.iter_mut().for_each(Vec::clear);
+        // Sampled a hair before each step's end (see `velocities_into`); neighbours with the
+        // same timing (the caller sorts worlds by it) share the work of turning the phasors.
+        let mut from = 0;
+        while from < worlds.len() {
+            let key = worlds[from].motion.timing();
+            let to = from
+                + 1
+                + worlds[from + 1..]
+                    .iter()
+                    .take_while(|w| w.motion.timing() == key)
+                    .count();
+            let motions: Vec<&PlateMotion> = worlds[from..to].iter().map(|w| w.motion).collect();
+            PlateMotion::velocities_of_all(&motions, steps.clone(), cfg.dt, &mut tables[from..to]);
+            from = to;
         }
         let m = worlds[0].points.len();
         let stride = stride(m);

@@ -192,8 +192,9 @@ struct World<'a> {
     points: points::Points<'a>,
     /// Disk parts.
     disks: Vec<DiskState>,
-    /// The disks' and polygons' rapier world when contacts are on.
-    contact: Option<contact::ContactWorld>,
+    /// The disks' and polygons' rapier world when contacts are on (boxed: it is large, and
+    /// most worlds have none).
+    contact: Option<Box<contact::ContactWorld>>,
     /// Polygon parts.
     polygons: Vec<polygons::PolygonState>,
     rec: Rec,
@@ -404,7 +405,14 @@ where
     // Reserved fallibly (an error, not an abort, when it cannot fit), reusing recycled results.
     let turning = !disk_index.is_empty() || !parts.polygons.is_empty();
     let mut recorder = Recorder::new(motions.len(), rows, m, turning, flying)?;
-    for (b, motion) in motions.iter().enumerate() {
+    // Grouped worlds with the same timing are neighbours: a group turns their phasors once.
+    let order = if grouped {
+        group::by_timing(motions)
+    } else {
+        (0..motions.len()).collect()
+    };
+    for b in order {
+        let motion = &motions[b];
         let u0 = motion.velocity(0.0);
         let own = friction.map(|f| f.world(parts, b));
         let parts = own.as_ref().unwrap_or(parts);
@@ -428,7 +436,8 @@ where
                 spatial[b],
                 grouped || steps <= block,
             ),
-            contact: contacts.map(|c| contact::ContactWorld::new(&disks, &shapes, &mass, c, cfg)),
+            contact: contacts
+                .map(|c| Box::new(contact::ContactWorld::new(&disks, &shapes, &mass, c, cfg))),
             disks,
             polygons: shapes,
             rec,

@@ -57,6 +57,17 @@ pub(super) struct Points<'p> {
 /// One chunk's state in a run of one block, or a group's (see [`Points::once`]).
 pub(super) type Local = [[f64; CHUNK_PARTS]; ARRAYS];
 
+/// A zeroed buffer of `N` lanes of each array (a [`Local`] with `CHUNK_PARTS`) on the heap,
+/// built in place (not on the stack and then copied).
+pub(super) fn zeroed<const N: usize>() -> Box<[[f64; N]; ARRAYS]> {
+    let mut b = Box::<[[f64; N]; ARRAYS]>::new_uninit();
+    // SAFETY: every byte zero is every f64 0.0, so the buffer is initialised.
+    unsafe {
+        b.as_mut_ptr().write_bytes(0, 1);
+        b.assume_init()
+    }
+}
+
 /// Whether array `i` is kept from block to block (see [`ARRAYS`]): the planar state, and the
 /// air state on a plate out of its plane; nothing in a run of one block.
 fn kept(i: usize, spatial: bool, once: bool) -> bool {
@@ -73,8 +84,8 @@ unsafe impl Send for Base {}
 unsafe impl Sync for Base {}
 
 impl Base {
-    /// A chunk's own buffer.
-    pub(super) fn local(local: &mut Local) -> Self {
+    /// A chunk's own buffer (or a group's, of `N` lanes).
+    pub(super) fn local<const N: usize>(local: &mut [[f64; N]; ARRAYS]) -> Self {
         Base(std::array::from_fn(|i| local[i].as_mut_ptr()))
     }
 
@@ -222,7 +233,7 @@ impl<'p> Points<'p> {
         let task = |local: &mut Option<Box<Local>>, (start, k): (usize, usize)| {
             // Where the chunk's state lives while it runs: its own buffer in a run of one block.
             let (at, state) = if once {
-                let l = local.get_or_insert_with(|| Box::new([[0.0; CHUNK_PARTS]; ARRAYS]));
+                let l = local.get_or_insert_with(zeroed);
                 (0, Base::local(l))
             } else {
                 (start, base)
