@@ -10,6 +10,11 @@
 //! seeded depends on the step's index alone, never on how the steps are split into calls, so
 //! the table is the same to the bit for any block size or thread count.
 //!
+//! Motions of one timing (the same items' times, envelopes and phases; the planner's rollouts:
+//! one kind of pulse at many places) turn the phasors once for all of them: the phasors are
+//! sampled over a piece of steps, and each motion's segment is evaluated on the samples (with
+//! 8-wide vectors where the CPU has AVX-512).
+//!
 //! The velocity formulas of a translation, a rotation and a jet, and the stretches of an item's
 //! envelope, live here once for both this table and [`PlateMotion::velocity`].
 
@@ -300,6 +305,27 @@ pub(crate) fn fill_many(
     dt: f64,
     outs: &mut [Vec<[f64; 3]>],
 ) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx512f") {
+        /// The same loops with 8-wide vectors (the segments' arithmetic over a piece of steps):
+        /// the same operations in the same order, so the same bits.
+        #[target_feature(enable = "avx512f")]
+        unsafe fn wide(m: &[&PlateMotion], s: Range<usize>, dt: f64, o: &mut [Vec<[f64; 3]>]) {
+            fill_many_with(m, s, dt, o);
+        }
+        // SAFETY: the CPU has AVX-512F (checked just above).
+        return unsafe { wide(motions, steps, dt, outs) };
+    }
+    fill_many_with(motions, steps, dt, outs);
+}
+
+#[inline(always)]
+fn fill_many_with(
+    motions: &[&PlateMotion],
+    steps: Range<usize>,
+    dt: f64,
+    outs: &mut [Vec<[f64; 3]>],
+) {
     assert_eq!(motions.len(), outs.len(), "a table for each motion");
     let Some(&lead) = motions.first() else {
         return;
@@ -382,6 +408,7 @@ struct At {
 impl At {
     /// Appends the velocity of `segment` at each of the piece's `samples` in `stretch` (the
     /// envelope's factor applied), with its arithmetic chosen once for the piece.
+    #[inline(always)]
     fn extend(
         &self,
         segment: &Segment,
@@ -480,192 +507,5 @@ impl Run<'_> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::waveform::{BangBang, Harmonics};
-
-    /// A program with every kind of item: enveloped rotation, jet and translation, a bang-bang
-    /// drive, samples, rest, and a harmonic drive that repeats forever.
-    fn program() -> PlateMotion {
-        let two = |f: f64| Harmonics::new(vec![0.7, -0.35], vec![0.1, 0.05], f).unwrap();
-        let rot = PlateMotion::rotation([0.03, -0.02], two(35.0).into())
-            .unwrap()
-            .with_envelope(0.05, 0.1, 0.07)
-            .unwrap();
-        let jet = PlateMotion::jet([0.01, 0.02], [0.6, 0.8], 0.06, 0.3, 50.0)
-            .unwrap()
-            .with_envelope(0.12, 0.11, 0.12)
-            .unwrap();
-        let tr = PlateMotion::translation([1.0, 0.0], two(25.0).into())
-            .unwrap()
-            .with_envelope(0.06, 0.0, 0.06)
-            .unwrap();
-        let bang =
-            PlateMotion::translation([0.0, 1.0], BangBang::new(0.3, 20.0, 0.02).unwrap().into())
-                .unwrap()
-                .for_duration(0.05)
-                .unwrap();
-        let samples =
-            PlateMotion::from_samples(&[0.0, 0.01, 0.03], &[[0.0; 3], [0.1, 0.0, 1.0], [0.0; 3]])
-                .unwrap();
-        let rest = PlateMotion::rest(0.013).unwrap();
-        let forever = PlateMotion::translation([0.0, 1.0], two(70.0).into()).unwrap();
-        PlateMotion::sequence(vec![rot, jet, rest, tr, bang, samples, forever]).unwrap()
-    }
-
-    /// How far the table may lie from the direct evaluation at time `t`: both round the phase,
-    /// the direct one once from `w t` (about `w t` units in the last place, the larger as time
-    /// goes on), the table over at most `RESEED` turns; the program's velocities stay below 2.
-    fn tolerance(t: f64) -> f64 {
-        let top = 2.0 * PI * 140.0; // the highest harmonic of the drive that repeats
-        4.0 * f64::EPSILON * (RESEED as f64 + top * t) * 2.0
-    }
-
-    #[test]
-    fn the_table_is_the_velocity_at_each_step() {
-        let m = program();
-        let dt = 1.0 / (24.0 * 140.0);
-        let n = (1.2 / dt) as usize;
-        let mut table = Vec::new();
-        fill(&m, 0..n, dt, &mut table);
-        for (s, got) in table.iter().enumerate() {
-            let t = sample_time(s, dt);
-            let want = m.velocity(t);
-            for k in 0..3 {
-                let bound = tolerance(t);
-                assert!(
-                    (got[k] - want[k]).abs() <= bound,
-                    "step {s}: {got:?} against {want:?}"
-                );
-            }
-        }
-        assert!(table.iter().any(|u| u[2].abs() > 1.0), "the program moves");
-    }
-
-    #[test]
-    fn the_table_does_not_depend_on_how_the_steps_are_split() {
-        let m = program();
-        let dt = 1.0 / (24.0 * 140.0);
-        let n = (1.2 / dt) as usize;
-        let mut whole = Vec::new();
-        fill(&m, 0..n, dt, &mut whole);
-        for block in [1, 7, 31, 32, 33, 100, 517] {
-            let mut parts = Vec::new();
-            let mut at = 0;
-            while at < n {
-                let end = (at + block).min(n);
-                fill(&m, at..end, dt, &mut parts);
-                at = end;
-            }
-            let same = whole
-                .iter()
-                .zip(&parts)
-                .all(|(a, b)| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()));
-            assert!(same && parts.len() == n, "blocks of {block} steps");
-        }
-    }
-
-    /// [`program`] with every centre, direction, amplitude and coefficient changed by `k`, and
-    /// its timing kept.
-    fn moved(k: f64) -> PlateMotion {
-        let two = |f: f64| Harmonics::new(vec![0.7 - k, -0.35], vec![0.1, 0.05 + k], f).unwrap();
-        let rot = PlateMotion::rotation([0.03 + k, -0.02], two(35.0).into())
-            .unwrap()
-            .with_envelope(0.05, 0.1, 0.07)
-            .unwrap();
-        let jet = PlateMotion::jet([0.01, 0.02 - k], [0.8, 0.6], 0.06 + k, 0.3, 50.0)
-            .unwrap()
-            .with_envelope(0.12, 0.11, 0.12)
-            .unwrap();
-        let tr = PlateMotion::translation([k, 1.0], two(25.0).into())
-            .unwrap()
-            .with_envelope(0.06, 0.0, 0.06)
-            .unwrap();
-        let bang = PlateMotion::rotation([k, 0.0], BangBang::new(0.3, 20.0, 0.02).unwrap().into())
-            .unwrap()
-            .for_duration(0.05)
-            .unwrap();
-        let samples =
-            PlateMotion::from_samples(&[0.0, 0.01, 0.03], &[[0.0; 3], [0.1, k, 1.0], [0.0; 3]])
-                .unwrap();
-        let rest = PlateMotion::rest(0.013).unwrap();
-        let forever = PlateMotion::rotation([k, k], two(70.0).into()).unwrap();
-        PlateMotion::sequence(vec![rot, jet, rest, tr, bang, samples, forever]).unwrap()
-    }
-
-    #[test]
-    fn motions_sharing_their_timing_share_the_phasors_bitwise() {
-        let motions = [program(), moved(0.01), moved(-0.02), moved(0.03)];
-        let lead = motions[0].timing();
-        assert!(motions.iter().all(|m| m.timing() == lead));
-        let dt = 1.0 / (24.0 * 140.0);
-        let n = (1.2 / dt) as usize;
-        let refs: Vec<&PlateMotion> = motions.iter().collect();
-        for range in [0..n, 517..n - 3, 1000..1001] {
-            let mut all = vec![Vec::new(); motions.len()];
-            fill_many(&refs, range.clone(), dt, &mut all);
-            for (m, got) in motions.iter().zip(&all) {
-                let mut alone = Vec::new();
-                fill(m, range.clone(), dt, &mut alone);
-                let same = alone.len() == got.len()
-                    && alone
-                        .iter()
-                        .zip(got)
-                        .all(|(a, b)| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()));
-                assert!(same, "steps {range:?}");
-            }
-        }
-        // and it is the velocity at each step, motion by motion
-        let mut table = Vec::new();
-        fill(&motions[2], 0..n, dt, &mut table);
-        for (s, got) in table.iter().enumerate() {
-            let (t, want) = (sample_time(s, dt), motions[2].velocity(sample_time(s, dt)));
-            assert!(got
-                .iter()
-                .zip(want)
-                .all(|(g, w)| (g - w).abs() <= tolerance(t)));
-        }
-    }
-
-    #[test]
-    fn another_frequency_envelope_or_duration_is_another_timing() {
-        let jet = |f: f64, attack: f64| {
-            PlateMotion::jet([0.0; 2], [1.0, 0.0], 0.06, 0.3, f)
-                .unwrap()
-                .with_envelope(attack, 0.1, 0.1)
-                .unwrap()
-        };
-        let base = jet(50.0, 0.1).timing();
-        assert_ne!(base, jet(40.0, 0.1).timing());
-        assert_ne!(base, jet(50.0, 0.12).timing());
-        assert_ne!(base, jet(50.0, 0.1).for_duration(0.2).unwrap().timing());
-        let spin = PlateMotion::rotation(
-            [0.0; 2],
-            Harmonics::new(vec![1.0], vec![0.0], 50.0).unwrap().into(),
-        )
-        .unwrap()
-        .with_envelope(0.1, 0.1, 0.1)
-        .unwrap();
-        assert_ne!(base, spin.timing(), "a jet also turns its 2/3 phase");
-        assert_eq!(base, jet(50.0, 0.1).timing());
-    }
-
-    #[test]
-    fn steps_before_the_program_and_empty_ranges() {
-        let m = program();
-        let mut out = Vec::new();
-        fill(&m, 5..5, 1e-3, &mut out);
-        assert!(out.is_empty());
-        // a step far past every timed item: the repeating drive, still exact
-        let dt = 1e-4;
-        fill(&m, 1_000_000..1_000_040, dt, &mut out);
-        for (k, u) in out.iter().enumerate() {
-            let t = sample_time(1_000_000 + k, dt);
-            let want = m.velocity(t);
-            assert!(
-                (u[1] - want[1]).abs() <= tolerance(t),
-                "step {k}: {u:?} against {want:?}"
-            );
-        }
-    }
-}
+#[path = "table_tests.rs"]
+mod tests;

@@ -48,14 +48,22 @@ pub(super) fn by_timing(motions: &[PlateMotion]) -> Vec<usize> {
     order.into_iter().map(|(_, b)| b).collect()
 }
 
-/// The state of one group's points, kept from block to block.
-pub(super) struct Group(Box<[[f64; LANES]; ARRAYS]>);
+/// The state of one group's points, kept from block to block, and where its worlds' timings
+/// change (found in the first block).
+pub(super) struct Group {
+    lanes: Box<[[f64; LANES]; ARRAYS]>,
+    /// The ends of the runs of neighbouring worlds with one timing.
+    runs: Vec<usize>,
+}
 
 impl Default for Group {
     fn default() -> Self {
         // Zero lanes between worlds: no part, never recorded, and (inactive) frozen on a plate
         // with an edge.
-        Group(zeroed())
+        Group {
+            lanes: zeroed(),
+            runs: Vec::new(),
+        }
     }
 }
 
@@ -71,19 +79,18 @@ impl Group {
         cfg: &Config,
     ) {
         let first = steps.start;
+        if self.runs.is_empty() {
+            let keys: Vec<Vec<u64>> = worlds.iter().map(|w| w.motion.timing()).collect();
+            self.runs = (1..=keys.len())
+                .filter(|&w| w == keys.len() || keys[w] != keys[w - 1])
+                .collect();
+        }
         tables.resize_with(worlds.len(), Vec::new);
         tables.iter_mut().for_each(Vec::clear);
         // Sampled a hair before each step's end (see `velocities_into`); neighbours with the
         // same timing (the caller sorts worlds by it) share the work of turning the phasors.
         let mut from = 0;
-        while from < worlds.len() {
-            let key = worlds[from].motion.timing();
-            let to = from
-                + 1
-                + worlds[from + 1..]
-                    .iter()
-                    .take_while(|w| w.motion.timing() == key)
-                    .count();
+        for &to in &self.runs {
             let motions: Vec<&PlateMotion> = worlds[from..to].iter().map(|w| w.motion).collect();
             PlateMotion::velocities_of_all(&motions, steps.clone(), cfg.dt, &mut tables[from..to]);
             from = to;
@@ -92,7 +99,7 @@ impl Group {
         let stride = stride(m);
         let lanes = stride * worlds.len();
         assert!(lanes <= LANES, "a group of {lanes} lanes");
-        let base = Base::local(&mut self.0);
+        let base = Base::local(&mut self.lanes);
         for (w, world) in worlds.iter_mut().enumerate() {
             if let Some(src) = world.points.take_source() {
                 // SAFETY: the world's lanes are within the group's buffer, which this call
