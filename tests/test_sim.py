@@ -373,3 +373,27 @@ def test_the_disk_friction_curve_matches_a_brute_force_average_over_the_footprin
     assert t[-1] == pytest.approx(2 / 3, rel=1e-12)
     with pytest.raises(upm.ParameterError, match="phi"):
         _core.disk_friction(np.array([np.nan]))
+
+
+@pytest.mark.parametrize("kind", ["one world", "batch", "out of plane", "per-world friction"])
+def test_a_point_whose_position_is_not_finite_is_named(kind: str) -> None:
+    # Point parts' positions are checked as the simulator reads them, chunk by chunk (one pass
+    # over the caller's array); the error must still name the part, whatever path the run takes.
+    n = 1000
+    pos = np.random.default_rng(3).uniform(-0.05, 0.05, (n, 2))
+    pos[700] = (0.01, np.nan)
+    motion = upm.PlateMotion.translation((1.0, 0.0), upm.Harmonics([0.3], frequency=35.0))
+    if kind == "out of plane":
+        motion = upm.PlateMotion.harmonic(35.0, x=[(1, 5.0, 0.0)], z=[(1, 3.0, 0.0)])
+    kw = dict(duration=0.01, dt=1e-4, mu=0.3)
+    part = 20 if kind == "batch" else 700
+    with pytest.raises(
+        upm.ParameterError, match=rf"position must be finite; got \(0.01, NaN\) \(part {part}\)"
+    ) as info:
+        if kind == "one world" or kind == "out of plane":
+            upm.simulate(motion, pos, **kw)
+        elif kind == "batch":  # worlds of 30 points, run side by side
+            upm.simulate_batch([motion] * 5, pos[680:710], **kw)
+        else:
+            upm.simulate_batch([motion] * 3, pos, **{**kw, "mu": np.full((3, n), 0.3)})
+    assert isinstance(info.value, upm.UpmError)

@@ -38,6 +38,8 @@ mod points;
 mod polygons;
 mod record;
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use rayon::prelude::*;
 
 use crate::error::{positive, Error, Result};
@@ -321,7 +323,13 @@ where
     E: From<Error>,
     B: FnMut(usize) -> std::result::Result<(), E>,
 {
-    parts.check()?;
+    // Point parts alone: their positions and velocities are checked for finiteness as each chunk
+    // reads them (one pass over the caller's arrays, not two), and a failure is reported after
+    // the first block by the full check; anything else is checked here.
+    let points_only =
+        parts.polygons.is_empty() && parts.radius.is_none_or(|r| r.iter().all(|&v| v == 0.0));
+    parts.check_with(!points_only)?;
+    let not_finite = AtomicBool::new(false);
     let m = parts.len();
     if let Some(f) = friction {
         f.check(motions.len(), m)?;
@@ -435,6 +443,7 @@ where
                 u0,
                 spatial[b],
                 grouped || steps <= block,
+                &not_finite,
             ),
             contact: contacts
                 .map(|c| Box::new(contact::ContactWorld::new(&disks, &shapes, &mass, c, cfg))),
@@ -499,6 +508,9 @@ where
                 );
                 rest
             })?;
+        }
+        if first == 0 && not_finite.load(Ordering::Relaxed) {
+            parts.check()?; // names the first part whose state is not finite
         }
         recorder.times(first + 1, end, steps, cfg.record_every, cfg.dt);
         between(end)?;

@@ -150,6 +150,12 @@ impl PartsView<'_> {
     /// Checks lengths, finiteness, `mu_s >= mu > 0` and `radius >= 0`: one pass over every array
     /// first, and the part-by-part search for the first offender only when it fails.
     pub fn check(&self) -> Result<()> {
+        self.check_with(true)
+    }
+
+    /// [`PartsView::check`], with the finiteness of the positions and velocities left out unless
+    /// `states` (the simulator checks point parts' as it reads them).
+    pub(crate) fn check_with(&self, states: bool) -> Result<()> {
         let m = self.len();
         let per_part = |a: &[f64]| a.len() == m || a.len() == 1;
         let opt = |a: Option<&[f64]>| a.is_none_or(|a| a.len() == m);
@@ -183,8 +189,7 @@ impl PartsView<'_> {
             let (mu, mu_s) = (self.mu(i), self.mu_s(i));
             ok & (mu > 0.0) & mu.is_finite() & mu_s.is_finite() & (mu_s >= mu)
         });
-        let fine = pairs(self.position)
-            && self.velocity.is_none_or(pairs)
+        let fine = (!states || (pairs(self.position) && self.velocity.is_none_or(pairs)))
             && friction
             && self.radius.is_none_or(|r| {
                 r.iter()

@@ -7,6 +7,8 @@
 //! records its initial state and steps it while its chunk is in the core's cache, instead of
 //! building every array in one serial pass first.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use rayon::prelude::*;
 
 use crate::buffer::{recycle, scratch};
@@ -38,6 +40,9 @@ pub(super) struct Source<'p> {
     half: f64,
     /// `g dt`.
     scale: f64,
+    /// Set when a point's position or velocity is not finite (the run then stops after its
+    /// first block with the full check's error).
+    not_finite: &'p AtomicBool,
 }
 
 /// Every point part of a world.
@@ -132,6 +137,7 @@ impl<'p> Points<'p> {
         u0: [f64; 3],
         spatial: bool,
         once: bool,
+        not_finite: &'p AtomicBool,
     ) -> Self {
         let n = index.map_or(parts.len(), <[usize]>::len);
         Points {
@@ -151,6 +157,7 @@ impl<'p> Points<'p> {
                 u0,
                 half: half_side(cfg),
                 scale: cfg.g * cfg.dt,
+                not_finite,
             }),
         }
     }
@@ -331,6 +338,10 @@ impl Source<'_> {
         }
         let [x, y, vx, vy] =
             [x, y, vx, vy].map(|a| &*(a as *const [std::mem::MaybeUninit<f64>] as *const [f64]));
+        let finite = |a: &[f64]| a.iter().fold(true, |ok, v| ok & v.is_finite());
+        if !(finite(x) && finite(y) && finite(vx) && finite(vy)) {
+            self.not_finite.store(true, Ordering::Relaxed);
+        }
         for q in 0..k {
             // A part that starts moving with the plate surface starts stuck.
             let s = moves_with_plate([x[q], y[q]], [vx[q], vy[q]], self.u0);
