@@ -409,7 +409,6 @@ where
         && m <= group::MAX_POINTS
         && contacts.is_none()
         && !flying;
-    let mut worlds: Vec<World> = Vec::with_capacity(motions.len());
     // Reserved fallibly (an error, not an abort, when it cannot fit), reusing recycled results.
     let turning = !disk_index.is_empty() || !parts.polygons.is_empty();
     let mut recorder = Recorder::new(motions.len(), rows, m, turning, flying)?;
@@ -419,43 +418,51 @@ where
     } else {
         (0..motions.len()).collect()
     };
-    for b in order {
-        let motion = &motions[b];
-        let u0 = motion.velocity(0.0);
-        let own = friction.map(|f| f.world(parts, b));
-        let parts = own.as_ref().unwrap_or(parts);
-        let disks: Vec<DiskState> = disk_index
-            .iter()
-            .map(|&i| DiskState::new(parts, i, cfg, u0))
-            .collect();
-        let shapes: Vec<polygons::PolygonState> = parts
-            .polygons
-            .iter()
-            .map(|(i, shape)| polygons::PolygonState::new(parts, *i, shape, cfg, u0))
-            .collect();
-        let rec = recorder.rec(b, steps, cfg.record_every);
-        worlds.push(World {
-            motion,
-            points: points::Points::new(
-                parts,
-                index,
-                cfg,
-                u0,
-                spatial[b],
-                grouped || steps <= block,
-                &not_finite,
-            ),
-            contact: contacts
-                .map(|c| Box::new(contact::ContactWorld::new(&disks, &shapes, &mass, c, cfg))),
-            disks,
-            polygons: shapes,
-            rec,
-            // (reserved as the first block is tabulated: a world run in a group never is)
-            table: Vec::new(),
-            spatial: spatial[b],
-            normals: Vec::with_capacity(if spatial[b] { block } else { 0 }),
-        });
-    }
+    let recs: Vec<(usize, Rec)> = order
+        .into_iter()
+        .map(|b| (b, recorder.rec(b, steps, cfg.record_every)))
+        .collect();
+    // Each world set up on the thread that takes it (a batch of many small worlds).
+    let not_finite = &not_finite;
+    let mut worlds: Vec<World> = recs
+        .into_par_iter()
+        .map(|(b, rec)| {
+            let motion = &motions[b];
+            let u0 = motion.velocity(0.0);
+            let own = friction.map(|f| f.world(parts, b));
+            let parts = own.as_ref().unwrap_or(parts);
+            let disks: Vec<DiskState> = disk_index
+                .iter()
+                .map(|&i| DiskState::new(parts, i, cfg, u0))
+                .collect();
+            let shapes: Vec<polygons::PolygonState> = parts
+                .polygons
+                .iter()
+                .map(|(i, shape)| polygons::PolygonState::new(parts, *i, shape, cfg, u0))
+                .collect();
+            World {
+                motion,
+                points: points::Points::new(
+                    parts,
+                    index,
+                    cfg,
+                    u0,
+                    spatial[b],
+                    grouped || steps <= block,
+                    not_finite,
+                ),
+                contact: contacts
+                    .map(|c| Box::new(contact::ContactWorld::new(&disks, &shapes, &mass, c, cfg))),
+                disks,
+                polygons: shapes,
+                rec,
+                // (reserved as the first block is tabulated: a world run in a group never is)
+                table: Vec::new(),
+                spatial: spatial[b],
+                normals: Vec::with_capacity(if spatial[b] { block } else { 0 }),
+            }
+        })
+        .collect();
     recorder.times(0, 0, steps, cfg.record_every, cfg.dt);
     // (the points record their initial state as their first block reads them)
     worlds.par_iter_mut().for_each(|w| {
