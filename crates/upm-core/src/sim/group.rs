@@ -14,7 +14,7 @@ use super::points::{write, zeroed, Base, Points, ARRAYS};
 use super::{half_side, Config, World};
 use crate::motion::PlateMotion;
 
-/// Lanes of a group: one full register tile of the widest build (within a chunk's buffer).
+/// Lanes of a group: one full register tile of the widest build.
 const LANES: usize = 64;
 
 /// Worlds with at most this many point parts (and nothing else) are run in groups.

@@ -335,7 +335,7 @@ where
         f.check(motions.len(), m)?;
         for b in 0..motions.len() {
             f.world(parts, b)
-                .check()
+                .check_with(!points_only)
                 .map_err(|e| e.with_context(&format!("world {b}")))?;
         }
     }
