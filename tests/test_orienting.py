@@ -1,5 +1,7 @@
 """Sensorless orienting in a squeeze field: the turn function and its stable roots against a
-brute-force grid over the footprint written here, and the rod-like result for a rectangle."""
+brute-force grid over the footprint written here, and the rod-like result for a rectangle; in a
+radial field with a bias: the unique pose against a brute-force minimum of the field's potential
+over a grid of cells."""
 
 from __future__ import annotations
 
@@ -7,9 +9,10 @@ import math
 
 import numpy as np
 import pytest
+from scipy.optimize import minimize
 
 import upm
-from upm.orienting import SqueezeField, orientation_equilibria
+from upm.orienting import RadialField, SqueezeField, orientation_equilibria
 
 PENTAGON = np.array([[0.0, 0.0], [0.030, -0.004], [0.041, 0.016], [0.022, 0.031], [-0.006, 0.019]])
 
@@ -72,5 +75,83 @@ def test_bad_input():
         SqueezeField(point=(0.0, np.nan))
     with pytest.raises(upm.ParameterError, match=r"part must be a upm\.Polygon"):
         orientation_equilibria(np.zeros((3, 2)), SqueezeField())
-    with pytest.raises(upm.ParameterError, match=r"field must be a upm\.SqueezeField"):
+    with pytest.raises(upm.ParameterError, match=r"field must be a upm\.SqueezeField or a upm\.RadialField"):
         orientation_equilibria(upm.Polygon.regular(4, 0.01), "squeeze")
+    with pytest.raises(upm.ParameterError, match=r"bias must have a length in \(0, 1\).*got 0"):
+        RadialField(bias=(0.0, 0.0))
+    with pytest.raises(upm.ParameterError, match=r"bias must have a length in \(0, 1\).*got 1.2"):
+        RadialField(bias=(1.2, 0.0))
+    with pytest.raises(upm.ParameterError, match="center must be finite"):
+        RadialField(center=(np.inf, 0.0))
+
+
+def cells(part: upm.Polygon, h: float = 2.5e-4) -> np.ndarray:
+    """Centres of a grid of cells over the footprint, in the part's frame about its centroid."""
+    v = np.asarray(part.vertices) - part.centroid
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    x, y = np.meshgrid(np.arange(lo[0], hi[0], h) + h / 2, np.arange(lo[1], hi[1], h) + h / 2)
+    inside = np.ones_like(x, bool)
+    for a, b in zip(v, np.roll(v, -1, axis=0), strict=True):
+        inside &= (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]) >= 0
+    return np.stack([x[inside], y[inside]], axis=1)
+
+
+def brute_potential(
+    r: np.ndarray, theta: float, center: np.ndarray, bias: np.ndarray
+) -> tuple[float, np.ndarray]:
+    """The least potential of the pose at angle ``theta`` over the centroid's position, and that
+    position: the field (unit pull towards ``center`` plus ``bias``) is minus the gradient of
+    ``|x - center| - bias . x``, summed over the cells ``r``."""
+    c, s = math.cos(theta), math.sin(theta)
+    turned = r @ np.array([[c, s], [-s, c]])
+
+    def energy(g: np.ndarray) -> float:
+        return float(np.mean(np.hypot(*(turned + g - center).T)) - bias @ g)
+
+    best = minimize(energy, center, method="Nelder-Mead", options=dict(xatol=1e-10, fatol=1e-15))
+    return float(best.fun), best.x
+
+
+@pytest.mark.parametrize(
+    ("vertices", "bias", "poses"),
+    [
+        ([(0.0, 0.0), (0.03, 0.0), (0.0, 0.015)], (0.1, 0.0), 1),
+        ([(0.0, 0.0), (0.04, 0.0), (0.03, 0.02), (0.006, 0.02)], (-0.03, 0.04), 1),
+        # its centroid is 0.07 mm from the point it pivots about: a stronger bias finds a second pose
+        (PENTAGON, (0.05, -0.12), 2),
+    ],
+    ids=["right triangle", "trapezoid", "pentagon, strong bias"],
+)
+def test_a_biased_radial_field_brings_a_part_to_the_least_potential(vertices, bias, poses):
+    part = upm.Polygon(np.asarray(vertices))
+    center, u = np.array([0.01, -0.02]), np.asarray(bias)
+    eq = orientation_equilibria(part, RadialField(center=tuple(center), bias=bias), samples=120)
+    assert len(eq.stable) == len(eq.unstable) == poses and eq.period == pytest.approx(2 * math.pi)
+    r = cells(part)
+    # the potential, least over position, over a sweep of angles: its global minimum is at one
+    # of the predicted poses, and each pose is a local minimum (0.25 degree steps about it)
+    sweep = np.radians(np.arange(0, 360, 6))
+    coarse = sweep[np.argmin([brute_potential(r, t, center, u)[0] for t in sweep])]
+
+    def gap(a: float, b: float) -> float:
+        return abs(math.degrees((a - b + math.pi) % (2 * math.pi) - math.pi))
+
+    assert min(gap(coarse, t) for t in eq.stable) < 6
+    for j, theta in enumerate(eq.stable):
+        fine = theta + np.radians(np.arange(-3, 3.01, 0.25))
+        least = fine[np.argmin([brute_potential(r, t, center, u)[0] for t in fine])]
+        # (within 1 degree: the grid's 0.25 mm cells are coarse against the pentagon's 0.07 mm
+        # between centroid and pivot, which sets its pose)
+        assert gap(least, theta) < 1.0
+        # the part rests there: its centroid where the grid's balance puts it, downstream of
+        # the centre along the bias
+        c, s = math.cos(theta), math.sin(theta)
+        centroid = eq.positions[j] + np.array([[c, -s], [s, c]]) @ part.centroid
+        at = brute_potential(r, theta, center, u)[1]
+        assert np.hypot(*(centroid - at)) < 2e-4
+        assert eq.offsets[j] == pytest.approx(np.hypot(*(centroid - center)), abs=1e-12)
+    if poses == 1:
+        theta = eq.stable[0]
+        c, s = math.cos(theta), math.sin(theta)
+        centroid = eq.positions[0] + np.array([[c, -s], [s, c]]) @ part.centroid
+        assert (centroid - center) @ u > 0

@@ -30,7 +30,7 @@ from .feeding import feed_rate, force_table, mean_force, theorem1_force
 from .field_design import FieldDesign, design_field
 from .fields import average_field, jet_field, rotation_curl, rotation_field
 from .motion import PlateMotion
-from .orienting import Equilibria, SqueezeField, orientation_equilibria
+from .orienting import Equilibria, RadialField, SqueezeField, orientation_equilibria
 from .plan import (
     PredictivePlanner,
     jet_plan,
@@ -89,6 +89,7 @@ __all__ = [
     "Polygon",
     "PredictivePlanner",
     "Pulse",
+    "RadialField",
     "RankWarning",
     "ResonanceWarning",
     "RotationPlan",

@@ -12,21 +12,25 @@ closed form), the roots refined by bisection.
 
 Rotating the whole picture by half a turn maps a squeeze field onto itself, so equilibria repeat
 every half turn, and every ``2 pi / k`` for a part with ``k``-fold symmetry.
+
+A :class:`RadialField` (a unit pull towards a centre plus a small constant bias) brings a part
+whose centroid is off the point it pivots about to one pose (:func:`orientation_equilibria`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ._arrays import as_float, instance, integer, real
-from ._errors import ParameterError
+from ._errors import ConvergenceError, ParameterError
 from .polygon import Polygon
 
-__all__ = ["Equilibria", "SqueezeField", "orientation_equilibria"]
+__all__ = ["Equilibria", "RadialField", "SqueezeField", "orientation_equilibria"]
 
 FloatArray = NDArray[np.float64]
 
@@ -48,6 +52,35 @@ class SqueezeField:
 
 
 @dataclass(frozen=True)
+class RadialField:
+    """A field pushing every point towards ``center`` [m] with unit strength, plus the constant
+    ``bias`` (a vector, ``|bias| < 1``, in units of the radial push): Böhringer et al.'s radial
+    field with a small unit field, which brings a part to a unique pose where its centroid and
+    the point it pivots about differ.
+
+    Friction on a part at rest follows the *direction* of the plate's velocity field, so adding a
+    constant velocity field to a linear sink only moves the sink. The forces add when the two
+    fields take turns: a sink for a share ``1 - e`` of the time and a translation along ``u`` for
+    ``e`` give, on average, the radial field plus ``bias = e u / (1 - e)``."""
+
+    center: tuple[float, float] = (0.0, 0.0)
+    bias: tuple[float, float] = (0.1, 0.0)
+
+    def __post_init__(self) -> None:
+        for name in ("center", "bias"):
+            p = as_float(name, getattr(self, name))
+            if p.shape != (2,) or not np.all(np.isfinite(p)):
+                raise ParameterError(f"{name} must be two finite numbers (x, y); got {getattr(self, name)!r}")
+            object.__setattr__(self, name, (float(p[0]), float(p[1])))
+        size = math.hypot(*self.bias)
+        if not 0.0 < size < 1.0:
+            raise ParameterError(
+                f"bias must have a length in (0, 1) (a radial field alone holds a part at every "
+                f"angle; a bias of 1 or more outpulls it); got {size:g}"
+            )
+
+
+@dataclass(frozen=True)
 class Equilibria:
     """Where a part comes to rest in a field.
 
@@ -60,9 +93,11 @@ class Equilibria:
     offsets : (S,) ndarray
         At each stable angle, the signed distance [m] of the centroid from the line (positive to
         its right, looking along the line's direction): where the line bisects the part's area.
+        In a radial field: the centroid's distance from the centre.
     positions : (S, 2) ndarray
         At each stable angle, where the part's frame origin comes to rest if its centroid starts
         on the line's normal through ``point`` (the field does not move a part along the line).
+        In a radial field: where it comes to rest.
     turn : (T, 2) ndarray
         The turn function sampled: angle [rad] and moment about the centroid per ``mu N`` [m]
         (positive: counter-clockwise) at force balance.
@@ -160,20 +195,9 @@ def _distinct(angles: list[float], period: float) -> FloatArray:
     return np.array(out)
 
 
-def orientation_equilibria(part: Polygon, field: SqueezeField, *, samples: int = 720) -> Equilibria:
-    """The stable and unstable orientations of ``part`` in ``field`` (module docs): roots of its
-    turn function sampled at ``samples`` angles over a period and refined by bisection to 1e-12
-    rad."""
-    instance("part", part, Polygon, "a upm.Polygon")
-    instance("field", field, SqueezeField, "a upm.SqueezeField")
-    samples = integer("samples", samples, low=16, high=1_000_000)
-    k = part.symmetry
-    period = 2 * math.pi / math.lcm(2, k)
-    area = part.area
-
-    def moment(theta: float) -> float:
-        return _balance(_turned(part, theta, field.angle), area)[1]
-
+def _roots(moment: Callable[[float], float], period: float, samples: int) -> tuple[FloatArray, ...]:
+    """The turn function ``moment`` sampled over a period and its roots refined by bisection to
+    1e-12 rad: ``(grid, values, stable, unstable)``, stable where it falls."""
     grid = np.arange(samples) * period / samples
     m = np.array([moment(t) for t in grid])
     scale = float(np.abs(m).max())
@@ -195,13 +219,109 @@ def orientation_equilibria(part: Polygon, field: SqueezeField, *, samples: int =
         else:
             continue
         (stable if mb < ma else unstable).append(float(np.mod(root, period)))
-    stable_a, unstable_a = _distinct(stable, period), _distinct(unstable, period)
+    return grid, m, _distinct(stable, period), _distinct(unstable, period)
+
+
+def _pull(part: Polygon, q: FloatArray) -> FloatArray:
+    """The mean direction from ``q`` to the part's points, ``∫ (r - q)/|r - q| dA / A`` (part
+    frame, about its centroid), from the friction of a unit spin about ``q`` (exact,
+    :meth:`Polygon.wrench`: its force is this turned by a quarter turn clockwise)."""
+    force, _ = part.wrench((q[1], -q[0]), 1.0)
+    return np.array([-force[1], force[0]])
+
+
+def _radial_balance(part: Polygon, bias: FloatArray, start: FloatArray) -> FloatArray:
+    """Where the radial field's centre sits in the part's frame (from the centroid) at force
+    balance, ``_pull(q) = bias``: the minimum of the convex ``∫|r - q| dA / A + bias . q``,
+    by Newton's method on its gradient from ``start``."""
+    q = np.array(start, np.float64)
+    h = 1e-7 * part.radius
+    for _ in range(100):
+        g = _pull(part, q) - bias
+        if np.hypot(*g) < 1e-13:
+            break
+        jac = np.column_stack([(_pull(part, q + d) - _pull(part, q - d)) / (2 * h) for d in np.eye(2) * h])
+        step = np.linalg.solve(jac, -g)
+        while np.hypot(*step) > 0.5 * part.radius:  # stay near the part, where the pull turns
+            step = step / 2
+        q = q + step
+    else:
+        raise ConvergenceError(
+            f"the radial field's balance point did not converge for bias {tuple(bias)} (|pull - bias| = "
+            f"{np.hypot(*g):.1e}); a bias this close to 1 may have none"
+        )
+    return q
+
+
+def orientation_equilibria(
+    part: Polygon, field: SqueezeField | RadialField, *, samples: int = 720
+) -> Equilibria:
+    """The stable and unstable orientations of ``part`` in ``field`` (module docs): roots of its
+    turn function sampled at ``samples`` angles over a period and refined by bisection to 1e-12
+    rad.
+
+    In a :class:`RadialField` the part's centroid ``g`` comes to rest where the field's pull
+    balances the bias, and the moment about ``g`` is then ``(g - c) x bias`` per ``mu N``
+    (``c`` the centre: the radial pull on each element points at ``c``, so its moment about ``g``
+    is that of a force through ``c``). The stable pose puts the centroid downstream of ``c``
+    along the bias; ``offsets`` are then the centroid's distances from ``c``."""
+    instance("part", part, Polygon, "a upm.Polygon")
+    if not isinstance(field, (SqueezeField, RadialField)):
+        raise ParameterError(
+            f"field must be a upm.SqueezeField or a upm.RadialField; got {type(field).__name__}"
+        )
+    samples = integer("samples", samples, low=16, high=1_000_000)
+    k = part.symmetry
+    if isinstance(field, RadialField):
+        return _radial(part, field, samples, 2 * math.pi / k)
+    period = 2 * math.pi / math.lcm(2, k)
+    area = part.area
+
+    def moment(theta: float) -> float:
+        return _balance(_turned(part, theta, field.angle), area)[1]
+
+    grid, m, stable_a, unstable_a = _roots(moment, period, samples)
     offsets = np.array([_balance(_turned(part, t, field.angle), area)[0] for t in stable_a])
     positions = np.zeros((len(stable_a), 2))
     line = field.angle
     right = np.array([math.sin(line), -math.cos(line)])  # the line frame's +x
     for j, (t, off) in enumerate(zip(stable_a, offsets, strict=True)):
         positions[j] = np.asarray(field.point) + off * right - part.centroid_offset(t)
+    return Equilibria(
+        stable=stable_a,
+        unstable=unstable_a,
+        period=period,
+        offsets=offsets,
+        positions=positions,
+        turn=np.column_stack([grid, m]),
+    )
+
+
+def _radial(part: Polygon, field: RadialField, samples: int, period: float) -> Equilibria:
+    bias = np.asarray(field.bias)
+    last = {"q": np.zeros(2)}
+
+    def centre(theta: float) -> tuple[FloatArray, FloatArray]:
+        """The centre from the centroid in the part's frame, and the bias there."""
+        c, s = math.cos(theta), math.sin(theta)
+        b = np.array([c * bias[0] + s * bias[1], -s * bias[0] + c * bias[1]])
+        q = _radial_balance(part, b, last["q"])
+        last["q"] = q
+        return q, b
+
+    def moment(theta: float) -> float:
+        q, b = centre(theta)
+        return float(-(q[0] * b[1] - q[1] * b[0]))  # (g - c) x bias, g - c = -q
+
+    grid, m, stable_a, unstable_a = _roots(moment, period, samples)
+    offsets = np.zeros(len(stable_a))
+    positions = np.zeros((len(stable_a), 2))
+    for j, t in enumerate(stable_a):
+        q, _ = centre(t)
+        c, s = math.cos(t), math.sin(t)
+        g = np.asarray(field.center) - np.array([c * q[0] - s * q[1], s * q[0] + c * q[1]])
+        offsets[j] = float(np.hypot(*q))
+        positions[j] = g - part.centroid_offset(t)
     return Equilibria(
         stable=stable_a,
         unstable=unstable_a,
