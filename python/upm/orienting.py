@@ -33,6 +33,10 @@ from .polygon import Polygon
 __all__ = ["Equilibria", "RadialField", "SqueezeField", "orientation_equilibria"]
 
 FloatArray = NDArray[np.float64]
+_Turn = Callable[[float], float]
+"""A turn function: the moment about the centroid per ``mu N`` at force balance, by angle."""
+_Rest = Callable[[float], tuple[float, FloatArray]]
+"""At an angle: the centroid's offset (from the line, or the centre) and where the frame rests."""
 
 
 @dataclass(frozen=True)
@@ -195,7 +199,7 @@ def _distinct(angles: list[float], period: float) -> FloatArray:
     return np.array(out)
 
 
-def _roots(moment: Callable[[float], float], period: float, samples: int) -> tuple[FloatArray, ...]:
+def _roots(moment: _Turn, period: float, samples: int) -> tuple[FloatArray, ...]:
     """The turn function ``moment`` sampled over a period and its roots refined by bisection to
     1e-12 rad: ``(grid, values, stable, unstable)``, stable where it falls."""
     grid = np.arange(samples) * period / samples
@@ -273,33 +277,44 @@ def orientation_equilibria(
     samples = integer("samples", samples, low=16, high=1_000_000)
     k = part.symmetry
     if isinstance(field, RadialField):
-        return _radial(part, field, samples, 2 * math.pi / k)
-    period = 2 * math.pi / math.lcm(2, k)
-    area = part.area
-
-    def moment(theta: float) -> float:
-        return _balance(_turned(part, theta, field.angle), area)[1]
-
-    grid, m, stable_a, unstable_a = _roots(moment, period, samples)
-    offsets = np.array([_balance(_turned(part, t, field.angle), area)[0] for t in stable_a])
-    positions = np.zeros((len(stable_a), 2))
-    line = field.angle
-    right = np.array([math.sin(line), -math.cos(line)])  # the line frame's +x
-    for j, (t, off) in enumerate(zip(stable_a, offsets, strict=True)):
-        positions[j] = np.asarray(field.point) + off * right - part.centroid_offset(t)
+        period = 2 * math.pi / k
+        moment, rest = _radial(part, field)
+    else:
+        period = 2 * math.pi / math.lcm(2, k)
+        moment, rest = _squeeze(part, field)
+    grid, m, stable, unstable = _roots(moment, period, samples)
+    rests = [rest(t) for t in stable]
     return Equilibria(
-        stable=stable_a,
-        unstable=unstable_a,
+        stable=stable,
+        unstable=unstable,
         period=period,
-        offsets=offsets,
-        positions=positions,
+        offsets=np.array([off for off, _ in rests]),
+        positions=np.array([at for _, at in rests]).reshape(-1, 2),
         turn=np.column_stack([grid, m]),
     )
 
 
-def _radial(part: Polygon, field: RadialField, samples: int, period: float) -> Equilibria:
+def _squeeze(part: Polygon, field: SqueezeField) -> tuple[_Turn, _Rest]:
+    """The turn function in a squeeze field, and at a stable angle the centroid's offset from
+    the line and where the frame's origin rests."""
+    area = part.area
+    right = np.array([math.sin(field.angle), -math.cos(field.angle)])  # the line frame's +x
+
+    def moment(theta: float) -> float:
+        return _balance(_turned(part, theta, field.angle), area)[1]
+
+    def rest(theta: float) -> tuple[float, FloatArray]:
+        off = _balance(_turned(part, theta, field.angle), area)[0]
+        return off, np.asarray(field.point) + off * right - part.centroid_offset(theta)
+
+    return moment, rest
+
+
+def _radial(part: Polygon, field: RadialField) -> tuple[_Turn, _Rest]:
+    """The turn function in a radial field, and at a stable angle the centroid's distance from
+    the centre and where the frame's origin rests."""
     bias = np.asarray(field.bias)
-    last = {"q": np.zeros(2)}
+    last = {"q": np.zeros(2)}  # the balance point at the angle before: Newton's start
 
     def centre(theta: float) -> tuple[FloatArray, FloatArray]:
         """The centre from the centroid in the part's frame, and the bias there."""
@@ -313,20 +328,10 @@ def _radial(part: Polygon, field: RadialField, samples: int, period: float) -> E
         q, b = centre(theta)
         return float(-(q[0] * b[1] - q[1] * b[0]))  # (g - c) x bias, g - c = -q
 
-    grid, m, stable_a, unstable_a = _roots(moment, period, samples)
-    offsets = np.zeros(len(stable_a))
-    positions = np.zeros((len(stable_a), 2))
-    for j, t in enumerate(stable_a):
-        q, _ = centre(t)
-        c, s = math.cos(t), math.sin(t)
+    def rest(theta: float) -> tuple[float, FloatArray]:
+        q, _ = centre(theta)
+        c, s = math.cos(theta), math.sin(theta)
         g = np.asarray(field.center) - np.array([c * q[0] - s * q[1], s * q[0] + c * q[1]])
-        offsets[j] = float(np.hypot(*q))
-        positions[j] = g - part.centroid_offset(t)
-    return Equilibria(
-        stable=stable_a,
-        unstable=unstable_a,
-        period=period,
-        offsets=offsets,
-        positions=positions,
-        turn=np.column_stack([grid, m]),
-    )
+        return float(np.hypot(*q)), g - part.centroid_offset(theta)
+
+    return moment, rest

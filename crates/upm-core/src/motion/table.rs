@@ -260,6 +260,27 @@ impl Phasors {
 }
 
 impl PlateMotion {
+    /// Appends the velocity at `t_s = (s + 1 - 1e-6) dt` for every step `s` in `steps` to `out`:
+    /// the simulator's table of a block of steps (the sample a hair before each step's end puts a
+    /// program boundary on a step end in the step before it, whatever the rounding). Equal to
+    /// [`PlateMotion::velocity`] at each `t_s` to a few units in the last place of the amplitude,
+    /// its sines carried from step to step by rotation (see the module), and the same to the bit
+    /// however the steps are split into calls.
+    pub fn velocities_into(&self, steps: Range<usize>, dt: f64, out: &mut Vec<[f64; 3]>) {
+        fill(self, steps, dt, out);
+    }
+
+    /// [`PlateMotion::velocities_into`] for each of `motions` (into the same place of `outs`),
+    /// which share their `timing` (the items' times, envelopes and phases): their phasors are turned once for all.
+    pub(crate) fn velocities_of_all(
+        motions: &[&PlateMotion],
+        steps: Range<usize>,
+        dt: f64,
+        outs: &mut [Vec<[f64; 3]>],
+    ) {
+        fill_many(motions, steps, dt, outs);
+    }
+
     /// What the table's phasors and stretches depend on: the items' start times, durations and
     /// envelopes, and the phases their segments turn (a harmonic drive's fundamental, a jet's).
     /// Motions with equal keys have the same phasors at every step, so [`fill_many`] turns them

@@ -30,11 +30,11 @@ pub(super) fn worlds_per_group(m: usize) -> usize {
     (LANES / stride(m)).max(1)
 }
 
-/// The order in which to run `motions` (indices) so that those with the same timing (see
-/// `PlateMotion::timing`) are neighbours, each timing where it first appears and the motions
-/// in their order within it: a group of neighbours turns its plate's phasors once (each world
-/// records into its own place, so the order is free).
-pub(super) fn by_timing(motions: &[PlateMotion]) -> Vec<usize> {
+/// The order in which to run `motions`, as `(timing, index)` pairs: those with the same timing
+/// (see `PlateMotion::timing`; numbered in the order each first appears) are neighbours, in their
+/// order within it. A group of neighbours turns its plate's phasors once (each world records
+/// into its own place, so the order is free).
+pub(super) fn by_timing(motions: &[PlateMotion]) -> Vec<(usize, usize)> {
     let mut classes: HashMap<Vec<u64>, usize> = HashMap::new();
     let mut order: Vec<(usize, usize)> = motions
         .iter()
@@ -44,26 +44,18 @@ pub(super) fn by_timing(motions: &[PlateMotion]) -> Vec<usize> {
             (*classes.entry(m.timing()).or_insert(next), b)
         })
         .collect();
-    order.sort_unstable(); // by class, then index
-    order.into_iter().map(|(_, b)| b).collect()
+    order.sort_unstable(); // by timing, then index
+    order
 }
 
-/// The state of one group's points, kept from block to block, and where its worlds' timings
-/// change (found in the first block).
-pub(super) struct Group {
-    lanes: Box<[[f64; LANES]; ARRAYS]>,
-    /// The ends of the runs of neighbouring worlds with one timing.
-    runs: Vec<usize>,
-}
+/// The state of one group's points, kept from block to block.
+pub(super) struct Group(Box<[[f64; LANES]; ARRAYS]>);
 
 impl Default for Group {
     fn default() -> Self {
         // Zero lanes between worlds: no part, never recorded, and (inactive) frozen on a plate
         // with an edge.
-        Group {
-            lanes: zeroed(),
-            runs: Vec::new(),
-        }
+        Group(zeroed())
     }
 }
 
@@ -79,18 +71,18 @@ impl Group {
         cfg: &Config,
     ) {
         let first = steps.start;
-        if self.runs.is_empty() {
-            let keys: Vec<Vec<u64>> = worlds.iter().map(|w| w.motion.timing()).collect();
-            self.runs = (1..=keys.len())
-                .filter(|&w| w == keys.len() || keys[w] != keys[w - 1])
-                .collect();
-        }
         tables.resize_with(worlds.len(), Vec::new);
         tables.iter_mut().for_each(Vec::clear);
         // Sampled a hair before each step's end (see `velocities_into`); neighbours with the
-        // same timing (the caller sorts worlds by it) share the work of turning the phasors.
+        // same timing (sorted so by `by_timing`) share the work of turning the phasors.
         let mut from = 0;
-        for &to in &self.runs {
+        while from < worlds.len() {
+            let timing = worlds[from].timing;
+            let to = from
+                + worlds[from..]
+                    .iter()
+                    .take_while(|w| w.timing == timing)
+                    .count();
             let motions: Vec<&PlateMotion> = worlds[from..to].iter().map(|w| w.motion).collect();
             PlateMotion::velocities_of_all(&motions, steps.clone(), cfg.dt, &mut tables[from..to]);
             from = to;
@@ -99,7 +91,7 @@ impl Group {
         let stride = stride(m);
         let lanes = stride * worlds.len();
         assert!(lanes <= LANES, "a group of {lanes} lanes");
-        let base = Base::local(&mut self.lanes);
+        let base = Base::local(&mut self.0);
         for (w, world) in worlds.iter_mut().enumerate() {
             if let Some(src) = world.points.take_source() {
                 // SAFETY: the world's lanes are within the group's buffer, which this call

@@ -203,6 +203,8 @@ struct World<'a> {
     table: Vec<[f64; 3]>,
     /// Whether the motion leaves the plane (read once: the block loop asks every block).
     spatial: bool,
+    /// Its motion's timing among the batch's (see [`group::by_timing`]; 0 outside a group).
+    timing: usize,
     /// The out-of-plane accelerations of the block's steps (empty for a planar motion).
     normals: Vec<[f64; 3]>,
 }
@@ -280,9 +282,9 @@ where
         .map(|w| {
             let r = w * cells..(w + 1) * cells;
             // world w's rows of `a`, or zeros where the stacked result left `a` out
-            let rows = |a: &[f64], r: std::ops::Range<usize>| {
-                let n = r.len();
-                or_zeros(a.get(r).map_or(Vec::new(), <[f64]>::to_vec), n)
+            let rows = |a: &[f64], r: std::ops::Range<usize>| match a {
+                [] => vec![0.0; r.len()],
+                _ => a[r].to_vec(),
             };
             Trajectory {
                 t: all.t.clone(),
@@ -416,17 +418,17 @@ where
     let order = if grouped {
         group::by_timing(motions)
     } else {
-        (0..motions.len()).collect()
+        (0..motions.len()).map(|b| (0, b)).collect()
     };
-    let recs: Vec<(usize, Rec)> = order
+    let recs: Vec<(usize, usize, Rec)> = order
         .into_iter()
-        .map(|b| (b, recorder.rec(b, steps, cfg.record_every)))
+        .map(|(timing, b)| (timing, b, recorder.rec(b, steps, cfg.record_every)))
         .collect();
     // Each world set up on the thread that takes it (a batch of many small worlds).
     let not_finite = &not_finite;
     let mut worlds: Vec<World> = recs
         .into_par_iter()
-        .map(|(b, rec)| {
+        .map(|(timing, b, rec)| {
             let motion = &motions[b];
             let u0 = motion.velocity(0.0);
             let own = friction.map(|f| f.world(parts, b));
@@ -459,6 +461,7 @@ where
                 // (reserved as the first block is tabulated: a world run in a group never is)
                 table: Vec::new(),
                 spatial: spatial[b],
+                timing,
                 normals: Vec::with_capacity(if spatial[b] { block } else { 0 }),
             }
         })
