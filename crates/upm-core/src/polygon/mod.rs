@@ -47,6 +47,32 @@ pub struct Polygon {
     pub polar: f64,
     /// Largest distance of a vertex from the centroid [m].
     pub radius: f64,
+    /// Each edge's unit direction and length, `(e_x, e_y, len)` (edge `k` runs from vertex `k`
+    /// to `k + 1`): the shape's, whatever the instantaneous centre.
+    edges: Vec<[f64; 3]>,
+}
+
+/// The friction of a relative twist ([`Polygon::friction_hessian`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Friction {
+    /// The wrench `(Fx, Fy, M) / (mu N)` (`M` in metres).
+    pub wrench: [f64; 3],
+    /// The rate of work `∫ |u| dA / A` per `mu N` [m/s].
+    pub work: f64,
+    /// The Hessian of the rate of work in `(vx, vy, omega)` (zero unless asked for).
+    pub hessian: [[f64; 3]; 3],
+}
+
+/// The fan integrals over the polygon about a point `r0` ([`Polygon::fan`]), `d = r - r0`,
+/// `rho = |d|`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Fan {
+    /// `∫ rho dA` [m³].
+    pub dist: f64,
+    /// `∫ d / rho dA` [m²].
+    pub unit: [f64; 2],
+    /// `∫ d d^T / rho³ dA` as `(xx, xy, yy)` [m]: the curvature of the rate of work.
+    pub curvature: [f64; 3],
 }
 
 fn cross(a: [f64; 2], b: [f64; 2]) -> f64 {
@@ -143,43 +169,58 @@ impl Polygon {
             .iter()
             .map(|v| v[0].hypot(v[1]))
             .fold(0.0, f64::max);
+        let edges = (0..n)
+            .map(|k| {
+                let d = sub(vertices[(k + 1) % n], vertices[k]);
+                let len = (d[0] * d[0] + d[1] * d[1]).sqrt();
+                [d[0] / len, d[1] / len, len]
+            })
+            .collect();
         Ok(Self {
             vertices,
             centroid,
             area,
             polar,
             radius,
+            edges,
         })
     }
 
-    /// `(∫ |r - r0| dA, ∫ (r - r0)/|r - r0| dA)` over the polygon, `r0` relative to the centroid:
-    /// the sums over the edges of the triangles that fan from `r0` (signed: a triangle turning
-    /// clockwise about `r0` counts negatively), each in closed form.
+    /// `(∫ |r - r0| dA, ∫ (r - r0)/|r - r0| dA)` over the polygon, `r0` relative to the centroid
+    /// ([`Polygon::fan`]).
     pub fn moments(&self, r0: [f64; 2]) -> (f64, [f64; 2]) {
+        let f = self.fan_of::<false>(r0);
+        (f.dist, f.unit)
+    }
+
+    /// The integrals of [`Fan`] about `r0` (relative to the centroid): the sums over the edges
+    /// of the triangles that fan from `r0` (signed: a triangle turning clockwise about `r0`
+    /// counts negatively), each in closed form.
+    pub fn fan(&self, r0: [f64; 2]) -> Fan {
+        self.fan_of::<true>(r0)
+    }
+
+    /// [`Polygon::fan`], its curvature only if `CURVATURE` (zero otherwise).
+    fn fan_of<const CURVATURE: bool>(&self, r0: [f64; 2]) -> Fan {
         let n = self.vertices.len();
         let (mut dist, mut ux, mut uy) = (0.0, 0.0, 0.0);
+        let (mut gxx, mut gxy, mut gyy) = (0.0, 0.0, 0.0);
+        let mut a = sub(self.vertices[0], r0);
+        let mut ra = (a[0] * a[0] + a[1] * a[1]).sqrt(); // r0 is within FAR radii: no overflow
         for k in 0..n {
-            let a = sub(self.vertices[k], r0);
             let b = sub(self.vertices[(k + 1) % n], r0);
-            let d = sub(b, a);
-            let len = (d[0] * d[0] + d[1] * d[1]).sqrt(); // r0 is within FAR radii: no overflow
-            let e = [d[0] / len, d[1] / len];
+            let rb = (b[0] * b[0] + b[1] * b[1]).sqrt();
+            let [ex, ey, len] = self.edges[k];
             // the edge's line: p = h n + t e, n = (e_y, -e_x), h signed (> 0: r0 on its inner side)
-            let h = cross(a, b) / len;
+            let h = a[0] * ey - a[1] * ex;
+            let (ta, rho_a) = (a[0] * ex + a[1] * ey, ra);
+            (a, ra) = (b, rb);
             if h == 0.0 {
                 continue; // r0 on the edge's line: a triangle of no area
             }
-            let (ta, tb) = (a[0] * e[0] + a[1] * e[1], b[0] * e[0] + b[1] * e[1]);
-            let (ra, rb) = (
-                (a[0] * a[0] + a[1] * a[1]).sqrt(),
-                (b[0] * b[0] + b[1] * b[1]).sqrt(),
-            );
+            let (tb, ra) = (ta + len, rho_a);
             // rb - ra and asinh(tb/|h|) - asinh(ta/|h|) without cancellation
-            let drho = if ra + rb > 0.0 {
-                (d[0] * (a[0] + b[0]) + d[1] * (a[1] + b[1])) / (ra + rb)
-            } else {
-                0.0
-            };
+            let drho = len * (2.0 * ta + len) / (ra + rb);
             // asinh(t/|h|) = ln((t + rho)/|h|), rho = sqrt(h² + t²) the distance to the point at
             // t (ra, rb at the ends), so a difference on one side of the foot of h is one
             // logarithm of a ratio of positive sums (tb - ta = len; rb - ra = drho, |drho| <=
@@ -197,11 +238,28 @@ impl Polygon {
             // ∫ |p| dA = (h/3) ∫ sqrt(h² + t²) dt = (h/6) [t rho + h² asinh(t/|h|)]
             dist += h / 6.0 * (len * rb + ta * drho + h * h * dasinh);
             // ∫ p/|p| dA = (h/2) ∫ (h n + t e)/rho dt = (h/2) [h n asinh(t/|h|) + e rho]
-            let nrm = [e[1], -e[0]];
-            ux += 0.5 * h * (h * nrm[0] * dasinh + e[0] * drho);
-            uy += 0.5 * h * (h * nrm[1] * dasinh + e[1] * drho);
+            let nrm = [ey, -ex];
+            ux += 0.5 * h * (h * nrm[0] * dasinh + ex * drho);
+            uy += 0.5 * h * (h * nrm[1] * dasinh + ey * drho);
+            if !CURVATURE {
+                continue;
+            }
+            // ∫ p p^T/|p|³ dA = h ∫ (h n + t e)(h n + t e)^T / rho³ dt
+            //   = h [s n n^T + h c (n e^T + e n^T) + (asinh(t/|h|) - s) e e^T]
+            // between the ends, s = t/rho and c = -1/rho (their differences below)
+            let (ia, ib) = (1.0 / ra, 1.0 / rb);
+            let s = (len * ra - ta * drho) * ia * ib; // tb/rb - ta/ra
+            let c = ia - ib;
+            let (nn, ne, ee) = (h * s, h * h * c, h * (dasinh - s));
+            gxx += nn * nrm[0] * nrm[0] + 2.0 * ne * nrm[0] * ex + ee * ex * ex;
+            gxy += nn * nrm[0] * nrm[1] + ne * (nrm[0] * ey + ex * nrm[1]) + ee * ex * ey;
+            gyy += nn * nrm[1] * nrm[1] + 2.0 * ne * nrm[1] * ey + ee * ey * ey;
         }
-        (dist, [ux, uy])
+        Fan {
+            dist,
+            unit: [ux, uy],
+            curvature: [gxx, gxy, gyy],
+        }
     }
 
     /// The friction wrench `(Fx, Fy, M) / (mu N)` on the part sliding with relative twist
@@ -214,30 +272,64 @@ impl Polygon {
     /// [`Polygon::wrench`] and the rate of work of friction, `∫ |u| dA / A` (per `mu N`) [m/s]:
     /// the support function of the limit set (the wrench is minus its gradient).
     pub fn friction(&self, v: [f64; 2], omega: f64) -> ([f64; 3], f64) {
-        let speed = v[0].hypot(v[1]);
-        if omega == 0.0 && speed == 0.0 {
-            return ([0.0; 3], 0.0);
+        let f = self.friction_of::<false>(v, omega);
+        (f.wrench, f.work)
+    }
+
+    /// [`Polygon::friction`] and the Hessian of the rate of work in `(vx, vy, omega)` (the
+    /// Jacobian of minus the wrench): zero at no relative motion, where it is unbounded.
+    pub fn friction_hessian(&self, v: [f64; 2], omega: f64) -> Friction {
+        self.friction_of::<true>(v, omega)
+    }
+
+    fn friction_of<const HESSIAN: bool>(&self, v: [f64; 2], omega: f64) -> Friction {
+        // squares, not hypot: the speed only decides the path (an overflow to inf means far)
+        let speed2 = v[0] * v[0] + v[1] * v[1];
+        if omega == 0.0 && speed2 == 0.0 {
+            return Friction::default();
         }
-        if omega == 0.0 || speed > FAR * self.radius * omega.abs() {
-            return self.friction_quadrature(v, omega);
+        let near = FAR * self.radius * omega;
+        if omega == 0.0 || speed2 > near * near {
+            return self.friction_quadrature::<HESSIAN>(v, omega);
         }
         let r0 = [-v[1] / omega, v[0] / omega];
-        let (dist, [ux, uy]) = self.moments(r0);
+        let fan = self.fan_of::<HESSIAN>(r0);
+        let (dist, [ux, uy]) = (fan.dist, fan.unit);
         // u/|u| = sign(omega) z x (r - r0)/|r - r0|; r x (z x d) = (r . d) z
         let s = omega.signum() / self.area;
         let wrench = [s * uy, -s * ux, -s * (dist + r0[0] * ux + r0[1] * uy)];
-        (wrench, omega.abs() * dist / self.area)
+        let mut hessian = [[0.0; 3]; 3];
+        if HESSIAN {
+            // the Hessian of |u| is J^T (I - û û^T) J / |u|, J = d u / d(v, omega) = [I, z x r];
+            // here I - û û^T = d d^T / rho², |u| = |omega| rho and J^T d = (d, r0 x d), so it
+            // is T G T^T / (|omega| A), G = ∫ d d^T / rho³ dA, T = [I; (-r0_y, r0_x)]
+            let [gxx, gxy, gyy] = fan.curvature;
+            let q = 1.0 / (omega.abs() * self.area);
+            let (px, py) = (-r0[1], r0[0]);
+            let (g3x, g3y) = (px * gxx + py * gxy, px * gxy + py * gyy);
+            hessian = [
+                [q * gxx, q * gxy, q * g3x],
+                [q * gxy, q * gyy, q * g3y],
+                [q * g3x, q * g3y, q * (px * g3x + py * g3y)],
+            ];
+        }
+        Friction {
+            wrench,
+            work: omega.abs() * dist / self.area,
+            hessian,
+        }
     }
 
     /// [`Polygon::wrench`] by Gauss–Legendre quadrature (8 x 8 points on each triangle fanning
     /// from the centroid): exact to rounding where `u/|u|` is nearly constant over the part.
     pub fn wrench_quadrature(&self, v: [f64; 2], omega: f64) -> [f64; 3] {
-        self.friction_quadrature(v, omega).0
+        self.friction_quadrature::<false>(v, omega).wrench
     }
 
-    fn friction_quadrature(&self, v: [f64; 2], omega: f64) -> ([f64; 3], f64) {
+    fn friction_quadrature<const HESSIAN: bool>(&self, v: [f64; 2], omega: f64) -> Friction {
         let n = self.vertices.len();
         let (mut fx, mut fy, mut m, mut work) = (0.0, 0.0, 0.0, 0.0);
+        let mut hessian = [[0.0; 3]; 3];
         for k in 0..n {
             let (a, b) = (self.vertices[k], self.vertices[(k + 1) % n]);
             let jac = cross(a, b);
@@ -259,11 +351,28 @@ impl Polygon {
                     fy -= w * u[1];
                     m -= w * cross(r, u);
                     work += area * norm;
+                    if HESSIAN {
+                        // J^T (I - û û^T) J / |u| = J^T p p^T J / |u|, p = z x û
+                        let p = [-u[1] / norm, u[0] / norm];
+                        let q = [p[0], p[1], cross(r, p)];
+                        for (i, row) in hessian.iter_mut().enumerate() {
+                            for (j, x) in row.iter_mut().enumerate() {
+                                *x += w * q[i] * q[j];
+                            }
+                        }
+                    }
                 }
             }
         }
         let a = self.area;
-        ([fx / a, fy / a, m / a], work / a)
+        for x in hessian.iter_mut().flatten() {
+            *x /= a;
+        }
+        Friction {
+            wrench: [fx / a, fy / a, m / a],
+            work: work / a,
+            hessian,
+        }
     }
 
     /// Mean distance from the centroid, `∫ |r| dA / A` [m]: the largest friction moment about
@@ -353,6 +462,55 @@ mod tests {
             let (a, b) = (p.wrench(v, omega), p.wrench_quadrature(v, omega));
             for k in 0..3 {
                 assert!((a[k] - b[k]).abs() < 1e-11, "far {far}: {a:?} vs {b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_hessian_is_the_derivative_of_minus_the_wrench() {
+        let p = Polygon::new("p", &[[0.0, 0.0], [0.03, 0.0], [0.04, 0.02], [0.0, 0.01]]).unwrap();
+        let r = p.radius;
+        // instantaneous centres at the centroid, inside, on a vertex's far side, outside, near
+        // an edge's line, and far (the quadrature): omega = 3, r0 = (-vy, vx) / omega
+        let centres = [
+            [0.0, 0.0],
+            [0.004, -0.002],
+            [0.3 * r, 0.2 * r],
+            [1.7 * r, -0.4 * r],
+            [-0.5 * r, 3.0 * r],
+            [1e-3 * r, -0.0101 + 1e-9],
+            [40.0 * r, -20.0 * r],
+            [1500.0 * r, 700.0 * r],
+        ];
+        for (i, c) in centres.iter().enumerate() {
+            let omega = if i % 2 == 0 { 3.0 } else { -2.0 };
+            let x = [omega * c[1], -omega * c[0], omega];
+            let got = p.friction_hessian([x[0], x[1]], x[2]);
+            assert_eq!(got.wrench, p.wrench([x[0], x[1]], x[2]), "centre {i}");
+            // the Hessian's size, the spin's row and column in units of the part's radius
+            let sigma = [1.0, 1.0, r];
+            let norm = (0..3)
+                .map(|k| got.hessian[k][k] / (sigma[k] * sigma[k]))
+                .fold(0.0, f64::max);
+            assert!(norm > 0.0, "centre {i}");
+            for j in 0..3 {
+                // central differences of the (exact) wrench, each component on its own scale
+                let h = 1e-6 * (x[0].hypot(x[1]) + r * x[2].abs()) / if j == 2 { r } else { 1.0 };
+                let (mut up, mut down) = (x, x);
+                up[j] += h;
+                down[j] -= h;
+                let (wu, wd) = (
+                    p.wrench([up[0], up[1]], up[2]),
+                    p.wrench([down[0], down[1]], down[2]),
+                );
+                for k in 0..3 {
+                    let want = -(wu[k] - wd[k]) / (2.0 * h);
+                    assert!(
+                        (got.hessian[k][j] - want).abs() <= 1e-6 * norm * sigma[k] * sigma[j],
+                        "centre {i}: d w{k} / d x{j}: {} vs {want}",
+                        got.hessian[k][j]
+                    );
+                }
             }
         }
     }

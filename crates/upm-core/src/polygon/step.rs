@@ -38,6 +38,13 @@ pub struct Step {
     pub iterations: usize,
 }
 
+/// `Phi` at a point of the sliding solve, with its gradient and Hessian.
+struct Point {
+    value: f64,
+    grad: [f64; 3],
+    hess: [[f64; 3]; 3],
+}
+
 /// A polygon's constants for stepping it: the shape and its gyration and mean distance.
 #[derive(Debug, Clone)]
 pub struct Stepper {
@@ -48,10 +55,10 @@ pub struct Stepper {
     /// Mean distance of the footprint from the centroid [m]: the largest friction moment per
     /// `mu N`.
     pub mean_distance: f64,
-    /// Twist directions `(vx, vy, radius * omega)` over a half sphere with their rates of work
-    /// `D`: each an exact supporting plane of the limit set, for a quick lower bound of a
-    /// wrench's gauge and a start for the exact one.
-    samples: Vec<([f64; 3], f64)>,
+    /// Twist directions `e = (vx, vy, radius * omega)` over a half sphere, each divided by its
+    /// rate of work `D(e)`: each an exact supporting plane of the limit set, for a quick lower
+    /// bound of a wrench's gauge and a start for the exact one.
+    samples: Vec<[f64; 3]>,
 }
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -82,7 +89,7 @@ impl Stepper {
                 let a = golden * i as f64;
                 let e = [r * a.cos(), r * a.sin(), z];
                 let d = shape.friction([e[0], e[1]], e[2] / shape.radius).1;
-                (e, d)
+                e.map(|x| x / d)
             })
             .collect();
         Stepper {
@@ -107,7 +114,7 @@ impl Stepper {
         let k = self.gyration;
         let c = if was_stuck { hold } else { slide };
         // the wrench per mu N that keeps the part with the plate, force and moment / mean distance
-        let force = free[0].hypot(free[1]) / c;
+        let force = (free[0] * free[0] + free[1] * free[1]).sqrt() / c;
         let moment = (k * k * free[2]).abs() / (c * self.mean_distance);
         let stuck = Step {
             w: [0.0; 3],
@@ -136,8 +143,8 @@ impl Stepper {
         let z = [free[0] / c, free[1] / c, k * k * free[2] / c];
         let zs = [z[0], z[1], z[2] / l];
         let (mut lower, mut best) = (f64::NEG_INFINITY, [0.0; 3]);
-        for &(e, d) in &self.samples {
-            let r = dot(zs, e) / d;
+        for &e in &self.samples {
+            let r = dot(zs, e);
             if r.abs() > lower {
                 lower = r.abs();
                 best = if r < 0.0 { [-e[0], -e[1], -e[2]] } else { e };
@@ -159,13 +166,14 @@ impl Stepper {
         self.slide(free, slide, toward, guess)
     }
 
-    /// The sliding solve: the minimiser of `Phi` (module docs), not at 0. It starts from the
-    /// lowest of: the free twist, `guess`, and the best points on the rays through the free twist
-    /// and through `toward` (either sign; the way the part starts to slide): along a ray `t d`,
-    /// `Phi` is a parabola in `t` (`D` is homogeneous), least at `t = (<d, y*> - c D(d)) / |d|²`.
-    /// Near the limit surface the minimiser is small and lies close to `toward`'s ray, where
-    /// `Phi` is smooth; started from the free twist instead, Newton's iterates could end at the
-    /// kink at 0.
+    /// The sliding solve: the minimiser of `Phi` (module docs), not at 0, by Newton's method with
+    /// the exact Hessian ([`Polygon::friction_hessian`]). A part sliding on starts from `guess`,
+    /// its last relative twist; otherwise the solve starts from the lowest of the free twist and
+    /// the best points on the rays through the free twist and through `toward` (either sign; the
+    /// way the part starts to slide): along a ray `t d`, `Phi` is a parabola in `t` (`D` is
+    /// homogeneous), least at `t = (<d, y*> - c D(d)) / |d|²`. Near the limit surface the
+    /// minimiser is small and lies close to `toward`'s ray, where `Phi` is smooth; started from
+    /// the free twist instead, Newton's iterates could end at the kink at 0.
     fn slide(
         &self,
         free: [f64; 3],
@@ -176,66 +184,57 @@ impl Stepper {
         let k = self.gyration;
         // scaled coordinates y = (vx, vy, k omega): Phi = |y - y*|²/2 + c D
         let target = [free[0], free[1], k * free[2]];
-        let phi = |y: [f64; 3]| -> (f64, [f64; 3]) {
-            let (w, d) = self.shape.friction([y[0], y[1]], y[2] / k);
+        let scale = [1.0, 1.0, 1.0 / k];
+        // Phi, its gradient and its Hessian I + c S H S (H the Hessian of D, S = diag(1, 1, 1/k))
+        let phi = |y: [f64; 3]| -> Point {
+            let f = self.shape.friction_hessian([y[0], y[1]], y[2] / k);
             let r = [y[0] - target[0], y[1] - target[1], y[2] - target[2]];
-            let value = 0.5 * dot(r, r) + c * d;
-            let grad = [r[0] - c * w[0], r[1] - c * w[1], r[2] - c * w[2] / k];
-            (value, grad)
+            let grad = std::array::from_fn(|i| r[i] - c * f.wrench[i] * scale[i]);
+            let hess = std::array::from_fn(|i| {
+                std::array::from_fn(|j| {
+                    let eye = if i == j { 1.0 } else { 0.0 };
+                    eye + c * f.hessian[i][j] * scale[i] * scale[j]
+                })
+            });
+            Point {
+                value: 0.5 * dot(r, r) + c * f.work,
+                grad,
+                hess,
+            }
         };
         let size = dot(target, target).sqrt();
-        let mut y = target;
-        let (mut value, mut grad) = phi(y);
         let guess = guess.filter(|g| g.iter().any(|&x| x != 0.0));
-        if let Some(g) = guess {
-            let cand = [g[0], g[1], k * g[2]];
-            let (vc, gc) = phi(cand);
-            if vc < value {
-                (y, value, grad) = (cand, vc, gc);
+        let (mut y, mut at) = match guess {
+            // a part sliding on starts from its last twist, near the answer
+            Some(g) => {
+                let y = [g[0], g[1], k * g[2]];
+                (y, phi(y))
             }
-        }
-        let rays = [target, toward, [-toward[0], -toward[1], -toward[2]]];
-        for d in rays.into_iter().filter(|d| dot(*d, *d) > 0.0) {
-            let (_, dd) = self.shape.friction([d[0], d[1]], d[2] / k);
-            let t = (dot(d, target) - c * dd) / dot(d, d);
-            if t > 0.0 {
-                let cand = [t * d[0], t * d[1], t * d[2]];
-                let (vc, gc) = phi(cand);
-                if vc < value {
-                    (y, value, grad) = (cand, vc, gc);
-                }
-            }
-        }
+            None => self.start(target, toward, c, &phi),
+        };
         let mut fine = 0;
-        let mut hess = [[0.0; 3]; 3];
         let mut last = f64::INFINITY;
+        // the last whole Newton step's length (infinite when none)
+        let mut previous = f64::INFINITY;
         for it in 0..MAX_ITERATIONS {
             let norm = dot(y, y).sqrt();
-            if fine == 0 {
-                // the Hessian I + c J, J the Jacobian of minus the scaled wrench, by differences
-                // (kept once Phi stops resolving its fall: it changes no more)
-                let h = 1e-7 * norm;
-                for j in 0..3 {
-                    let mut yj = y;
-                    yj[j] += h;
-                    let (_, gj) = phi(yj);
-                    for (i, row) in hess.iter_mut().enumerate() {
-                        row[j] = (gj[i] - grad[i]) / h;
-                    }
-                }
-                for (i, j) in [(1, 0), (2, 0), (2, 1)] {
-                    let s = 0.5 * (hess[i][j] + hess[j][i]);
-                    (hess[i][j], hess[j][i]) = (s, s);
-                }
-            }
-            let mut step = solve3(hess, [-grad[0], -grad[1], -grad[2]])
+            let grad = at.grad;
+            let mut step = solve3(at.hess, [-grad[0], -grad[1], -grad[2]])
                 .filter(|s| dot(*s, grad) < 0.0)
                 .unwrap_or([-grad[0], -grad[1], -grad[2]]);
             let length = dot(step, step).sqrt();
             if length <= TOLERANCE * norm + 1e-15 * size {
                 return Ok(self.done(y, it));
             }
-            if -dot(step, grad) <= 1e-14 * value {
+            // converging quadratically, |next| ~ |step|² |step| / |previous|²: when that is
+            // below the tolerance this step is the last, taken without evaluating Phi after it
+            if length <= 1e-4 * norm
+                && length * length * length <= TOLERANCE * norm * previous * previous
+            {
+                let y = [y[0] + step[0], y[1] + step[1], y[2] + step[2]];
+                return Ok(self.done(y, it + 1));
+            }
+            if -dot(step, grad) <= 1e-14 * at.value {
                 // Phi's fall is below its rounding: Newton's region, where its steps are taken
                 // whole while they shrink, the gradient (exact to rounding) falling to its floor
                 fine += 1;
@@ -244,29 +243,57 @@ impl Stepper {
                 }
                 last = length;
                 y = [y[0] + step[0], y[1] + step[1], y[2] + step[2]];
-                (value, grad) = phi(y);
+                at = phi(y);
                 continue;
             }
             // halve the step until Phi falls (Armijo); a convex Phi always falls for a small one
-            let mut moved = false;
+            let (mut moved, mut full) = (false, true);
             for _ in 0..60 {
                 let cand = [y[0] + step[0], y[1] + step[1], y[2] + step[2]];
-                let (vc, gc) = phi(cand);
-                if vc < value && vc <= value + 1e-4 * dot(step, grad) {
-                    (y, value, grad, moved) = (cand, vc, gc, true);
+                let next = phi(cand);
+                if next.value < at.value && next.value <= at.value + 1e-4 * dot(step, grad) {
+                    (y, at, moved) = (cand, next, true);
                     break;
                 }
+                full = false;
                 step = [0.5 * step[0], 0.5 * step[1], 0.5 * step[2]];
             }
             if !moved {
                 // no step within rounding lowers Phi: the minimum to rounding
                 return Ok(self.done(y, it + 1));
             }
+            previous = if full { length } else { f64::INFINITY };
         }
         Err(Error::Convergence(format!(
             "the sliding step of a polygon part from the relative twist {free:?} did not converge \
              in {MAX_ITERATIONS} Newton iterations"
         )))
+    }
+
+    /// A start for the sliding solve of a part with no twist to go on: the lowest of the free
+    /// twist and the best points on the rays through it and through `toward` (either sign).
+    fn start(
+        &self,
+        target: [f64; 3],
+        toward: [f64; 3],
+        c: f64,
+        phi: &impl Fn([f64; 3]) -> Point,
+    ) -> ([f64; 3], Point) {
+        let k = self.gyration;
+        let mut best = (target, phi(target));
+        let rays = [target, toward, [-toward[0], -toward[1], -toward[2]]];
+        for d in rays.into_iter().filter(|d| dot(*d, *d) > 0.0) {
+            let (_, dd) = self.shape.friction([d[0], d[1]], d[2] / k);
+            let t = (dot(d, target) - c * dd) / dot(d, d);
+            if t > 0.0 {
+                let cand = [t * d[0], t * d[1], t * d[2]];
+                let at = phi(cand);
+                if at.value < best.1.value {
+                    best = (cand, at);
+                }
+            }
+        }
+        best
     }
 
     fn done(&self, y: [f64; 3], iterations: usize) -> Step {
