@@ -148,6 +148,10 @@ fn main() {
         batch();
         return;
     }
+    if std::env::args().any(|a| a == "--polygons") {
+        polygons(&trans, &rot, dt);
+        return;
+    }
     if std::env::args().any(|a| a == "--one-build") {
         // A child run: this process's build (UPM_SIMD) at every size.
         let row: Vec<String> = sizes
@@ -184,6 +188,7 @@ fn main() {
     let per_call = integrator(&motion, n, 2, dt) * 2.0;
     println!("  a 2-step call on {n} parts: {per_call:.1} ns per part (chosen build)");
     disks(&trans, &rot, dt);
+    polygons(&trans, &rot, dt);
     batch();
 }
 
@@ -261,6 +266,42 @@ fn disks(trans: &PlateMotion, rot: &PlateMotion, dt: f64) {
         record_every: steps,
     };
     println!("disk parts, {n} disks x {steps} steps, ns per disk-step on 1 thread:");
+    for (name, motion) in [("translating plate", trans), ("rotating plate", rot)] {
+        let t = one.install(|| best_of(5, || simulate(motion, &parts, &cfg).unwrap()));
+        println!("  {name:<22}{:8.1}", t * 1e9 / (n * steps) as f64);
+    }
+}
+
+/// Hexagons (issue 27's shape for its 150 ns target) of 8 mm circumradius spinning at the start
+/// (up to 5 rad/s either way), ns per part-step on one thread, recording only the last step.
+fn polygons(trans: &PlateMotion, rot: &PlateMotion, dt: f64) {
+    let (n, steps) = (200, 2000);
+    let one = one_thread();
+    let position = spread(n);
+    let mut parts = Parts::points(position, vec![[0.0; 2]; n], vec![0.3; n], vec![0.4; n]);
+    let hexagon: Vec<[f64; 2]> = (0..6)
+        .map(|k| {
+            let a = std::f64::consts::PI * k as f64 / 3.0;
+            [0.008 * a.cos(), 0.008 * a.sin()]
+        })
+        .collect();
+    let shape = upm_core::polygon::Polygon::new("hexagon", &hexagon).unwrap();
+    parts.polygons = (0..n).map(|i| (i, shape.clone())).collect();
+    parts.spin = (0..n)
+        .map(|i| 5.0 * (2.0 * (i * 7919 % n) as f64 / n as f64 - 1.0))
+        .collect();
+    parts.angle = (0..n).map(|i| (i * 104_729 % 628) as f64 / 100.0).collect();
+    let cfg = Config {
+        dt,
+        duration: steps as f64 * dt,
+        g: 9.81,
+        plate_size: None,
+        record_every: steps,
+    };
+    println!(
+        "hexagons, {n} x {steps} steps, ns per part-step on 1 thread (fan build: {}):",
+        upm_core::sim::simd().name()
+    );
     for (name, motion) in [("translating plate", trans), ("rotating plate", rot)] {
         let t = one.install(|| best_of(5, || simulate(motion, &parts, &cfg).unwrap()));
         println!("  {name:<22}{:8.1}", t * 1e9 / (n * steps) as f64);

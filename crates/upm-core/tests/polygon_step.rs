@@ -173,3 +173,55 @@ fn a_polygon_of_many_sides_steps_as_the_disk() {
         assert!(err < 2e-5 * scale, "twist {i}: {st:?} vs {disk:?}");
     }
 }
+
+#[test]
+fn a_start_far_from_a_small_answer_ends_at_the_minimiser_not_at_the_kink() {
+    // Free twists just outside the limit set (the answer is small) solved from guesses far from
+    // it, as a part sliding on hands its last twist when the motion turns: the answer is the one
+    // of a cold start, and it satisfies the optimality condition.
+    let shape = regular(6, 0.008);
+    let p = Stepper::new(shape.clone());
+    let k2 = p.gyration * p.gyration;
+    let c = 0.3 * 9.81 * 7.14e-5;
+    let r = uniform(6 * 300, 11);
+    let mut checked = 0;
+    for i in 0..300 {
+        let [a, b, s, g0, g1, g2] = std::array::from_fn(|j| r[6 * i + j]);
+        // just outside: the force a hair over the unit disk, a moment of either sign
+        let angle = std::f64::consts::PI * a;
+        let force = 1.0 + 0.01 * (b + 1.0);
+        let free = [
+            c * force * angle.cos(),
+            c * force * angle.sin(),
+            c * 3.0 * s * p.mean_distance / k2,
+        ];
+        let cold = p.step(free, c, c, false, None).unwrap();
+        if cold.stuck {
+            continue;
+        }
+        // guesses up to ten times the free twist, in any direction
+        let guess = [
+            10.0 * c * g0,
+            10.0 * c * g1,
+            10.0 * c * g2 * p.mean_distance / k2,
+        ];
+        let warm = p.step(free, c, c, false, Some(guess)).unwrap();
+        let size = free[0].hypot(free[1]) + p.gyration * free[2].abs();
+        let f = shape.wrench([warm.w[0], warm.w[1]], warm.w[2]);
+        let res = [
+            warm.w[0] - free[0] - c * f[0],
+            warm.w[1] - free[1] - c * f[1],
+            k2 * (warm.w[2] - free[2]) - c * f[2],
+        ];
+        assert!(
+            res[0].abs() + res[1].abs() + res[2].abs() / p.gyration < 1e-12 * size,
+            "twist {i}: residual {res:?}, free {free:?}, guess {guess:?}: {warm:?} vs {cold:?}"
+        );
+        for j in 0..3 {
+            let scale = if j == 2 { size / p.gyration } else { size };
+            assert!((warm.w[j] - cold.w[j]).abs() < 1e-11 * scale, "twist {i}");
+        }
+        checked += 1;
+    }
+    assert!(checked > 100, "{checked} sliding");
+}

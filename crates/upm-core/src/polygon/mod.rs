@@ -21,6 +21,10 @@
 
 use crate::error::{Error, Result};
 
+#[cfg(target_arch = "x86_64")]
+mod avx2;
+mod far;
+mod lanes;
 mod limit;
 mod step;
 pub use limit::Gauge;
@@ -47,9 +51,10 @@ pub struct Polygon {
     pub polar: f64,
     /// Largest distance of a vertex from the centroid [m].
     pub radius: f64,
-    /// Each edge's unit direction and length, `(e_x, e_y, len)` (edge `k` runs from vertex `k`
-    /// to `k + 1`): the shape's, whatever the instantaneous centre.
-    edges: Vec<[f64; 3]>,
+    /// The edges in lanes, with their directions and lengths ([`lanes`]).
+    lanes: Vec<lanes::Edges>,
+    /// `∫ r r^T dA / A` about the centroid as `(xx, xy, yy)` [m²] ([`far`]).
+    second: [f64; 3],
 }
 
 /// The friction of a relative twist ([`Polygon::friction_hessian`]).
@@ -169,20 +174,24 @@ impl Polygon {
             .iter()
             .map(|v| v[0].hypot(v[1]))
             .fold(0.0, f64::max);
-        let edges = (0..n)
-            .map(|k| {
-                let d = sub(vertices[(k + 1) % n], vertices[k]);
-                let len = (d[0] * d[0] + d[1] * d[1]).sqrt();
-                [d[0] / len, d[1] / len, len]
-            })
-            .collect();
+        let lanes = lanes::edges(&vertices);
+        let mut second = [0.0; 3];
+        for k in 0..n {
+            let (a, b) = (vertices[k], vertices[(k + 1) % n]);
+            let c = cross(a, b) / area;
+            second[0] += c * (a[0] * a[0] + a[0] * b[0] + b[0] * b[0]) / 12.0;
+            second[1] +=
+                c * (2.0 * a[0] * a[1] + a[0] * b[1] + b[0] * a[1] + 2.0 * b[0] * b[1]) / 24.0;
+            second[2] += c * (a[1] * a[1] + a[1] * b[1] + b[1] * b[1]) / 12.0;
+        }
         Ok(Self {
             vertices,
             centroid,
             area,
             polar,
             radius,
-            edges,
+            lanes,
+            second,
         })
     }
 
@@ -202,64 +211,7 @@ impl Polygon {
 
     /// [`Polygon::fan`], its curvature only if `CURVATURE` (zero otherwise).
     fn fan_of<const CURVATURE: bool>(&self, r0: [f64; 2]) -> Fan {
-        let n = self.vertices.len();
-        let (mut dist, mut ux, mut uy) = (0.0, 0.0, 0.0);
-        let (mut gxx, mut gxy, mut gyy) = (0.0, 0.0, 0.0);
-        let mut a = sub(self.vertices[0], r0);
-        let mut ra = (a[0] * a[0] + a[1] * a[1]).sqrt(); // r0 is within FAR radii: no overflow
-        for k in 0..n {
-            let b = sub(self.vertices[(k + 1) % n], r0);
-            let rb = (b[0] * b[0] + b[1] * b[1]).sqrt();
-            let [ex, ey, len] = self.edges[k];
-            // the edge's line: p = h n + t e, n = (e_y, -e_x), h signed (> 0: r0 on its inner side)
-            let h = a[0] * ey - a[1] * ex;
-            let (ta, rho_a) = (a[0] * ex + a[1] * ey, ra);
-            (a, ra) = (b, rb);
-            if h == 0.0 {
-                continue; // r0 on the edge's line: a triangle of no area
-            }
-            let (tb, ra) = (ta + len, rho_a);
-            // rb - ra and asinh(tb/|h|) - asinh(ta/|h|) without cancellation
-            let drho = len * (2.0 * ta + len) / (ra + rb);
-            // asinh(t/|h|) = ln((t + rho)/|h|), rho = sqrt(h² + t²) the distance to the point at
-            // t (ra, rb at the ends), so a difference on one side of the foot of h is one
-            // logarithm of a ratio of positive sums (tb - ta = len; rb - ra = drho, |drho| <=
-            // len), and across the foot a sum of two, each `ln_1p` of a positive term: no hypot,
-            // no cancellation.
-            let hh = h.abs();
-            let half = |t: f64, rho: f64| (t * (hh + rho + t) / (hh * (hh + rho))).ln_1p();
-            let dasinh = if ta >= 0.0 {
-                ((len + drho) / (ta + ra)).ln_1p()
-            } else if tb <= 0.0 {
-                ((len - drho) / (rb - tb)).ln_1p()
-            } else {
-                half(tb, rb) + half(-ta, ra)
-            };
-            // ∫ |p| dA = (h/3) ∫ sqrt(h² + t²) dt = (h/6) [t rho + h² asinh(t/|h|)]
-            dist += h / 6.0 * (len * rb + ta * drho + h * h * dasinh);
-            // ∫ p/|p| dA = (h/2) ∫ (h n + t e)/rho dt = (h/2) [h n asinh(t/|h|) + e rho]
-            let nrm = [ey, -ex];
-            ux += 0.5 * h * (h * nrm[0] * dasinh + ex * drho);
-            uy += 0.5 * h * (h * nrm[1] * dasinh + ey * drho);
-            if !CURVATURE {
-                continue;
-            }
-            // ∫ p p^T/|p|³ dA = h ∫ (h n + t e)(h n + t e)^T / rho³ dt
-            //   = h [s n n^T + h c (n e^T + e n^T) + (asinh(t/|h|) - s) e e^T]
-            // between the ends, s = t/rho and c = -1/rho (their differences below)
-            let (ia, ib) = (1.0 / ra, 1.0 / rb);
-            let s = (len * ra - ta * drho) * ia * ib; // tb/rb - ta/ra
-            let c = ia - ib;
-            let (nn, ne, ee) = (h * s, h * h * c, h * (dasinh - s));
-            gxx += nn * nrm[0] * nrm[0] + 2.0 * ne * nrm[0] * ex + ee * ex * ex;
-            gxy += nn * nrm[0] * nrm[1] + ne * (nrm[0] * ey + ex * nrm[1]) + ee * ex * ey;
-            gyy += nn * nrm[1] * nrm[1] + 2.0 * ne * nrm[1] * ey + ee * ey * ey;
-        }
-        Fan {
-            dist,
-            unit: [ux, uy],
-            curvature: [gxx, gxy, gyy],
-        }
+        lanes::fan::<CURVATURE>(self, r0)
     }
 
     /// The friction wrench `(Fx, Fy, M) / (mu N)` on the part sliding with relative twist
@@ -290,7 +242,7 @@ impl Polygon {
         }
         let near = FAR * self.radius * omega;
         if omega == 0.0 || speed2 > near * near {
-            return self.friction_quadrature::<HESSIAN>(v, omega);
+            return far::friction::<HESSIAN>(self, v, omega);
         }
         let r0 = [-v[1] / omega, v[0] / omega];
         let fan = self.fan_of::<HESSIAN>(r0);
@@ -323,56 +275,7 @@ impl Polygon {
     /// [`Polygon::wrench`] by Gauss–Legendre quadrature (8 x 8 points on each triangle fanning
     /// from the centroid): exact to rounding where `u/|u|` is nearly constant over the part.
     pub fn wrench_quadrature(&self, v: [f64; 2], omega: f64) -> [f64; 3] {
-        self.friction_quadrature::<false>(v, omega).wrench
-    }
-
-    fn friction_quadrature<const HESSIAN: bool>(&self, v: [f64; 2], omega: f64) -> Friction {
-        let n = self.vertices.len();
-        let (mut fx, mut fy, mut m, mut work) = (0.0, 0.0, 0.0, 0.0);
-        let mut hessian = [[0.0; 3]; 3];
-        for k in 0..n {
-            let (a, b) = (self.vertices[k], self.vertices[(k + 1) % n]);
-            let jac = cross(a, b);
-            for (&s, &ws) in GAUSS_X.iter().zip(&GAUSS_W) {
-                for (&t, &wt) in GAUSS_X.iter().zip(&GAUSS_W) {
-                    // the triangle (0, a, b) as s (a + t (b - a)), dA = s |a x b| ds dt
-                    let r = [
-                        s * (a[0] + t * (b[0] - a[0])),
-                        s * (a[1] + t * (b[1] - a[1])),
-                    ];
-                    let u = [v[0] - omega * r[1], v[1] + omega * r[0]];
-                    let norm = u[0].hypot(u[1]);
-                    if norm == 0.0 {
-                        continue;
-                    }
-                    let area = ws * wt * s * jac;
-                    let w = area / norm;
-                    fx -= w * u[0];
-                    fy -= w * u[1];
-                    m -= w * cross(r, u);
-                    work += area * norm;
-                    if HESSIAN {
-                        // J^T (I - û û^T) J / |u| = J^T p p^T J / |u|, p = z x û
-                        let p = [-u[1] / norm, u[0] / norm];
-                        let q = [p[0], p[1], cross(r, p)];
-                        for (i, row) in hessian.iter_mut().enumerate() {
-                            for (j, x) in row.iter_mut().enumerate() {
-                                *x += w * q[i] * q[j];
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        let a = self.area;
-        for x in hessian.iter_mut().flatten() {
-            *x /= a;
-        }
-        Friction {
-            wrench: [fx / a, fy / a, m / a],
-            work: work / a,
-            hessian,
-        }
+        far::quadrature::<false, 8>(self, v, omega).wrench
     }
 
     /// Mean distance from the centroid, `∫ |r| dA / A` [m]: the largest friction moment about
@@ -381,30 +284,6 @@ impl Polygon {
         self.moments([0.0, 0.0]).0 / self.area
     }
 }
-
-/// Gauss–Legendre nodes on [0, 1], 8 points.
-const GAUSS_X: [f64; 8] = [
-    0.019_855_071_751_231_856,
-    0.101_666_761_293_186_63,
-    0.237_233_795_041_835_5,
-    0.408_282_678_752_175_1,
-    0.591_717_321_247_825,
-    0.762_766_204_958_164_5,
-    0.898_333_238_706_813_4,
-    0.980_144_928_248_768_1,
-];
-
-/// Gauss–Legendre weights on [0, 1], 8 points.
-const GAUSS_W: [f64; 8] = [
-    0.050_614_268_145_188_13,
-    0.111_190_517_226_687_24,
-    0.156_853_322_938_943_64,
-    0.181_341_891_689_181,
-    0.181_341_891_689_181,
-    0.156_853_322_938_943_64,
-    0.111_190_517_226_687_24,
-    0.050_614_268_145_188_13,
-];
 
 #[cfg(test)]
 mod tests {

@@ -57,8 +57,8 @@ pub struct Stepper {
     pub mean_distance: f64,
     /// Twist directions `e = (vx, vy, radius * omega)` over a half sphere, each divided by its
     /// rate of work `D(e)`: each an exact supporting plane of the limit set, for a quick lower
-    /// bound of a wrench's gauge and a start for the exact one.
-    samples: Vec<[f64; 3]>,
+    /// bound of a wrench's gauge and a start for the exact one. Their components (`samples[j][i]`: component `j` of direction `i`).
+    samples: Box<[[f64; SAMPLES]; 3]>,
 }
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -82,16 +82,17 @@ impl Stepper {
         let mean_distance = shape.mean_distance();
         // directions over a half sphere (D is even), golden-angle spiral
         let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-        let samples = (0..SAMPLES)
-            .map(|i| {
-                let z = (i as f64 + 0.5) / SAMPLES as f64;
-                let r = (1.0 - z * z).sqrt();
-                let a = golden * i as f64;
-                let e = [r * a.cos(), r * a.sin(), z];
-                let d = shape.friction([e[0], e[1]], e[2] / shape.radius).1;
-                e.map(|x| x / d)
-            })
-            .collect();
+        let mut samples = Box::new([[0.0; SAMPLES]; 3]);
+        for i in 0..SAMPLES {
+            let z = (i as f64 + 0.5) / SAMPLES as f64;
+            let r = (1.0 - z * z).sqrt();
+            let a = golden * i as f64;
+            let e = [r * a.cos(), r * a.sin(), z];
+            let d = shape.friction([e[0], e[1]], e[2] / shape.radius).1;
+            for j in 0..3 {
+                samples[j][i] = e[j] / d;
+            }
+        }
         Stepper {
             shape,
             gyration,
@@ -137,19 +138,18 @@ impl Stepper {
                 iterations: 0,
             });
         }
+        // outside the cylinder that holds the limit set a part sliding on needs no direction to
+        // start from: it slides, from its last twist
+        let guess = guess.filter(|g| g.iter().any(|&x| x != 0.0));
+        if (force > 1.0 || moment > 1.0) && guess.is_some() {
+            return self.slide(free, slide, None, guess);
+        }
         // The gauge's lower bound over the sampled directions (exact supporting planes of the
         // limit set): over 1, the part slides; else the exact gauge, started at the best one.
         let l = self.shape.radius;
         let z = [free[0] / c, free[1] / c, k * k * free[2] / c];
         let zs = [z[0], z[1], z[2] / l];
-        let (mut lower, mut best) = (f64::NEG_INFINITY, [0.0; 3]);
-        for &e in &self.samples {
-            let r = dot(zs, e);
-            if r.abs() > lower {
-                lower = r.abs();
-                best = if r < 0.0 { [-e[0], -e[1], -e[2]] } else { e };
-            }
-        }
+        let (lower, best) = self.lower_bound(zs);
         // the way it starts to slide, in the solve's coordinates (v, k omega): minus the gauge's
         // direction (either sign is tried)
         let mut toward = [best[0], best[1], k * best[2] / l];
@@ -163,12 +163,33 @@ impl Stepper {
         // Static friction let go (or the part was sliding): it slides under sliding friction. A
         // wrench outside the static limit set (scaled by mu / mu_s <= 1) lies outside the sliding
         // one too, which contains 0 and is convex, so the minimiser is not 0.
-        self.slide(free, slide, toward, guess)
+        self.slide(free, slide, Some(toward), guess)
+    }
+
+    /// The largest ratio `<zs, e> / D(e)` over the sampled directions (a lower bound of the
+    /// gauge of `zs`, spin scaled by the radius) and the direction, signed, that gives it.
+    fn lower_bound(&self, zs: [f64; 3]) -> (f64, [f64; 3]) {
+        let [px, py, pz] = &*self.samples;
+        let mut r = [0.0; SAMPLES];
+        for i in 0..SAMPLES {
+            r[i] = zs[0] * px[i] + zs[1] * py[i] + zs[2] * pz[i];
+        }
+        let (mut lower, mut at) = (f64::NEG_INFINITY, 0);
+        for (i, x) in r.iter().enumerate() {
+            if x.abs() > lower {
+                (lower, at) = (x.abs(), i);
+            }
+        }
+        let sign = if r[at] < 0.0 { -1.0 } else { 1.0 };
+        let best = [sign * px[at], sign * py[at], sign * pz[at]];
+        (lower, best)
     }
 
     /// The sliding solve: the minimiser of `Phi` (module docs), not at 0, by Newton's method with
-    /// the exact Hessian ([`Polygon::friction_hessian`]). A part sliding on starts from `guess`,
-    /// its last relative twist; otherwise the solve starts from the lowest of the free twist and
+    /// the exact Hessian ([`Polygon::friction_hessian`]). A part sliding on starts from `guess`
+    /// (its last relative twist, extrapolated); if the iterates end where the gradient is not
+    /// zero (at the kink at 0, when the answer is small and the guess far from it: a test caught
+    /// it), and otherwise, the solve starts from the lowest of the free twist and
     /// the best points on the rays through the free twist and through `toward` (either sign; the
     /// way the part starts to slide): along a ray `t d`, `Phi` is a parabola in `t` (`D` is
     /// homogeneous), least at `t = (<d, y*> - c D(d)) / |d|²`. Near the limit surface the
@@ -178,7 +199,7 @@ impl Stepper {
         &self,
         free: [f64; 3],
         c: f64,
-        toward: [f64; 3],
+        toward: Option<[f64; 3]>,
         guess: Option<[f64; 3]>,
     ) -> Result<Step> {
         let k = self.gyration;
@@ -203,15 +224,40 @@ impl Stepper {
             }
         };
         let size = dot(target, target).sqrt();
-        let guess = guess.filter(|g| g.iter().any(|&x| x != 0.0));
-        let (mut y, mut at) = match guess {
-            // a part sliding on starts from its last twist, near the answer
-            Some(g) => {
-                let y = [g[0], g[1], k * g[2]];
-                (y, phi(y))
+        if let Some(g) = guess.filter(|g| g.iter().any(|&x| x != 0.0)) {
+            let y = [g[0], g[1], k * g[2]];
+            if let Some(st) = self.newton(y, phi(y), size + c, &phi)? {
+                return Ok(st);
             }
-            None => self.start(target, toward, c, &phi),
+        }
+        let toward = toward.unwrap_or_else(|| {
+            let z = [free[0] / c, free[1] / c, k * k * free[2] / c];
+            let best = self.lower_bound([z[0], z[1], z[2] / self.shape.radius]).1;
+            [best[0], best[1], k * best[2] / self.shape.radius]
+        });
+        let (y, at) = self.start(target, toward, c, &phi);
+        match self.newton(y, at, size + c, &phi)? {
+            Some(st) => Ok(st),
+            None => Err(Error::Convergence(format!(
+                "the sliding step of a polygon part from the relative twist {free:?} ended off \
+                 the minimiser"
+            ))),
+        }
+    }
+
+    /// Newton's method from `y` (where `Phi` is `at`): the step, or None when it ends where the
+    /// gradient is not zero to `1e-9` of `scale` (`|y*| + c`, the gradient's terms).
+    fn newton(
+        &self,
+        mut y: [f64; 3],
+        mut at: Point,
+        scale: f64,
+        phi: &impl Fn([f64; 3]) -> Point,
+    ) -> Result<Option<Step>> {
+        let settled = |y: [f64; 3], at: &Point, it: usize| {
+            (dot(at.grad, at.grad).sqrt() <= 1e-9 * scale).then(|| self.done(y, it))
         };
+        let size = scale;
         let mut fine = 0;
         let mut last = f64::INFINITY;
         // the last whole Newton step's length (infinite when none)
@@ -224,22 +270,23 @@ impl Stepper {
                 .unwrap_or([-grad[0], -grad[1], -grad[2]]);
             let length = dot(step, step).sqrt();
             if length <= TOLERANCE * norm + 1e-15 * size {
-                return Ok(self.done(y, it));
+                return Ok(settled(y, &at, it));
             }
             // converging quadratically, |next| ~ |step|² |step| / |previous|²: when that is
             // below the tolerance this step is the last, taken without evaluating Phi after it
-            if length <= 1e-4 * norm
+            if previous.is_finite()
+                && length <= 1e-7 * norm
                 && length * length * length <= TOLERANCE * norm * previous * previous
             {
                 let y = [y[0] + step[0], y[1] + step[1], y[2] + step[2]];
-                return Ok(self.done(y, it + 1));
+                return Ok(Some(self.done(y, it + 1)));
             }
             if -dot(step, grad) <= 1e-14 * at.value {
                 // Phi's fall is below its rounding: Newton's region, where its steps are taken
                 // whole while they shrink, the gradient (exact to rounding) falling to its floor
                 fine += 1;
                 if fine > FINE_STEPS || length >= 0.5 * last {
-                    return Ok(self.done(y, it));
+                    return Ok(settled(y, &at, it));
                 }
                 last = length;
                 y = [y[0] + step[0], y[1] + step[1], y[2] + step[2]];
@@ -260,13 +307,13 @@ impl Stepper {
             }
             if !moved {
                 // no step within rounding lowers Phi: the minimum to rounding
-                return Ok(self.done(y, it + 1));
+                return Ok(settled(y, &at, it + 1));
             }
             previous = if full { length } else { f64::INFINITY };
         }
         Err(Error::Convergence(format!(
-            "the sliding step of a polygon part from the relative twist {free:?} did not converge \
-             in {MAX_ITERATIONS} Newton iterations"
+            "the sliding step of a polygon part did not converge in {MAX_ITERATIONS} Newton \
+             iterations (last iterate {y:?})"
         )))
     }
 

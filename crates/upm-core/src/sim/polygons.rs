@@ -33,8 +33,10 @@ pub(super) struct PolygonState {
     pub(super) angle: f64,
     pub(super) spin: f64,
     stuck: bool,
-    /// The relative twist in the part's frame after the last step (the next solve's guess).
+    /// The relative twist in the part's frame after the last step and after the one before
+    /// (zero where that step did not slide): the next solve starts from their extrapolation.
     last: [f64; 3],
+    before: [f64; 3],
     pub(super) active: bool,
     pub(super) left: Option<f64>,
     slide: f64,
@@ -76,6 +78,7 @@ impl PolygonState {
             // A part that starts moving with the plate surface starts stuck.
             stuck: moves_with_plate(c, v, u0) && spin == u0[2],
             last: [0.0; 3],
+            before: [0.0; 3],
             active: !outside,
             left: outside.then_some(0.0),
             slide: parts.mu(i) * cfg.g * cfg.dt,
@@ -110,7 +113,7 @@ impl PolygonState {
                 self.slide,
                 self.hold,
                 self.stuck,
-                (!self.stuck).then_some(self.last),
+                (!self.stuck).then(|| self.guess()),
             )
             .map_err(|e| e.with_context(&format!("part {}", self.index)))?;
         let w = turn(cs, [st.w[0], st.w[1]]);
@@ -122,6 +125,17 @@ impl PolygonState {
         })
     }
 
+    /// The next sliding solve's start: the last step's relative twist, moved on by its change
+    /// over the last step when both steps slid (the twist changes smoothly while the part
+    /// slides, so the start is off by the second difference, not the first).
+    fn guess(&self) -> [f64; 3] {
+        let (l, b) = (self.last, self.before);
+        if b == [0.0; 3] || l == [0.0; 3] {
+            return l;
+        }
+        std::array::from_fn(|i| l[i] + (l[i] - b[i]))
+    }
+
     /// Moves to the state `next` over one step of `dt`: the centroid and angle by the trapezoid.
     pub(super) fn advance(&mut self, next: Next, dt: f64) {
         let [x, y] = self.c;
@@ -130,6 +144,7 @@ impl PolygonState {
             y + 0.5 * (self.v[1] + next.v[1]) * dt,
         ];
         self.angle += 0.5 * (self.spin + next.spin) * dt;
+        self.before = self.last;
         (self.v, self.spin, self.stuck, self.last) = (next.v, next.spin, next.stuck, next.relative);
     }
 
@@ -137,7 +152,8 @@ impl PolygonState {
     /// into the next friction step.
     pub(super) fn collided(&mut self, c: [f64; 2], angle: f64, v: [f64; 2], spin: f64) {
         (self.c, self.angle, self.v, self.spin, self.stuck) = (c, angle, v, spin, false);
-        self.last = [0.0; 3]; // no guess: the contact changed the twist
+        // no guess: the contact changed the twist
+        (self.last, self.before) = ([0.0; 3], [0.0; 3]);
     }
 
     /// Whether the centroid left the plate in step `s` (0-based); the part is then frozen.

@@ -1,0 +1,334 @@
+//! The fan integrals of [`Polygon::fan`] eight edges at a time: each edge is a lane, its
+//! branches are selections, and the logarithm is this module's [`ln_1p`], written in plain
+//! arithmetic so that the AVX2 build ([`super::avx2`], also on AVX-512 machines) and the
+//! portable one compute the same bits (no fused multiply–adds, the lanes summed in one order).
+
+use super::{Fan, Polygon};
+use crate::sim::kernel::{simd, Simd};
+
+/// Edges per lane group.
+pub(super) const LANES: usize = 8;
+
+/// Eight edges in lanes: edge `k` runs from `(ax, ay)` to `(bx, by)` (vertices about the
+/// centroid) along the unit `(ex, ey)` for `len`; `live` is false in the lanes that pad the last
+/// group (they add nothing).
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Edges {
+    pub(super) ax: [f64; LANES],
+    pub(super) ay: [f64; LANES],
+    pub(super) bx: [f64; LANES],
+    pub(super) by: [f64; LANES],
+    pub(super) ex: [f64; LANES],
+    pub(super) ey: [f64; LANES],
+    pub(super) len: [f64; LANES],
+    pub(super) live: [bool; LANES],
+    /// `live` as lane masks (all ones in a live lane).
+    pub(super) bits: [u64; LANES],
+}
+
+/// The polygon's edges (`vertices` about the centroid, counter-clockwise) in groups of
+/// [`LANES`].
+pub(super) fn edges(vertices: &[[f64; 2]]) -> Vec<Edges> {
+    let n = vertices.len();
+    (0..n.div_ceil(LANES))
+        .map(|g| {
+            let mut e = Edges {
+                ax: [0.0; LANES],
+                ay: [0.0; LANES],
+                bx: [0.0; LANES],
+                by: [0.0; LANES],
+                ex: [0.0; LANES],
+                ey: [0.0; LANES],
+                len: [0.0; LANES],
+                live: [false; LANES],
+                bits: [0; LANES],
+            };
+            for l in 0..LANES {
+                // a padding lane repeats edge 0, so that its arithmetic stays finite
+                let k = if g * LANES + l < n { g * LANES + l } else { 0 };
+                let (a, b) = (vertices[k], vertices[(k + 1) % n]);
+                let d = [b[0] - a[0], b[1] - a[1]];
+                let len = (d[0] * d[0] + d[1] * d[1]).sqrt();
+                (e.ax[l], e.ay[l], e.bx[l], e.by[l]) = (a[0], a[1], b[0], b[1]);
+                (e.ex[l], e.ey[l], e.len[l]) = (d[0] / len, d[1] / len, len);
+                e.live[l] = g * LANES + l < n;
+                e.bits[l] = if e.live[l] { u64::MAX } else { 0 };
+            }
+            e
+        })
+        .collect()
+}
+
+/// The fan integrals about `r0`, the curvature only if `CURVATURE`, on the build the
+/// simulations take ([`simd`]).
+pub(super) fn fan<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fan {
+    #[cfg(target_arch = "x86_64")]
+    if matches!(simd(), Simd::Avx2 | Simd::Avx512) {
+        // SAFETY: simd() chooses these builds only on a CPU that has AVX2 (AVX-512 has it).
+        return unsafe { super::avx2::fan::<CURVATURE>(p, r0) };
+    }
+    fan_with::<CURVATURE>(p, r0)
+}
+
+/// Picks `a` where `c`, else `b` (a blend in the vector builds).
+#[inline(always)]
+fn pick(c: bool, a: f64, b: f64) -> f64 {
+    let m = (c as u64).wrapping_neg();
+    f64::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
+}
+
+#[inline(always)]
+pub(super) fn fan_with<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fan {
+    let mut acc = [[0.0; LANES]; 6];
+    for e in &p.lanes {
+        let mut dasinh = [0.0; LANES];
+        let (mut arg1, mut arg2) = ([0.0; LANES], [0.0; LANES]);
+        let mut geo = [[0.0; LANES]; 6]; // h, ta, ra, rb, drho, skip
+        for l in 0..LANES {
+            let a = [e.ax[l] - r0[0], e.ay[l] - r0[1]];
+            let b = [e.bx[l] - r0[0], e.by[l] - r0[1]];
+            let (ex, ey, len) = (e.ex[l], e.ey[l], e.len[l]);
+            // r0 is within FAR radii of the centroid: no overflow
+            let ra = (a[0] * a[0] + a[1] * a[1]).sqrt();
+            let rb = (b[0] * b[0] + b[1] * b[1]).sqrt();
+            // the edge's line: p = h n + t e, n = (e_y, -e_x), h signed (> 0: r0 on its inner
+            // side); h = 0 (r0 on the line) spans no area
+            let h = a[0] * ey - a[1] * ex;
+            let skip = !e.live[l] || h == 0.0;
+            let ta = a[0] * ex + a[1] * ey;
+            let tb = ta + len;
+            // rb - ra without cancellation
+            let drho = len * (ta + tb) / (ra + rb);
+            // asinh(t/|h|) = ln((t + rho)/|h|): on one side of the foot of h the difference is
+            // one ln_1p of a ratio of positive sums, across it a sum of two (module Polygon::fan)
+            let hh = h.abs();
+            let (after, before) = (ta >= 0.0, tb <= 0.0);
+            let num = pick(
+                after,
+                len + drho,
+                pick(before, len - drho, tb * (hh + rb + tb)),
+            );
+            let den = pick(after, ta + ra, pick(before, rb - tb, hh * (hh + rb)));
+            let across = !after && !before && !skip;
+            arg1[l] = pick(skip, 0.0, num / den);
+            arg2[l] = pick(across, -ta * (hh + ra - ta) / (hh * (hh + ra)), 0.0);
+            geo[0][l] = pick(skip, 0.0, h);
+            geo[1][l] = ta;
+            (geo[2][l], geo[3][l], geo[4][l]) = (ra, rb, drho);
+            geo[5][l] = pick(skip, 1.0, 0.0);
+        }
+        let (l1, l2) = (ln_1p8(&arg1), ln_1p8(&arg2));
+        for l in 0..LANES {
+            dasinh[l] = l1[l] + l2[l];
+        }
+        for l in 0..LANES {
+            let [h, ta, ra, rb, drho, skip] = [0, 1, 2, 3, 4, 5].map(|i| geo[i][l]);
+            let (ex, ey, len) = (e.ex[l], e.ey[l], e.len[l]);
+            let d = dasinh[l];
+            // ∫ |p| dA = (h/3) ∫ sqrt(h² + t²) dt = (h/6) [t rho + h² asinh(t/|h|)]
+            acc[0][l] += h / 6.0 * (len * rb + ta * drho + h * h * d);
+            // ∫ p/|p| dA = (h/2) ∫ (h n + t e)/rho dt = (h/2) [h n asinh(t/|h|) + e rho]
+            let (nx, ny) = (ey, -ex);
+            acc[1][l] += 0.5 * h * (h * nx * d + ex * drho);
+            acc[2][l] += 0.5 * h * (h * ny * d + ey * drho);
+            if CURVATURE {
+                // ∫ p p^T/|p|³ dA = h ∫ (h n + t e)(h n + t e)^T / rho³ dt
+                //   = h [s n n^T + h c (n e^T + e n^T) + (asinh(t/|h|) - s) e e^T]
+                // between the ends, s = t/rho and c = -1/rho (their differences below)
+                let (ia, ib) = (1.0 / ra, 1.0 / rb);
+                let s = (len * ra - ta * drho) * ia * ib; // tb/rb - ta/ra
+                let c = ia - ib;
+                let (nn, ne, ee) = (h * s, h * h * c, h * (d - s));
+                let (gxx, gxy, gyy) = (
+                    nn * nx * nx + 2.0 * ne * nx * ex + ee * ex * ex,
+                    nn * nx * ny + ne * (nx * ey + ex * ny) + ee * ex * ey,
+                    nn * ny * ny + 2.0 * ne * ny * ey + ee * ey * ey,
+                );
+                // a lane of no area may hold infinities (r0 at a vertex): it adds nothing
+                let live = skip == 0.0;
+                acc[3][l] += pick(live, gxx, 0.0);
+                acc[4][l] += pick(live, gxy, 0.0);
+                acc[5][l] += pick(live, gyy, 0.0);
+            }
+        }
+    }
+    let sum = |a: &[f64; LANES]| {
+        // pairwise, in one order for every build
+        let q = [a[0] + a[4], a[1] + a[5], a[2] + a[6], a[3] + a[7]];
+        (q[0] + q[2]) + (q[1] + q[3])
+    };
+    Fan {
+        dist: sum(&acc[0]),
+        unit: [sum(&acc[1]), sum(&acc[2])],
+        curvature: [sum(&acc[3]), sum(&acc[4]), sum(&acc[5])],
+    }
+}
+
+pub(super) const LN2_HI: f64 = 0.6931471803691238;
+pub(super) const LN2_LO: f64 = 1.9082149292705877e-10;
+/// The minimax polynomial `R(s²)` of `ln(1 + f) = f - f²/2 + s (f²/2 + R)`, `s = f / (2 + f)`,
+/// on `sqrt(2)/2 <= 1 + f < sqrt(2)` (fdlibm's coefficients, error below 2^-58).
+pub(super) const LG: [f64; 7] = [
+    0.6666666666666735,
+    0.3999999999940942,
+    0.2857142874366239,
+    0.22222198432149784,
+    0.1818357216161805,
+    0.15313837699209373,
+    0.14798198605116586,
+];
+
+/// `ln(1 + x)` for `x >= 0` finite (lanes with other values give some number, unused), within
+/// about 1 ulp: `1 + x = 2^k m`, `m` in `[sqrt(2)/2, sqrt(2))`, with the rounding of `1 + x`
+/// corrected, and `ln(m)` from the polynomial in `s = (m - 1)/(m + 1)`.
+#[inline(always)]
+fn ln_1p8(x: &[f64; LANES]) -> [f64; LANES] {
+    let mut out = [0.0; LANES];
+    for (o, &x) in out.iter_mut().zip(x) {
+        *o = ln_1p(x);
+    }
+    out
+}
+
+/// One lane of [`ln_1p8`].
+#[inline(always)]
+pub(super) fn ln_1p(x: f64) -> f64 {
+    let u = 1.0 + x;
+    let high = (u.to_bits() >> 32) + (0x3ff0_0000 - 0x3fe6_a09e);
+    let k = (high >> 20) as i64 - 0x3ff;
+    // k as a double, exact (0 <= k < 1024)
+    let dk = f64::from_bits(0x4330_0000_0000_0000 | (k as u64 & 0x7ff)) - 4_503_599_627_370_496.0;
+    // the rounding of 1 + x, relative: ln(1 + x) = ln(u) + c
+    let c = pick(k >= 2, 1.0 - (u - x), x - (u - 1.0)) / u;
+    let c = pick(k < 54, c, 0.0);
+    let m =
+        f64::from_bits((((high & 0x000f_ffff) + 0x3fe6_a09e) << 32) | (u.to_bits() & 0xffff_ffff));
+    // below sqrt(2) - 1 (k = 0) the reduction is x itself, exact
+    let small = x < std::f64::consts::SQRT_2 - 1.0;
+    let f = pick(small, x, m - 1.0);
+    let (c, dk) = (pick(small, 0.0, c), pick(small, 0.0, dk));
+    let hfsq = 0.5 * f * f;
+    let s = f / (2.0 + f);
+    let z = s * s;
+    let w = z * z;
+    let t1 = w * (LG[1] + w * (LG[3] + w * LG[5]));
+    let t2 = z * (LG[0] + w * (LG[2] + w * (LG[4] + w * LG[6])));
+    s * (hfsq + (t1 + t2)) + (dk * LN2_LO + c) - hfsq + f + dk * LN2_HI
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Distance in units in the last place.
+    fn ulps(a: f64, b: f64) -> u64 {
+        (a.to_bits() as i64 - b.to_bits() as i64).unsigned_abs()
+    }
+
+    #[test]
+    fn ln_1p_is_within_an_ulp_of_the_library_s() {
+        // log-uniform from 1e-300 to 1e300, and the edges of its branches
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut worst = 0;
+        let mut lanes = Vec::new();
+        let mut check = |x: f64| {
+            let (got, want) = (ln_1p(x), x.ln_1p());
+            worst = worst.max(ulps(got, want));
+            assert!(
+                ulps(got, want) <= 1,
+                "ln_1p({x:e}) = {got:e}, the library's {want:e}"
+            );
+            lanes.push((x, got));
+        };
+        for _ in 0..1_000_000 {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let t = (state >> 11) as f64 / (1u64 << 53) as f64;
+            check(10f64.powf(-300.0 + 600.0 * t));
+            check(t);
+            check(4.0 * t);
+        }
+        for x in [
+            0.0,
+            1e-320,
+            f64::EPSILON,
+            0.414_213_562_373_095,
+            0.414_213_562_373_096,
+            1.0,
+        ] {
+            check(x);
+        }
+        for k in 1..60 {
+            let p = 2f64.powi(k);
+            for x in [
+                p - 1.0,
+                p,
+                p * (1.0 + f64::EPSILON),
+                p * std::f64::consts::SQRT_2,
+            ] {
+                check(x);
+            }
+        }
+        assert!(worst <= 1);
+        // the AVX2 build gives the same bits
+        #[cfg(target_arch = "x86_64")]
+        if is_x86_feature_detected!("avx2") {
+            for group in lanes.chunks_exact(4) {
+                let x = std::array::from_fn(|l| group[l].0);
+                // SAFETY: the CPU has AVX2.
+                let got = unsafe { super::super::avx2::ln_1p_lanes(x) };
+                for l in 0..4 {
+                    assert_eq!(got[l].to_bits(), group[l].1.to_bits(), "ln_1p({:e})", x[l]);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn every_build_gives_the_same_bits() {
+        let nine = [
+            [0.0, 0.0],
+            [0.03, -0.004],
+            [0.041, 0.016],
+            [0.035, 0.027],
+            [0.022, 0.031],
+            [0.008, 0.029],
+            [-0.003, 0.022],
+            [-0.006, 0.019],
+            [-0.005, 0.008],
+        ];
+        let triangle = [[0.0, 0.0], [0.02, 0.0], [0.005, 0.01]];
+        let mut checked = 0;
+        for outline in [&nine[..], &triangle[..]] {
+            let p = Polygon::new("p", outline).unwrap();
+            let v = p.vertices.clone();
+            // inside, outside, far, on a vertex, on an edge's line, before and across its foot
+            let centres = [
+                [0.0, 0.0],
+                [0.013, -0.004],
+                [0.4, 0.1],
+                [-0.01, 0.05],
+                v[1],
+                [2.0 * v[1][0] - v[2][0], 2.0 * v[1][1] - v[2][1]],
+                [0.5 * (v[0][0] + v[1][0]), 0.5 * (v[0][1] + v[1][1]) - 1e-3],
+            ];
+            for (i, r0) in centres.into_iter().enumerate() {
+                let want = fan_with::<true>(&p, r0);
+                assert!(want.dist.is_finite() && want.unit.iter().all(|x| x.is_finite()));
+                #[cfg(target_arch = "x86_64")]
+                if is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU has AVX2.
+                    let got = unsafe { super::super::avx2::fan::<true>(&p, r0) };
+                    assert_eq!(got, want, "avx2, centre {i}");
+                    checked += 1;
+                }
+                assert_eq!(fan::<true>(&p, r0), want, "the chosen build, centre {i}");
+            }
+        }
+        #[cfg(target_arch = "x86_64")]
+        if is_x86_feature_detected!("avx2") {
+            assert_eq!(checked, 14);
+        }
+    }
+}
