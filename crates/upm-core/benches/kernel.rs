@@ -148,6 +148,10 @@ fn main() {
         batch();
         return;
     }
+    if std::env::args().any(|a| a == "--disks") {
+        disks(&trans, &rot, dt);
+        return;
+    }
     if std::env::args().any(|a| a == "--polygons") {
         polygons(&trans, &rot, dt);
         return;

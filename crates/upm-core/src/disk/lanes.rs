@@ -29,18 +29,17 @@ pub fn slide_many(a0: &[f64], b0: &[f64], c: &[f64], out: &mut [Option<(f64, f64
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `wide` is Avx512 only where the CPU has AVX-512F (and so AVX2); m <= 8.
             Simd::Avx512 => unsafe { super::avx512::lockstep(tab, a0, b0, c, out) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `wide` is Avx2 only where the CPU has AVX2; m <= 8.
+            Simd::Avx2 => unsafe { super::avx2::lockstep(tab, a0, b0, c, out) },
             _ => lockstep(tab, a0, b0, c, out),
         }
     }
 }
 
-/// The build [`slide_many`] takes: the kernel's ([`crate::sim::simd`]) where it has a lane
-/// solve (AVX-512), else the portable lockstep.
+/// The build [`slide_many`] takes: the kernel's ([`crate::sim::simd`]).
 fn wide() -> Simd {
-    match crate::sim::simd() {
-        Simd::Avx512 => Simd::Avx512,
-        _ => Simd::Portable,
-    }
+    crate::sim::simd()
 }
 
 /// Up to [`LANES`] disks' Halley iterations in lockstep: each round advances every disk still
@@ -119,6 +118,13 @@ mod tests {
                 // SAFETY: the CPU has AVX-512F (and so AVX2); at most eight disks.
                 unsafe { super::super::avx512::lockstep(tab, a, b, cc, &mut o) };
                 assert_eq!(bits(&o), bits(&one[r.clone()]), "avx512, disks {r:?}");
+            }
+            #[cfg(target_arch = "x86_64")]
+            if is_x86_feature_detected!("avx2") {
+                let mut o = vec![Some((0.0, 0.0)); r.len()];
+                // SAFETY: the CPU has AVX2; at most eight disks.
+                unsafe { super::super::avx2::lockstep(tab, a, b, cc, &mut o) };
+                assert_eq!(bits(&o), bits(&one[r.clone()]), "avx2, disks {r:?}");
             }
         }
         let settled = one.iter().filter(|o| o.is_some()).count();

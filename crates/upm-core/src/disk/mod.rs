@@ -21,6 +21,8 @@
 //! sign of `W*`, and their magnitudes follow from one monotone root in `phi`.
 
 #[cfg(target_arch = "x86_64")]
+mod avx2;
+#[cfg(target_arch = "x86_64")]
 mod avx512;
 pub mod lanes;
 mod stick;

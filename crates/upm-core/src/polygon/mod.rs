@@ -13,11 +13,12 @@
 //! [`Polygon::wrench`] returns them divided by `mu N` (`F` dimensionless, `M` in metres). When
 //! `Omega != 0` the motion is a rotation about the instantaneous centre `r0`, `u = Omega z x (r -
 //! r0)`, and both integrals follow from `∫ |r - r0| dA` and `∫ (r - r0)/|r - r0| dA`, which have
-//! closed forms over the triangles that fan from `r0` to each edge ([`Polygon::moments`]): no
-//! quadrature, exact to rounding. When `r0` is far from the part (more than [`FAR`] times its
-//! radius, or a pure translation) the fan's triangles cancel each other and the closed forms
-//! lose digits, while the integrand is nearly constant over the part: Gauss–Legendre quadrature
-//! over the triangles that fan from the centroid is then exact to rounding instead.
+//! closed forms over the triangles that fan from `r0` to each edge ([`Polygon::fan`], eight
+//! edges at a time in `lanes`): no quadrature, exact to rounding. When `r0` is far from the part
+//! (more than [`FAR`] times its radius, or a pure translation) the fan's triangles cancel each
+//! other and the closed forms lose digits, while the integrand is nearly constant over the part:
+//! Gauss–Legendre quadrature over the triangles that fan from the centroid, or the first terms of
+//! its series, is then exact to rounding instead (`far`).
 
 use crate::error::{Error, Result};
 

@@ -57,7 +57,8 @@ pub struct Stepper {
     pub mean_distance: f64,
     /// Twist directions `e = (vx, vy, radius * omega)` over a half sphere, each divided by its
     /// rate of work `D(e)`: each an exact supporting plane of the limit set, for a quick lower
-    /// bound of a wrench's gauge and a start for the exact one. Their components (`samples[j][i]`: component `j` of direction `i`).
+    /// bound of a wrench's gauge and a start for the exact one (`samples[j][i]`: component `j`
+    /// of direction `i`).
     samples: Box<[[f64; SAMPLES]; 3]>,
 }
 
@@ -187,14 +188,15 @@ impl Stepper {
 
     /// The sliding solve: the minimiser of `Phi` (module docs), not at 0, by Newton's method with
     /// the exact Hessian ([`Polygon::friction_hessian`]). A part sliding on starts from `guess`
-    /// (its last relative twist, extrapolated); if the iterates end where the gradient is not
-    /// zero (at the kink at 0, when the answer is small and the guess far from it: a test caught
-    /// it), and otherwise, the solve starts from the lowest of the free twist and
-    /// the best points on the rays through the free twist and through `toward` (either sign; the
-    /// way the part starts to slide): along a ray `t d`, `Phi` is a parabola in `t` (`D` is
-    /// homogeneous), least at `t = (<d, y*> - c D(d)) / |d|²`. Near the limit surface the
-    /// minimiser is small and lies close to `toward`'s ray, where `Phi` is smooth; started from
-    /// the free twist instead, Newton's iterates could end at the kink at 0.
+    /// (its last relative twist, extrapolated). If there is none, or if the iterates end where
+    /// the gradient is not zero (at the kink at 0, when the answer is small and the guess far
+    /// from it: a test caught it), the solve starts from the lowest of the free twist and the
+    /// best points on the rays through the free twist and through `toward` (either sign; the way
+    /// the part starts to slide; the best sampled direction when not given): along a ray `t d`,
+    /// `Phi` is a parabola in `t` (`D` is homogeneous), least at `t = (<d, y*> - c D(d)) / |d|²`.
+    /// Near the limit surface the minimiser is small and lies close to `toward`'s ray, where
+    /// `Phi` is smooth; started from the free twist instead, Newton's iterates could end at the
+    /// kink at 0.
     fn slide(
         &self,
         free: [f64; 3],
