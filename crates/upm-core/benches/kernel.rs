@@ -79,17 +79,33 @@ fn spread(n: usize) -> Vec<[f64; 2]> {
         .collect()
 }
 
-/// ns per part-step of the integrator on one rayon thread, `n` parts at rest on `motion`.
-fn integrator(motion: &PlateMotion, n: usize, steps: usize, dt: f64) -> f64 {
-    let (one, position) = (one_thread(), spread(n));
-    let parts = Parts::points(position, vec![[0.0; 2]; n], vec![0.3; n], vec![0.4; n]);
-    let cfg = Config {
+/// A run of `steps` steps of `dt` recording only the last.
+fn last_step_only(steps: usize, dt: f64) -> Config {
+    Config {
         dt,
         duration: steps as f64 * dt,
         g: 9.81,
         plate_size: None,
         record_every: steps,
-    };
+    }
+}
+
+/// ns per part-step of `parts` (`n` of them) on a translating and on a rotating plate, one
+/// thread, best of 5, printed a line each.
+fn on_both_plates(parts: &Parts, n: usize, trans: &PlateMotion, rot: &PlateMotion, cfg: &Config) {
+    let one = one_thread();
+    let steps = (cfg.duration / cfg.dt).round() as usize;
+    for (name, motion) in [("translating plate", trans), ("rotating plate", rot)] {
+        let t = one.install(|| best_of(5, || simulate(motion, parts, cfg).unwrap()));
+        println!("  {name:<22}{:8.1}", t * 1e9 / (n * steps) as f64);
+    }
+}
+
+/// ns per part-step of the integrator on one rayon thread, `n` parts at rest on `motion`.
+fn integrator(motion: &PlateMotion, n: usize, steps: usize, dt: f64) -> f64 {
+    let (one, position) = (one_thread(), spread(n));
+    let parts = Parts::points(position, vec![[0.0; 2]; n], vec![0.3; n], vec![0.4; n]);
+    let cfg = last_step_only(steps, dt);
     let t = one.install(|| best_of(3, || simulate(motion, &parts, &cfg).unwrap()));
     t * 1e9 / (n * steps) as f64
 }
@@ -259,30 +275,18 @@ fn batch() {
 /// rotating plate.
 fn disks(trans: &PlateMotion, rot: &PlateMotion, dt: f64) {
     let (n, steps) = (2000, 2000);
-    let (one, position) = (one_thread(), spread(n));
-    let mut parts = Parts::points(position, vec![[0.0; 2]; n], vec![0.3; n], vec![0.3; n]);
+    let mut parts = Parts::points(spread(n), vec![[0.0; 2]; n], vec![0.3; n], vec![0.3; n]);
     parts.radius = vec![0.005; n];
-    let cfg = Config {
-        dt,
-        duration: steps as f64 * dt,
-        g: 9.81,
-        plate_size: None,
-        record_every: steps,
-    };
+    let cfg = last_step_only(steps, dt);
     println!("disk parts, {n} disks x {steps} steps, ns per disk-step on 1 thread:");
-    for (name, motion) in [("translating plate", trans), ("rotating plate", rot)] {
-        let t = one.install(|| best_of(5, || simulate(motion, &parts, &cfg).unwrap()));
-        println!("  {name:<22}{:8.1}", t * 1e9 / (n * steps) as f64);
-    }
+    on_both_plates(&parts, n, trans, rot, &cfg);
 }
 
 /// Hexagons (issue 27's shape for its 150 ns target) of 8 mm circumradius spinning at the start
 /// (up to 5 rad/s either way), ns per part-step on one thread, recording only the last step.
 fn polygons(trans: &PlateMotion, rot: &PlateMotion, dt: f64) {
     let (n, steps) = (200, 2000);
-    let one = one_thread();
-    let position = spread(n);
-    let mut parts = Parts::points(position, vec![[0.0; 2]; n], vec![0.3; n], vec![0.4; n]);
+    let mut parts = Parts::points(spread(n), vec![[0.0; 2]; n], vec![0.3; n], vec![0.4; n]);
     let hexagon: Vec<[f64; 2]> = (0..6)
         .map(|k| {
             let a = std::f64::consts::PI * k as f64 / 3.0;
@@ -295,19 +299,10 @@ fn polygons(trans: &PlateMotion, rot: &PlateMotion, dt: f64) {
         .map(|i| 5.0 * (2.0 * (i * 7919 % n) as f64 / n as f64 - 1.0))
         .collect();
     parts.angle = (0..n).map(|i| (i * 104_729 % 628) as f64 / 100.0).collect();
-    let cfg = Config {
-        dt,
-        duration: steps as f64 * dt,
-        g: 9.81,
-        plate_size: None,
-        record_every: steps,
-    };
+    let cfg = last_step_only(steps, dt);
     println!(
         "hexagons, {n} x {steps} steps, ns per part-step on 1 thread (fan build: {}):",
         upm_core::sim::simd().name()
     );
-    for (name, motion) in [("translating plate", trans), ("rotating plate", rot)] {
-        let t = one.install(|| best_of(5, || simulate(motion, &parts, &cfg).unwrap()));
-        println!("  {name:<22}{:8.1}", t * 1e9 / (n * steps) as f64);
-    }
+    on_both_plates(&parts, n, trans, rot, &cfg);
 }
