@@ -4,6 +4,7 @@
 //! portable one compute the same bits (no fused multiply–adds, the lanes summed in one order).
 
 use super::{Fan, Polygon};
+#[cfg(target_arch = "x86_64")]
 use crate::sim::kernel::{simd, Simd};
 
 /// Edges per lane group.
@@ -60,7 +61,7 @@ pub(super) fn edges(vertices: &[[f64; 2]]) -> Vec<Edges> {
 }
 
 /// The fan integrals about `r0`, the curvature only if `CURVATURE`, on the build the
-/// simulations take ([`simd`]).
+/// simulations take (`sim::simd`).
 pub(super) fn fan<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fan {
     #[cfg(target_arch = "x86_64")]
     if matches!(simd(), Simd::Avx2 | Simd::Avx512) {
@@ -77,6 +78,7 @@ fn pick(c: bool, a: f64, b: f64) -> f64 {
     f64::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
 }
 
+/// The portable build of [`fan`]: each lane's arithmetic in plain Rust.
 #[inline(always)]
 pub(super) fn fan_with<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fan {
     let mut acc = [[0.0; LANES]; 6];
