@@ -13,7 +13,7 @@
 //!   1e-3n`; 4 x 4 points integrate every term up to degree 6 exactly (the first left out is
 //!   below 1e-21), so they are exact to rounding too.
 
-use super::{Friction, Polygon};
+use super::{cross, Friction, Polygon};
 
 /// Below this `|omega| R / |v|` the part's friction is the series' first terms.
 const LINEAR: f64 = 1e-8;
@@ -76,7 +76,6 @@ pub(super) fn quadrature<const HESSIAN: bool, const K: usize>(
         return Friction::default();
     }
     let (v, omega) = ([v[0] / scale, v[1] / scale], omega / scale);
-    let cross = |a: [f64; 2], b: [f64; 2]| a[0] * b[1] - a[1] * b[0];
     let n = p.vertices.len();
     let (mut fx, mut fy, mut m, mut work) = (0.0, 0.0, 0.0, 0.0);
     let mut hessian = [[0.0; 3]; 3];

@@ -259,7 +259,6 @@ impl Stepper {
         let settled = |y: [f64; 3], at: &Point, it: usize| {
             (dot(at.grad, at.grad).sqrt() <= 1e-9 * scale).then(|| self.done(y, it))
         };
-        let size = scale;
         let mut fine = 0;
         let mut last = f64::INFINITY;
         // the last whole Newton step's length (infinite when none)
@@ -271,7 +270,7 @@ impl Stepper {
                 .filter(|s| dot(*s, grad) < 0.0)
                 .unwrap_or([-grad[0], -grad[1], -grad[2]]);
             let length = dot(step, step).sqrt();
-            if length <= TOLERANCE * norm + 1e-15 * size {
+            if length <= TOLERANCE * norm + 1e-15 * scale {
                 return Ok(settled(y, &at, it));
             }
             // converging quadratically, |next| ~ |step|² |step| / |previous|²: when that is
