@@ -164,12 +164,13 @@ impl Config {
 /// Whether a part at `p` with velocity `v` moves with the plate surface of velocity `u`
 /// (such a part starts stuck).
 fn moves_with_plate(p: [f64; 2], v: [f64; 2], u: [f64; 3]) -> bool {
-    v[0] == u[0] - u[2] * p[1] && v[1] == u[1] + u[2] * p[0]
+    // (`&` and `|`, not `&&` and `||`: no branch, so the loops over many parts vectorise)
+    (v[0] == u[0] - u[2] * p[1]) & (v[1] == u[1] + u[2] * p[0])
 }
 
 /// Whether a centre at `(x, y)` is off the square plate of half-side `half`.
 fn off_plate(x: f64, y: f64, half: f64) -> bool {
-    x.abs() > half || y.abs() > half
+    (x.abs() > half) | (y.abs() > half)
 }
 
 /// Whether a part still on the plate (`active`) with its centre at `c` left it in step `s`

@@ -15,7 +15,7 @@ use crate::buffer::{recycle, scratch};
 
 use super::kernel::{self, Lanes, Plate, NEVER};
 use super::lift::{self, Air};
-use super::record::Rec;
+use super::record::{Rec, RunState};
 use super::{half_side, moves_with_plate, off_plate, Config, PartsView};
 
 /// Parts per chunk, the unit of work of a thread (a multiple of every SIMD tile).
@@ -375,6 +375,19 @@ impl Drop for Points<'_> {
 
 /// Writes a chunk's state into `row`.
 pub(super) fn write(l: &Lanes, start: usize, row: usize, rec: &Rec, index: Option<&[usize]>) {
+    if index.is_none() {
+        let s = RunState {
+            x: l.x,
+            y: l.y,
+            vx: l.vx,
+            vy: l.vy,
+            stuck: l.stuck,
+        };
+        // SAFETY: row < rows, the chunk's parts are below m, and this chunk alone writes them.
+        unsafe { rec.points_run(row, start, &s) };
+        rec.fence();
+        return;
+    }
     for q in 0..l.x.len() {
         let part = index.map_or(start + q, |ix| ix[start + q]);
         // SAFETY: row < rows (from Rec::row), part < m, and each part belongs to one chunk.

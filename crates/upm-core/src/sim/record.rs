@@ -190,6 +190,45 @@ impl Recorder {
     }
 }
 
+/// A run of points' state, one slice per quantity ([`Rec::points_run`]); `stuck` is 1.0 or 0.0.
+pub(super) struct RunState<'a> {
+    pub x: &'a [f64],
+    pub y: &'a [f64],
+    pub vx: &'a [f64],
+    pub vy: &'a [f64],
+    pub stuck: &'a [f64],
+}
+
+/// Writes `(a[q], b[q])` at `out[q]` for every `q`: 16-byte stores until `out` is 32-byte
+/// aligned, then pairs of cells as one non-temporal 32-byte store each.
+///
+/// # Safety
+/// The build has AVX; `out` is 16-byte aligned with room for `a.len()` cells; `b` is as long.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn pairs_streamed(out: *mut [f64; 2], a: &[f64], b: &[f64]) {
+    use std::arch::x86_64::*;
+    let k = a.len().min(b.len());
+    let mut q = 0;
+    while q < k && !(out.add(q) as usize).is_multiple_of(32) {
+        _mm_stream_pd(out.add(q).cast(), _mm_set_pd(b[q], a[q]));
+        q += 1;
+    }
+    while q + 4 <= k {
+        let x = _mm256_loadu_pd(a.as_ptr().add(q));
+        let y = _mm256_loadu_pd(b.as_ptr().add(q));
+        // (x0 y0 x2 y2) and (x1 y1 x3 y3), then their 128-bit halves regrouped in order.
+        let (lo, hi) = (_mm256_unpacklo_pd(x, y), _mm256_unpackhi_pd(x, y));
+        _mm256_stream_pd(out.add(q).cast(), _mm256_permute2f128_pd(lo, hi, 0x20));
+        _mm256_stream_pd(out.add(q + 2).cast(), _mm256_permute2f128_pd(lo, hi, 0x31));
+        q += 4;
+    }
+    while q < k {
+        _mm_stream_pd(out.add(q).cast(), _mm_set_pd(b[q], a[q]));
+        q += 1;
+    }
+}
+
 impl Rec {
     /// The row step `s` (1-based; 0 is the initial state) is recorded in, if it is recorded.
     #[inline]
@@ -255,6 +294,35 @@ impl Rec {
             return;
         }
         self.point(row, part, p, v, stuck);
+    }
+
+    /// Writes the states of the points `part .. part + x.len()` (in order) in row `row`: with
+    /// non-temporal stores of whole 32-byte pairs of cells where the result is streamed and the
+    /// build has AVX (two parts' positions, or velocities, a store: a cache line fills in two,
+    /// which [`Rec::point_streamed`]'s 16-byte stores, two streams interleaved, did not do at
+    /// memory speed on AMD Zen 3), else one part at a time. The caller then calls [`Rec::fence`].
+    ///
+    /// # Safety
+    /// `row < rows`, `part + x.len() <= m`, the slices have one length, and no other thread
+    /// writes these cells.
+    pub(super) unsafe fn points_run(&self, row: usize, part: usize, s: &RunState) {
+        let k = s.x.len();
+        debug_assert!(row < self.rows && part + k <= self.m);
+        debug_assert!([s.y.len(), s.vx.len(), s.vy.len(), s.stuck.len()] == [k; 4]);
+        #[cfg(target_arch = "x86_64")]
+        if self.stream && crate::sim::simd() != crate::sim::Simd::Portable {
+            let i = row * self.m + part;
+            pairs_streamed(self.pos.add(i), s.x, s.y);
+            pairs_streamed(self.vel.add(i), s.vx, s.vy);
+            for q in 0..k {
+                self.stuck.add(i + q).write(s.stuck[q] > 0.0);
+            }
+            return;
+        }
+        for q in 0..k {
+            let state = ([s.x[q], s.y[q]], [s.vx[q], s.vy[q]], s.stuck[q] > 0.0);
+            self.point_streamed(row, part + q, state);
+        }
     }
 
     /// Orders the non-temporal stores of [`Rec::point_streamed`] before whatever the thread does
