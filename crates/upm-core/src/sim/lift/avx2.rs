@@ -108,8 +108,14 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
     let one = _mm256_set1_pd(1.0);
     for j in 0..T {
         let k = t.live[j];
-        let store =
-            |a: &mut [f64], v: __m256d| _mm256_maskstore_pd(a.as_mut_ptr().add(at(j)), k, v);
+        // Whole vectors with plain stores (a masked store is microcoded on AMD Zen).
+        let store = |a: &mut [f64], v: __m256d| {
+            if at(j) + 4 <= a.len() {
+                _mm256_storeu_pd(a.as_mut_ptr().add(at(j)), v);
+            } else {
+                _mm256_maskstore_pd(a.as_mut_ptr().add(at(j)), k, v);
+            }
+        };
         store(l.x, t.x[j]);
         store(l.y, t.y[j]);
         store(l.vx, t.vx[j]);
