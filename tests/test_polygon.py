@@ -193,10 +193,22 @@ def test_bad_arguments():
         upm.Polygon(PENTAGON).wrench((np.nan, 0.0), 1.0)
     with pytest.raises(upm.ShapeError, match="broadcast"):
         upm.Polygon(PENTAGON).wrench(np.zeros((3, 2)), np.zeros(4))
-    parts = [upm.Point((0.0, 0.0)), upm.Polygon(PENTAGON)]
-    lift = upm.PlateMotion.harmonic(20.0, z=[(1, 5.0, 0.0)])
-    with pytest.raises(upm.ParameterError, match=r"out of the plate's plane.*part 1"):
-        upm.simulate(lift, parts, duration=0.01, dt=1e-4, mu=0.3)
+
+
+def test_a_polygon_that_does_not_spin_slides_and_flies_as_a_point_at_its_centroid_off_the_plane():
+    # Out of the plane the normal force at the centroid scales uniform pressure (docs/polygons.md):
+    # a polygon that does not turn feels what a point at its centroid feels, in the air too.
+    motion = upm.PlateMotion.harmonic(20.0, x=[(1, 10.0, 0.0)], z=[(1, 14.0, 0.0)], rx=[(1, 60.0, 1.0)])
+    poly = upm.Polygon(PENTAGON, position=(0.03, -0.02))
+    at = np.asarray(poly.position) + poly.centroid
+    kw = dict(duration=0.1, dt=1.0 / 20 / 400, mu=0.4)
+    a = upm.simulate(motion, [upm.Point((0.0, 0.0)), poly], **kw)
+    b = upm.simulate(motion, at[None, :], **kw)
+    np.testing.assert_allclose(a.positions[:, 1] + poly.centroid, b.positions[:, 0], rtol=0, atol=1e-13)
+    np.testing.assert_allclose(a.velocities[:, 1], b.velocities[:, 0], rtol=0, atol=1e-13)
+    np.testing.assert_array_equal(a.stuck[:, 1], b.stuck[:, 0])
+    assert np.all(a.angles[:, 1] == 0.0)
+    assert a.flight_time[1] == b.flight_time[0] > 0.01
 
 
 def test_a_part_on_a_plate_spun_up_about_its_centroid_sticks_until_i_alpha_reaches_m_max():

@@ -61,8 +61,8 @@ class Polygon:
     the reason.
 
     :func:`upm.simulate` and :func:`upm.simulate_batch` step it with its exact stick–slip step
-    (planar motions, for now), with contacts through rapier's convex polygon colliders; its
-    friction is :meth:`wrench`.
+    (out of the plane, under the normal force at its centroid), with contacts through rapier's
+    convex polygon colliders; its friction is :meth:`wrench`.
     """
 
     vertices: Any

@@ -423,7 +423,8 @@ def simulate(
     stick or slide together (a polygon sticks exactly when the wrench that keeps it with the plate
     lies in its limit set: docs/polygons.md). A polygon's recorded position is its frame's origin
     (with ``angles``, the pose: ``Polygon(vertices, position, angle)`` redraws it), its velocity
-    its centroid's. Polygons run on planar motions, for now.
+    its centroid's. On a plate that moves out of its plane the normal force at a polygon's centroid
+    scales its uniform pressure (as for disks), and it flies while that force is negative.
 
     Parameters
     ----------

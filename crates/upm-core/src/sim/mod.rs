@@ -358,18 +358,6 @@ where
         .collect::<Vec<_>>();
     // Some world's plate leaves its plane (parts may fly).
     let flying = spatial.iter().any(|&s| s);
-    if let Some(&(i, _)) = parts.polygons.first() {
-        if flying {
-            return Err(Error::parameter(
-                "motion",
-                format!(
-                    "moves out of the plate's plane, which polygon parts (part {i}) do not support yet; \
-                     simulate them on a planar motion"
-                ),
-            )
-            .into());
-        }
-    }
     if contacts.is_some() && flying {
         return Err(Error::parameter(
             "contacts",
@@ -511,7 +499,7 @@ where
                         None => {
                             let (_, polygons) = rayon::join(
                                 || run_disks(disks, table, normals, first, cfg, rec),
-                                || polygons::run(shapes, table, first, cfg, rec),
+                                || polygons::run(shapes, table, normals, first, cfg, rec),
                             );
                             polygons
                         }
@@ -536,7 +524,7 @@ where
         }
         for p in &w.polygons {
             // SAFETY: as above.
-            unsafe { w.rec.ended(p.index, p.left, 0.0) };
+            unsafe { w.rec.ended(p.index, p.left, p.flight as f64 * cfg.dt) };
         }
     }
     drop(worlds);

@@ -4,14 +4,20 @@
 //!
 //! A polygon part's recorded position is its frame's origin (with its angle, the pose that
 //! redraws it from its vertices), its recorded velocity that of its centroid.
+//!
+//! On a plate that moves out of its plane the normal force at the centroid, `m (g + a_z)`,
+//! scales the friction limits (uniform pressure, as for disks), and the part flies (keeping its
+//! velocity and spin) while it is negative ([`super::lift::fly`]).
 
 use rayon::prelude::*;
 
 use crate::error::Result;
 use crate::polygon::{Polygon, Stepper};
 
+use super::lift::fly;
 use super::record::Rec;
 use super::{half_side, moves_with_plate, off_plate, Config, PartsView};
+use crate::motion::spatial::normal_at;
 
 /// A polygon part's state after a friction step ([`PolygonState::friction`]).
 #[derive(Debug, Clone, Copy)]
@@ -39,6 +45,10 @@ pub(super) struct PolygonState {
     before: [f64; 3],
     pub(super) active: bool,
     pub(super) left: Option<f64>,
+    /// Height above the plate surface and its rate, on a plate that moves out of its plane.
+    air: [f64; 2],
+    /// Steps spent in flight.
+    pub(super) flight: usize,
     slide: f64,
     pub(super) hold: f64,
     /// Its place among all parts.
@@ -81,6 +91,8 @@ impl PolygonState {
             before: [0.0; 3],
             active: !outside,
             left: outside.then_some(0.0),
+            air: [0.0; 2],
+            flight: 0,
             slide: parts.mu(i) * cfg.g * cfg.dt,
             hold: parts.mu_s(i) * cfg.g * cfg.dt,
             index: i,
@@ -92,15 +104,45 @@ impl PolygonState {
         if !self.active {
             return Ok(());
         }
-        let next = self.friction(u)?;
+        let next = self.friction(u, 1.0)?;
+        self.advance(next, cfg.dt);
+        self.leaves(s, cfg);
+        Ok(())
+    }
+
+    /// Step `s` (0-based) on a plate that moves out of its plane, `nz` its `(z'', alpha'',
+    /// beta'')`: the normal force at the centroid scales the friction limits, and the part flies
+    /// while it is negative, its velocity and spin kept.
+    fn step_spatial(&mut self, u: [f64; 3], nz: &[f64; 3], s: usize, cfg: &Config) -> Result<()> {
+        if !self.active {
+            return Ok(());
+        }
+        let n = cfg.g + normal_at(nz, self.c);
+        let [h, hv] = &mut self.air;
+        let flew = fly(n, cfg.dt, h, hv);
+        // (with no normal force at all, n = 0 on the plate, friction vanishes too)
+        let next = if flew || n <= 0.0 {
+            self.flight += usize::from(flew);
+            // (no guess after landing: the twist changed freely in the air)
+            (self.last, self.before) = ([0.0; 3], [0.0; 3]);
+            Next {
+                v: self.v,
+                spin: self.spin,
+                stuck: false,
+                relative: [0.0; 3],
+            }
+        } else {
+            self.friction(u, n / cfg.g)?
+        };
         self.advance(next, cfg.dt);
         self.leaves(s, cfg);
         Ok(())
     }
 
     /// The centroid's velocity, the spin, the stuck flag and the relative twist in the part's
-    /// frame after the friction step under the plate velocity `u`; the state is not changed.
-    pub(super) fn friction(&self, [u1, u2, u3]: [f64; 3]) -> Result<Next> {
+    /// frame after the friction step under the plate velocity `u`, the friction limits scaled by
+    /// `load` (the normal force over `m g`); the state is not changed.
+    pub(super) fn friction(&self, [u1, u2, u3]: [f64; 3], load: f64) -> Result<Next> {
         let [x, y] = self.c;
         let surface = [u1 - u3 * y, u2 + u3 * x];
         let free = [self.v[0] - surface[0], self.v[1] - surface[1]];
@@ -110,8 +152,8 @@ impl PolygonState {
             .stepper
             .step(
                 [local[0], local[1], self.spin - u3],
-                self.slide,
-                self.hold,
+                self.slide * load,
+                self.hold * load,
                 self.stuck,
                 (!self.stuck).then(|| self.guess()),
             )
@@ -177,18 +219,23 @@ impl PolygonState {
 }
 
 /// Advances `polygons` through one block (`table[k]`: the plate velocity at the end of step
-/// `first + k`), one part per rayon task, recording as it goes; the first error (a sliding solve
-/// that did not converge) stops the run.
+/// `first + k`; `normals[k]` its out-of-plane accelerations, empty for a planar plate), one
+/// part per rayon task, recording as it goes; the first error (a sliding solve that did not
+/// converge) stops the run.
 pub(super) fn run(
     polygons: &mut [PolygonState],
     table: &[[f64; 3]],
+    normals: &[[f64; 3]],
     first: usize,
     cfg: &Config,
     rec: &Rec,
 ) -> Result<()> {
     polygons.par_iter_mut().try_for_each(|p| {
         for (k, &u) in table.iter().enumerate() {
-            p.step(u, first + k, cfg)?;
+            match normals.get(k) {
+                Some(nz) => p.step_spatial(u, nz, first + k, cfg)?,
+                None => p.step(u, first + k, cfg)?,
+            }
             p.record(first + k + 1, rec);
         }
         Ok(())

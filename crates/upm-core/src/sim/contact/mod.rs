@@ -324,7 +324,7 @@ impl ContactWorld {
                     next.push(None);
                     continue;
                 };
-                let n = p.friction(u)?;
+                let n = p.friction(u, 1.0)?;
                 let b = &mut self.world.bodies[*h];
                 b.set_translation(Vector::new(p.c[0] * s, p.c[1] * s), false);
                 b.set_rotation(Rotation::new(p.angle), false);
