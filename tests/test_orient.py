@@ -73,3 +73,13 @@ def test_bad_input():
     loop = PoseLoop(device, plant.camera("red"), planner, PoseTask([[0.0, 0.0, 0.0], [0.05, 0.0, 0.0]]))
     with pytest.raises(upm.VisionError, match="sees 1 parts; the task has 2"):
         loop.run(cycles=1)
+
+
+def test_the_orient_ppod_demo_measures_when_a_part_settles_at_the_prediction():
+    from upm.orient_demos import TEST_POLYGONS, line_sink_orienting
+
+    r = line_sink_orienting(TEST_POLYGONS["rectangle 2:1"], math.radians(40.0), duration=25.0)
+    assert abs(r["predicted_deg"] - 90.0) < 1e-9
+    assert abs(r["start_error_deg"] - 40.0) < 1e-9
+    assert abs(r["final_error_deg"]) < 3.0
+    assert r["within_3_deg_after_s"] is not None and 1.0 < r["within_3_deg_after_s"] < 25.0

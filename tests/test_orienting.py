@@ -155,3 +155,75 @@ def test_a_biased_radial_field_brings_a_part_to_the_least_potential(vertices, bi
         c, s = math.cos(theta), math.sin(theta)
         centroid = eq.positions[0] + np.array([[c, -s], [s, c]]) @ part.centroid
         assert (centroid - center) @ u > 0
+
+
+def brute_linear_turn(part: upm.Polygon, theta: float, line: float, h: float = 4e-5) -> float:
+    """The moment per mu N about the centroid in a linear squeeze field of unit gradient, from a
+    grid of cells over the footprint: each cell pushed towards the line through the centroid in
+    proportion to its distance from it."""
+    v = upm.Polygon(part.vertices, (0.0, 0.0), theta).outline()
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    x, y = np.meshgrid(np.arange(lo[0], hi[0], h) + h / 2, np.arange(lo[1], hi[1], h) + h / 2)
+    inside = np.ones_like(x, bool)
+    for a, b in zip(v, np.roll(v, -1, axis=0), strict=True):
+        inside &= (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]) >= 0
+    p = np.stack([x[inside], y[inside]], axis=1)
+    p -= p.mean(axis=0)
+    n = np.array([math.sin(line), -math.cos(line)])
+    force = -(p @ n)[:, None] * n
+    return float(np.mean(p[:, 0] * force[:, 1] - p[:, 1] * force[:, 0]))
+
+
+@pytest.mark.parametrize("vertices", [PENTAGON, [[0.0, 0.0], [0.03, 0.0], [0.0, 0.015]]])
+def test_the_linear_squeeze_turn_function_matches_a_brute_force_grid(vertices):
+    part = upm.Polygon(vertices)
+    eq = orientation_equilibria(part, SqueezeField(angle=0.4, profile="linear"), samples=90)
+    scale = np.max(np.abs(eq.turn[:, 1]))
+    for theta, m in eq.turn[::9]:
+        assert abs(m - brute_linear_turn(part, theta, 0.4)) < 2e-3 * scale
+    # one stable and one unstable orientation a half turn, a quarter turn apart
+    assert len(eq.stable) == 1 and len(eq.unstable) == 1
+    assert abs((eq.stable[0] - eq.unstable[0]) % math.pi - math.pi / 2) < 1e-9
+    assert eq.offsets[0] == 0.0
+
+
+def test_a_linear_squeeze_lays_a_rectangle_along_the_line_and_leaves_a_square_neutral():
+    rect = upm.Polygon.rectangle(0.04, 0.02)
+    eq = orientation_equilibria(rect, SqueezeField(angle=0.3, profile="linear"))
+    np.testing.assert_allclose(eq.stable, [0.3], atol=1e-9)
+    np.testing.assert_allclose(eq.unstable, [0.3 + math.pi / 2], atol=1e-9)
+    square = orientation_equilibria(upm.Polygon.rectangle(0.02, 0.02), SqueezeField(profile="linear"))
+    assert len(square.stable) == 0 and len(square.unstable) == 0
+    with pytest.raises(upm.ParameterError, match="profile must be 'unit' or 'linear'"):
+        SqueezeField(profile="quadratic")
+
+
+@pytest.mark.parametrize(
+    ("vertices", "start"),
+    [
+        (None, 1.0),  # a 2:1 rectangle, from either side of its stable pose
+        (None, 2.5),
+        ([[0.0, 0.0], [0.03, 0.0], [0.0, 0.015]], 1.0),  # a right triangle
+    ],
+)
+def test_the_ppod_line_sink_turns_parts_to_the_predicted_orientation_within_3_degrees(vertices, start):
+    # Simulated on the 6-DOF plate: the rocking presses each element of the part by g + a_z where
+    # it lies, which is what turns it; the prediction knows nothing of the integrator.
+    part = upm.Polygon.rectangle(0.03, 0.015) if vertices is None else upm.Polygon(vertices)
+    line = SqueezeField(point=(0.0, 0.0), angle=math.pi / 2, profile="linear")  # LineSinkX: x = 0
+    (want,) = orientation_equilibria(part, line).stable
+    run = upm.simulate(
+        upm.PlateMotion.ppod("LineSinkX"),
+        [upm.Polygon(part.vertices, position=(0.02, 0.01), angle=start)],
+        duration=25.0,
+        dt=1 / 20 / 400,
+        mu=0.3,
+        record_every=10_000,
+    )
+    err = (run.angles[-1, 0] - want + math.pi / 2) % math.pi - math.pi / 2
+    assert abs(math.degrees(err)) < 3.0, f"ended at {math.degrees(run.angles[-1, 0]) % 180:.2f} deg"
+    # it turned there (it did not start there), and its centroid came to the line
+    first = (start - want + math.pi / 2) % math.pi - math.pi / 2
+    assert abs(math.degrees(first)) > 20.0
+    centroid = run.positions[-1, 0] + part.centroid_offset(run.angles[-1, 0])
+    assert abs(centroid[0]) < 2e-3

@@ -322,7 +322,11 @@ def _main(argv: list[str]) -> int:
             for name, (summary, _) in ORIENT.items():
                 print(f"{name:12s} {'polygons':14s} {summary}")
             return 0
-        if args.name.startswith("mchip-") or args.name in ("ppod", "orient") or args.name.startswith("ppod-"):
+        if (
+            args.name.startswith("mchip-")
+            or args.name in ("ppod", "orient", "orient-ppod")
+            or args.name.startswith("ppod-")
+        ):
             from ._experiments import run_named
             from .mchip_demos import DEMOS as MCHIP_TABLE
             from .orient_demos import DEMOS as ORIENT_TABLE
@@ -346,7 +350,15 @@ def _main(argv: list[str]) -> int:
         from .ppod_demos import DEMOS as PPOD
 
         if args.name not in DEMOS:
-            every = ["feeding", "list", *sorted(DEMOS), *sorted(MCHIP), *sorted(PPOD), "orient"]
+            every = [
+                "feeding",
+                "list",
+                *sorted(DEMOS),
+                *sorted(MCHIP),
+                *sorted(PPOD),
+                "orient",
+                "orient-ppod",
+            ]
             print(f"upm demo: no demo {args.name!r}; the demos: {', '.join(every)}", file=sys.stderr)
             return 2
         try:

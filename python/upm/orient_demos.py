@@ -5,6 +5,11 @@ feeds like one) at random poses on the simulated plate (motors on flexures, the 
 contacts between the parts) brought to four given poses, seen by the virtual camera
 (:func:`upm.vision.find_poses`), each pulse chosen by :class:`upm.plan.orient.PosePlanner`; over
 several seeds, medians and maxima of plate time and final errors.
+
+``upm demo orient-ppod``: sensorless orienting on the simulated 6-DOF plate: the test polygons
+(a right triangle, a 2:1 rectangle, an irregular pentagon) started 45 degrees either side of the
+orientation :func:`upm.orientation_equilibria` predicts for the PPOD's line sink (a linear
+squeeze field), and where the simulation brings them.
 """
 
 from __future__ import annotations
@@ -19,7 +24,7 @@ import numpy as np
 from ._experiments import run_named
 from .polygon import Polygon
 
-__all__ = ["DEMOS", "TARGETS", "run_orient"]
+__all__ = ["DEMOS", "TARGETS", "TEST_POLYGONS", "line_sink_orienting", "run_orient"]
 
 #: The brackets' targets: frame origin [m] and angle [rad].
 TARGETS = np.array(
@@ -78,8 +83,72 @@ def _orient(quick: bool, out: Path) -> dict[str, Any]:
     }
 
 
+#: The test polygons of sensorless orienting: a right triangle, a 2:1 rectangle and an irregular
+#: pentagon [m].
+TEST_POLYGONS = {
+    "triangle": [[0.0, 0.0], [0.03, 0.0], [0.0, 0.015]],
+    "rectangle 2:1": [[0.0, 0.0], [0.03, 0.0], [0.03, 0.015], [0.0, 0.015]],
+    "pentagon": [[0.0, 0.0], [0.030, -0.004], [0.041, 0.016], [0.022, 0.031], [-0.006, 0.019]],
+}
+
+
+def line_sink_orienting(
+    vertices: Any, offset: float, duration: float = 60.0, seed: int = 0
+) -> dict[str, Any]:
+    """One part on the simulated 6-DOF plate under the PPOD's ``LineSinkX`` (a line sink along y
+    through the origin), started ``offset`` [rad] from the orientation that
+    :func:`upm.orientation_equilibria` predicts for the linear squeeze field, at a position drawn
+    with ``seed``: its angle error [deg] over time, and when it came within 3 degrees."""
+    from .motion import PlateMotion
+    from .orienting import SqueezeField, orientation_equilibria
+    from .sim import simulate
+
+    part = Polygon(vertices)
+    (want,) = orientation_equilibria(part, SqueezeField(angle=math.pi / 2, profile="linear")).stable
+    at = np.random.default_rng(seed).uniform(-0.02, 0.02, 2)
+    every = 2000  # steps of 1/8000 s: a record every 0.25 s
+    run = simulate(
+        PlateMotion.ppod("LineSinkX"),
+        [Polygon(part.vertices, position=(float(at[0]), float(at[1])), angle=want + offset)],
+        duration=duration,
+        dt=1 / 8000,
+        mu=0.3,
+        record_every=every,
+    )
+    err = np.degrees((run.angles[:, 0] - want + math.pi / 2) % math.pi - math.pi / 2)
+    outside = np.flatnonzero(np.abs(err) >= 3.0)
+    within = float(run.t[outside[-1] + 1]) if outside.size and outside[-1] + 1 < len(err) else None
+    return {
+        "predicted_deg": math.degrees(want) % 180.0,
+        "start_error_deg": float(err[0]),
+        "final_error_deg": float(err[-1]),
+        "within_3_deg_after_s": 0.0 if not outside.size else within,
+    }
+
+
+def _orient_ppod(quick: bool, out: Path) -> dict[str, Any]:
+    offsets = [math.radians(45.0)] if quick else [math.radians(-45.0), math.radians(45.0)]
+    duration = 45.0 if quick else 90.0
+    runs = {
+        name: [line_sink_orienting(v, o, duration, seed=i) for i, o in enumerate(offsets)]
+        for name, v in TEST_POLYGONS.items()
+    }
+    finals = [abs(r["final_error_deg"]) for rs in runs.values() for r in rs]
+    return {
+        "field": "PPOD LineSinkX, 20 Hz, mu 0.3; prediction: linear squeeze field along x = 0",
+        "duration_s": duration,
+        "runs": runs,
+        "final_error_deg_median_max": [float(np.median(finals)), max(finals)],
+        "within_3_deg": f"{sum(f < 3.0 for f in finals)}/{len(finals)}",
+    }
+
+
 DEMOS: dict[str, tuple[str, Callable[[bool, Path], dict[str, Any]]]] = {
     "orient": ("four brackets turned and placed to given poses through the closed loop", _orient),
+    "orient-ppod": (
+        "a triangle, a 2:1 rectangle and a pentagon turned by the PPOD's line sink, against the prediction",
+        _orient_ppod,
+    ),
 }
 
 

@@ -42,10 +42,23 @@ _Rest = Callable[[float], tuple[float, FloatArray]]
 @dataclass(frozen=True)
 class SqueezeField:
     """A field pushing every point perpendicularly towards the line through ``point`` [m] along
-    ``angle`` [rad] (0: the x axis), on both sides."""
+    ``angle`` [rad] (0: the x axis), on both sides.
+
+    ``profile`` says how the push on an element of a part grows with its distance from the line:
+
+    - ``"unit"`` (default): the same on either side, Böhringer et al.'s squeeze field (friction
+      following the direction of a velocity field);
+    - ``"linear"``: in proportion to the distance, the force field of the PPOD's line sinks
+      (``PlateMotion.ppod("LineSinkX")``: line along y). There a part slides as a whole, all its
+      elements along one direction, while the rocking plate presses each element by ``g + a_z``
+      where it lies, which varies linearly across the footprint; the centroid rests on the line
+      and the long principal axis of the part's area turns along it (a part whose second moments
+      are the same in every direction, such as a square, is neutral: no equilibria).
+    """
 
     point: tuple[float, float] = (0.0, 0.0)
     angle: float = 0.0
+    profile: str = "unit"
 
     def __post_init__(self) -> None:
         p = as_float("point", self.point)
@@ -53,6 +66,8 @@ class SqueezeField:
             raise ParameterError(f"point must be two finite numbers (x, y) [m]; got {self.point!r}")
         object.__setattr__(self, "point", (float(p[0]), float(p[1])))
         object.__setattr__(self, "angle", real("angle", self.angle))
+        if self.profile not in ("unit", "linear"):
+            raise ParameterError(f"profile must be 'unit' or 'linear'; got {self.profile!r}")
 
 
 @dataclass(frozen=True)
@@ -279,6 +294,16 @@ def orientation_equilibria(
     if isinstance(field, RadialField):
         period = 2 * math.pi / k
         moment, rest = _radial(part, field)
+    elif field.profile == "linear":
+        period = math.pi
+        moment, rest = _linear_squeeze(part, field)
+        if _isotropic(part):
+            # every orientation is neutral: the turn function vanishes
+            grid = np.linspace(0.0, period, samples, endpoint=False)
+            empty = np.zeros(0)
+            return Equilibria(
+                empty, empty, period, empty, np.zeros((0, 2)), np.column_stack([grid, 0 * grid])
+            )
     else:
         period = 2 * math.pi / math.lcm(2, k)
         moment, rest = _squeeze(part, field)
@@ -306,6 +331,50 @@ def _squeeze(part: Polygon, field: SqueezeField) -> tuple[_Turn, _Rest]:
     def rest(theta: float) -> tuple[float, FloatArray]:
         off = _balance(_turned(part, theta, field.angle), area)[0]
         return off, np.asarray(field.point) + off * right - part.centroid_offset(theta)
+
+    return moment, rest
+
+
+def _second_moments(part: Polygon) -> FloatArray:
+    """``∫ r r^T dA / A`` about the centroid, in the part's frame [m²]."""
+    v = np.asarray(part.vertices, dtype=np.float64) - part.centroid
+    a, b = v, np.roll(v, -1, axis=0)
+    cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    xx = np.sum(cross * (a[:, 0] ** 2 + a[:, 0] * b[:, 0] + b[:, 0] ** 2)) / 12
+    yy = np.sum(cross * (a[:, 1] ** 2 + a[:, 1] * b[:, 1] + b[:, 1] ** 2)) / 12
+    xy = (
+        np.sum(
+            cross * (2 * a[:, 0] * a[:, 1] + a[:, 0] * b[:, 1] + b[:, 0] * a[:, 1] + 2 * b[:, 0] * b[:, 1])
+        )
+        / 24
+    )
+    out: FloatArray = np.array([[xx, xy], [xy, yy]]) / (0.5 * np.sum(cross))
+    return out
+
+
+def _isotropic(part: Polygon) -> bool:
+    """Whether the part's second moments of area are the same in every direction."""
+    lo, hi = np.linalg.eigvalsh(_second_moments(part))
+    return bool(hi - lo <= 1e-9 * hi)
+
+
+def _linear_squeeze(part: Polygon, field: SqueezeField) -> tuple[_Turn, _Rest]:
+    """The turn function in a linear squeeze field of unit gradient (per metre): the push on an
+    element at signed distance ``n . r`` from the line through the centroid is ``-(n . r) n``
+    per ``mu N`` and unit area, so the moment about the centroid is ``n^T S t`` (``S`` the second
+    moments of area over the area, ``t`` the line's direction, ``n`` its right normal)."""
+    s0 = _second_moments(part)
+    t = np.array([math.cos(field.angle), math.sin(field.angle)])
+    n = np.array([t[1], -t[0]])
+
+    def moment(theta: float) -> float:
+        c, s = math.cos(theta), math.sin(theta)
+        r = np.array([[c, -s], [s, c]])
+        return float(n @ (r @ s0 @ r.T) @ t)
+
+    def rest(theta: float) -> tuple[float, FloatArray]:
+        # the pushes balance with the centroid on the line
+        return 0.0, np.asarray(field.point) - part.centroid_offset(theta)
 
     return moment, rest
 

@@ -19,16 +19,21 @@ fn term(amplitude: f64, phase: f64) -> Vec<Term> {
     }]
 }
 
-/// 20 Hz: the PPOD's Sink (x, y, rocking) with a vertical term strong enough to throw parts
-/// (`z'' = 14 sin(wt)` > g) when `lift`, else without it.
-fn sink(lift: bool) -> PlateMotion {
-    let z = if lift { term(14.0, 0.0) } else { Vec::new() };
+/// 20 Hz: the PPOD's circular translation (x'', y'' of its Sink) and a heave, `z'' = 14
+/// sin(wt)` (> g: it throws parts) when `lift`, else `6 sin(wt + 1)`; no rocking, so the pressure
+/// stays uniform across a part.
+fn heaving(lift: bool) -> PlateMotion {
+    let z = if lift {
+        term(14.0, 0.0)
+    } else {
+        term(6.0, 1.0)
+    };
     let terms = [
         term(10.0, 0.0),
         term(10.0, PI / 2.0),
         z,
-        term(70.0, 75.0 * PI / 64.0),
-        term(70.0, 107.0 * PI / 64.0),
+        Vec::new(),
+        Vec::new(),
         Vec::new(),
     ];
     PlateMotion::spatial(Spatial::new(20.0, terms).unwrap())
@@ -59,8 +64,8 @@ fn polygon_parts(shape: &Polygon, origin: [f64; 2], spin: f64, mu: f64) -> Parts
 
 #[test]
 fn a_polygon_that_does_not_spin_moves_and_flies_like_a_point_at_its_centroid() {
-    // Uniform pressure scaled by the normal force at the centroid: a part that translates feels
-    // the force a point at its centroid feels, and leaves and lands with it.
+    // Without rocking the pressure is uniform, scaled by the normal force: a part that translates
+    // feels the force a point at its centroid feels, and leaves and lands with it.
     let shape = Polygon::new(
         "p",
         &[
@@ -76,7 +81,7 @@ fn a_polygon_that_does_not_spin_moves_and_flies_like_a_point_at_its_centroid() {
     let c = cfg(dt, 1600);
     // (mu 1.1: static friction holds the part through part of each cycle)
     for (lift, origin, mu) in [(false, [0.05, -0.03], 1.1), (true, [0.04, 0.02], 0.35)] {
-        let motion = sink(lift);
+        let motion = heaving(lift);
         let poly = simulate(&motion, &polygon_parts(&shape, origin, 0.0, mu), &c).unwrap();
         let at = [origin[0] + shape.centroid[0], origin[1] + shape.centroid[1]];
         let point = simulate(

@@ -94,7 +94,8 @@ pub(super) fn quadrature<const HESSIAN: bool, const K: usize>(
                 if norm == 0.0 {
                     continue;
                 }
-                let area = ws * wt * s * jac;
+                // (the pressure's weight, 1 under uniform pressure)
+                let area = ws * wt * s * jac * (1.0 + p.load[0] * r[0] + p.load[1] * r[1]);
                 let wgt = area / norm;
                 fx -= wgt * u[0];
                 fy -= wgt * u[1];

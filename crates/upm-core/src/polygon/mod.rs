@@ -27,12 +27,16 @@ mod avx2;
 mod far;
 mod lanes;
 mod limit;
+mod load;
 mod step;
 pub use limit::Gauge;
 pub use step::{Step, Stepper};
 
 /// Beyond this many part radii the instantaneous centre is "far" (quadrature, see the module).
 pub const FAR: f64 = 1e3;
+/// Beyond this many part radii the friction under a linearly varying pressure is integrated by
+/// 8 x 8-point quadrature ([`load`]'s closed forms lose digits to cancellation there).
+pub const LOADED_FAR: f64 = 20.0;
 
 /// Relative size under which a turn between consecutive edges counts as straight (a degenerate
 /// vertex).
@@ -56,6 +60,9 @@ pub struct Polygon {
     lanes: Vec<lanes::Edges>,
     /// `∫ r r^T dA / A` about the centroid as `(xx, xy, yy)` [m²] ([`far`]).
     second: [f64; 3],
+    /// The pressure's gradient over its mean, `k` of `p(r) = (N / A) (1 + k . r)` [1/m]
+    /// ([`load`]); zero (the default) for uniform pressure.
+    load: [f64; 2],
 }
 
 /// The friction of a relative twist ([`Polygon::friction_hessian`]).
@@ -193,6 +200,7 @@ impl Polygon {
             radius,
             lanes,
             second,
+            load: [0.0; 2],
         })
     }
 
@@ -235,18 +243,65 @@ impl Polygon {
         self.friction_of::<true>(v, omega)
     }
 
+    /// The pressure's gradient over its mean, `k` of `p(r) = (N / A) (1 + k . r)` [1/m], `r`
+    /// from the centroid in the part's frame (zero: uniform pressure).
+    pub fn load(&self) -> [f64; 2] {
+        self.load
+    }
+
+    /// Sets the pressure's gradient [`Polygon::load`], which every friction of the polygon then
+    /// takes (a part on a plate that rocks). Refused unless finite and the pressure is nowhere
+    /// negative (`1 + k . r >= 0` at every vertex).
+    pub fn set_load(&mut self, k: [f64; 2]) -> Result<()> {
+        let low = self
+            .vertices
+            .iter()
+            .map(|v| 1.0 + k[0] * v[0] + k[1] * v[1])
+            .fold(f64::INFINITY, f64::min);
+        if !(k[0].is_finite() && k[1].is_finite() && low >= 0.0) {
+            return Err(Error::parameter(
+                "load",
+                format!(
+                    "must be finite and leave the pressure 1 + k.r >= 0 at every vertex; got \
+                     {k:?} (lowest {low})"
+                ),
+            ));
+        }
+        self.load = k;
+        Ok(())
+    }
+
     fn friction_of<const HESSIAN: bool>(&self, v: [f64; 2], omega: f64) -> Friction {
         // squares, not hypot: the speed only decides the path (an overflow to inf means far)
         let speed2 = v[0] * v[0] + v[1] * v[1];
         if omega == 0.0 && speed2 == 0.0 {
             return Friction::default();
         }
+        let loaded = self.load != [0.0; 2];
         let near = FAR * self.radius * omega;
         if omega == 0.0 || speed2 > near * near {
+            if loaded {
+                // (the series' first terms are for uniform pressure)
+                return far::quadrature::<HESSIAN, 4>(self, v, omega);
+            }
             return far::friction::<HESSIAN>(self, v, omega);
         }
+        let loaded_near = LOADED_FAR * self.radius * omega;
+        if loaded && speed2 > loaded_near * loaded_near {
+            // the load's terms cancel `|k| |r0|` times more than the fan's own: 8 x 8 points
+            // instead (the series' terms (R / |r0|)^n, the first left out below 1e-20 here)
+            return far::quadrature::<HESSIAN, 8>(self, v, omega);
+        }
         let r0 = [-v[1] / omega, v[0] / omega];
-        let fan = self.fan_of::<HESSIAN>(r0);
+        let mut fan = self.fan_of::<HESSIAN>(r0);
+        if loaded {
+            let k = self.load;
+            let w0 = 1.0 + k[0] * r0[0] + k[1] * r0[1];
+            let l = load::linear::<HESSIAN>(self, r0, k);
+            fan.dist = w0 * fan.dist + l.dist;
+            fan.unit = [w0 * fan.unit[0] + l.unit[0], w0 * fan.unit[1] + l.unit[1]];
+            fan.curvature = std::array::from_fn(|i| w0 * fan.curvature[i] + l.curvature[i]);
+        }
         let (dist, [ux, uy]) = (fan.dist, fan.unit);
         // u/|u| = sign(omega) z x (r - r0)/|r - r0|; r x (z x d) = (r . d) z
         let s = omega.signum() / self.area;

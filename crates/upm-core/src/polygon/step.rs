@@ -123,6 +123,10 @@ impl Stepper {
             stuck: true,
             iterations: 0,
         };
+        let load = self.shape.load();
+        if load != [0.0; 2] {
+            return self.step_loaded(free, slide, c, guess, load);
+        }
         if force + moment <= 1.0 {
             return Ok(stuck); // inside the double cone, inside the limit set
         }
@@ -164,6 +168,45 @@ impl Stepper {
         // Static friction let go (or the part was sliding): it slides under sliding friction. A
         // wrench outside the static limit set (scaled by mu / mu_s <= 1) lies outside the sliding
         // one too, which contains 0 and is convex, so the minimiser is not 0.
+        self.slide(free, slide, Some(toward), guess)
+    }
+
+    /// [`Stepper::step`] under a pressure that varies across the footprint (`load`, `k` of
+    /// [`Polygon::load`]): the quick tests above are for uniform pressure (the sampled planes
+    /// and the double cone; a translating part now feels a moment), so the exact gauge decides,
+    /// unless the force alone is outside the cylinder `|F| <= 1` (still the limit set's bound:
+    /// the pressure is nowhere negative) and the part slides on from a guess.
+    fn step_loaded(
+        &self,
+        free: [f64; 3],
+        slide: f64,
+        c: f64,
+        guess: Option<[f64; 3]>,
+        load: [f64; 2],
+    ) -> Result<Step> {
+        let k = self.gyration;
+        let force = (free[0] * free[0] + free[1] * free[1]).sqrt() / c;
+        let guess = guess.filter(|g| g.iter().any(|&x| x != 0.0));
+        if force > 1.0 && guess.is_some() {
+            return self.slide(free, slide, None, guess);
+        }
+        // a moment beyond the loaded mean distance's bound, max(1 + k.r) times the uniform one
+        let heavy = 1.0 + (load[0] * load[0] + load[1] * load[1]).sqrt() * self.shape.radius;
+        let moment = (k * k * free[2]).abs() / (c * self.mean_distance * heavy);
+        if moment > 1.0 && guess.is_some() {
+            return self.slide(free, slide, None, guess);
+        }
+        let g = self
+            .shape
+            .gauge(free[0] / c, free[1] / c, k * k * free[2] / c)?;
+        if g.value <= 1.0 {
+            return Ok(Step {
+                w: [0.0; 3],
+                stuck: true,
+                iterations: 0,
+            });
+        }
+        let toward = [g.twist[0], g.twist[1], k * g.twist[2]];
         self.slide(free, slide, Some(toward), guess)
     }
 
@@ -232,11 +275,20 @@ impl Stepper {
                 return Ok(st);
             }
         }
-        let toward = toward.unwrap_or_else(|| {
-            let z = [free[0] / c, free[1] / c, k * k * free[2] / c];
-            let best = self.lower_bound([z[0], z[1], z[2] / self.shape.radius]).1;
-            [best[0], best[1], k * best[2] / self.shape.radius]
-        });
+        let toward = match toward {
+            Some(t) => t,
+            None => {
+                let z = [free[0] / c, free[1] / c, k * k * free[2] / c];
+                if self.shape.load() == [0.0; 2] {
+                    let best = self.lower_bound([z[0], z[1], z[2] / self.shape.radius]).1;
+                    [best[0], best[1], k * best[2] / self.shape.radius]
+                } else {
+                    // (the sampled planes are uniform pressure's)
+                    let g = self.shape.gauge(z[0], z[1], z[2])?;
+                    [g.twist[0], g.twist[1], k * g.twist[2]]
+                }
+            }
+        };
         let (y, at) = self.start(target, toward, c, &phi);
         match self.newton(y, at, size + c, &phi)? {
             Some(st) => Ok(st),

@@ -6,8 +6,9 @@
 //! redraws it from its vertices), its recorded velocity that of its centroid.
 //!
 //! On a plate that moves out of its plane the normal force at the centroid, `m (g + a_z)`,
-//! scales the friction limits (uniform pressure, as for disks), and the part flies (keeping its
-//! velocity and spin) while it is negative ([`super::lift::fly`]).
+//! scales the friction limits, the pressure varies across the footprint as `g + a_z` does
+//! (the plate's rocking: [`crate::polygon::Polygon::set_load`]), and the part flies (keeping its
+//! velocity and spin) while the force is negative ([`super::lift::fly`]).
 
 use rayon::prelude::*;
 
@@ -132,11 +133,42 @@ impl PolygonState {
                 relative: [0.0; 3],
             }
         } else {
+            self.press(nz, n);
             self.friction(u, n / cfg.g)?
         };
         self.advance(next, cfg.dt);
         self.leaves(s, cfg);
         Ok(())
+    }
+
+    /// Sets the pressure across the footprint for a step under the plate's out-of-plane
+    /// accelerations `nz` with the normal acceleration `n = g + a_z > 0` at the centroid: each
+    /// element is pressed by `g + a_z` where it lies, `1 + k . r` times the mean with `k` the
+    /// gradient of `a_z` over `n`, in the part's frame. Where that would leave an edge pulled
+    /// off the plate (a part tipping), `k` is shortened until the pressure there is zero: the
+    /// part stays flat, its load all on the rest.
+    fn press(&mut self, nz: &[f64; 3], n: f64) {
+        // a_z = z'' + y alpha'' - x beta'': its gradient is (-beta'', alpha'')
+        let world = [-nz[2] / n, nz[1] / n];
+        let (c, s) = (self.angle.cos(), self.angle.sin());
+        let mut k = turn([c, -s], world);
+        let low = self
+            .stepper
+            .shape
+            .vertices
+            .iter()
+            .map(|v| k[0] * v[0] + k[1] * v[1])
+            .fold(0.0, f64::min);
+        if 1.0 + low < 0.0 {
+            k = [-k[0] / low, -k[1] / low];
+        }
+        if self.stepper.shape.set_load(k).is_err() {
+            // (rounding at the clamp: the vertex's weight a hair below zero)
+            let _ = self
+                .stepper
+                .shape
+                .set_load([k[0] * (1.0 - 1e-12), k[1] * (1.0 - 1e-12)]);
+        }
     }
 
     /// The centroid's velocity, the spin, the stuck flag and the relative twist in the part's
