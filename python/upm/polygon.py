@@ -61,7 +61,7 @@ class Polygon:
     the reason.
 
     :func:`upm.simulate` and :func:`upm.simulate_batch` step it with its exact stick–slip step
-    (out of the plane, under the normal force at its centroid), with contacts through rapier's
+    (out of the plane too, pressed by ``g + a_z`` across its footprint), with contacts through rapier's
     convex polygon colliders; its friction is :meth:`wrench`.
     """
 

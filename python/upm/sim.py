@@ -424,7 +424,8 @@ def simulate(
     lies in its limit set: docs/polygons.md). A polygon's recorded position is its frame's origin
     (with ``angles``, the pose: ``Polygon(vertices, position, angle)`` redraws it), its velocity
     its centroid's. On a plate that moves out of its plane the normal force at a polygon's centroid
-    scales its uniform pressure (as for disks), and it flies while that force is negative.
+    scales its friction, its pressure varies across the footprint as ``g + a_z`` does (a disk's
+    stays uniform), and it flies while that force is negative.
 
     Parameters
     ----------

@@ -133,7 +133,7 @@ impl PolygonState {
                 relative: [0.0; 3],
             }
         } else {
-            self.press(nz, n);
+            self.press(nz, n)?;
             self.friction(u, n / cfg.g)?
         };
         self.advance(next, cfg.dt);
@@ -147,7 +147,7 @@ impl PolygonState {
     /// gradient of `a_z` over `n`, in the part's frame. Where that would leave an edge pulled
     /// off the plate (a part tipping), `k` is shortened until the pressure there is zero: the
     /// part stays flat, its load all on the rest.
-    fn press(&mut self, nz: &[f64; 3], n: f64) {
+    fn press(&mut self, nz: &[f64; 3], n: f64) -> Result<()> {
         // a_z = z'' + y alpha'' - x beta'': its gradient is (-beta'', alpha'')
         let world = [-nz[2] / n, nz[1] / n];
         let (c, s) = (self.angle.cos(), self.angle.sin());
@@ -160,15 +160,14 @@ impl PolygonState {
             .map(|v| k[0] * v[0] + k[1] * v[1])
             .fold(0.0, f64::min);
         if 1.0 + low < 0.0 {
-            k = [-k[0] / low, -k[1] / low];
+            // (a hair short of zero there, so that rounding cannot leave it negative)
+            let f = (1.0 - 1e-12) / -low;
+            k = [k[0] * f, k[1] * f];
         }
-        if self.stepper.shape.set_load(k).is_err() {
-            // (rounding at the clamp: the vertex's weight a hair below zero)
-            let _ = self
-                .stepper
-                .shape
-                .set_load([k[0] * (1.0 - 1e-12), k[1] * (1.0 - 1e-12)]);
-        }
+        self.stepper
+            .shape
+            .set_load(k)
+            .map_err(|e| e.with_context(&format!("part {}", self.index)))
     }
 
     /// The centroid's velocity, the spin, the stuck flag and the relative twist in the part's
