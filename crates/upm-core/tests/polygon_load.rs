@@ -163,7 +163,8 @@ fn the_loaded_closed_form_meets_the_quadrature_where_both_hold() {
     for k in loads(&p) {
         p.set_load(k).unwrap();
         // the closed form up to LOADED_FAR (20) radii, the quadrature beyond: they meet
-        for far in [2.0, 5.0, 10.0, 19.9, 20.1] {
+        // (and 4 x 4 points beyond 100 radii, which must meet the 8 x 8 rule there)
+        for far in [2.0, 5.0, 10.0, 19.9, 20.1, 99.9, 100.1, 400.0] {
             let omega = 2.0;
             let v = [0.3 * omega * far * p.radius, -omega * far * p.radius];
             let (a, b) = (p.wrench(v, omega), p.wrench_quadrature(v, omega));

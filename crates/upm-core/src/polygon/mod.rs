@@ -288,8 +288,13 @@ impl Polygon {
         }
         let loaded_near = LOADED_FAR * self.radius * omega;
         if loaded && speed2 > loaded_near * loaded_near {
-            // the load's terms cancel `|k| |r0|` times more than the fan's own: 8 x 8 points
-            // instead (the series' terms (R / |r0|)^n, the first left out below 1e-20 here)
+            // the load's terms cancel `|k| |r0|` times more than the fan's own: quadrature
+            // instead, its error the first term of the series in R / |r0| it leaves out: 8 x 8
+            // points (degree 16: below 1e-20 here), 4 x 4 beyond 5 LOADED_FAR (degree 8: 1e-16)
+            let nearer = 5.0 * loaded_near;
+            if speed2 > nearer * nearer {
+                return far::quadrature::<HESSIAN, 4>(self, v, omega);
+            }
             return far::quadrature::<HESSIAN, 8>(self, v, omega);
         }
         let r0 = [-v[1] / omega, v[0] / omega];
