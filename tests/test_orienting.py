@@ -17,6 +17,13 @@ from upm.orienting import RadialField, SqueezeField, orientation_equilibria
 PENTAGON = np.array([[0.0, 0.0], [0.030, -0.004], [0.041, 0.016], [0.022, 0.031], [-0.006, 0.019]])
 
 
+def turned_cells(part: upm.Polygon, theta: float, h: float) -> np.ndarray:
+    """:func:`cells` of side ``h`` turned by ``theta``, about their own centroid."""
+    c, s = math.cos(theta), math.sin(theta)
+    p = cells(part, h) @ np.array([[c, s], [-s, c]])
+    return p - p.mean(axis=0)
+
+
 def brute_turn(part: upm.Polygon, theta: float, line: float, h: float = 4e-5) -> tuple[float, float]:
     """The moment per mu N at force balance, and the centroid's distance from the line (to its
     right), from a grid of cells over the footprint: the line (direction ``line``) through the
@@ -161,14 +168,7 @@ def brute_linear_turn(part: upm.Polygon, theta: float, line: float, h: float = 4
     """The moment per mu N about the centroid in a linear squeeze field of unit gradient, from a
     grid of cells over the footprint: each cell pushed towards the line through the centroid in
     proportion to its distance from it."""
-    v = upm.Polygon(part.vertices, (0.0, 0.0), theta).outline()
-    lo, hi = v.min(axis=0), v.max(axis=0)
-    x, y = np.meshgrid(np.arange(lo[0], hi[0], h) + h / 2, np.arange(lo[1], hi[1], h) + h / 2)
-    inside = np.ones_like(x, bool)
-    for a, b in zip(v, np.roll(v, -1, axis=0), strict=True):
-        inside &= (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]) >= 0
-    p = np.stack([x[inside], y[inside]], axis=1)
-    p -= p.mean(axis=0)
+    p = turned_cells(part, theta, h)
     n = np.array([math.sin(line), -math.cos(line)])
     force = -(p @ n)[:, None] * n
     return float(np.mean(p[:, 0] * force[:, 1] - p[:, 1] * force[:, 0]))

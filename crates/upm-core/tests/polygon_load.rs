@@ -2,21 +2,10 @@
 //! a rocking plate) against references outside the closed forms: a brute-force sum over a fine
 //! grid written here, the rate of work's derivatives, and the quadrature where both hold.
 
-use upm_core::polygon::Polygon;
+mod common;
 
-fn pentagon() -> Polygon {
-    Polygon::new(
-        "p",
-        &[
-            [0.0, 0.0],
-            [0.030, -0.004],
-            [0.041, 0.016],
-            [0.022, 0.031],
-            [-0.006, 0.019],
-        ],
-    )
-    .unwrap()
-}
+use common::{pentagon, uniform};
+use upm_core::polygon::Polygon;
 
 /// `(wrench, work)` per `mu N` of the relative twist `(v, omega)` under the pressure `1 + k . r`
 /// by the midpoint rule on an `n x n` grid over the bounding box (cells whose centre is inside).
@@ -183,19 +172,6 @@ fn a_load_that_makes_the_pressure_negative_is_refused() {
     assert!(err.contains("load") && err.contains(">= 0"), "{err}");
     assert!(p.set_load([f64::NAN, 0.0]).is_err());
     assert_eq!(p.load(), [0.0; 2]);
-}
-
-/// Uniform numbers in [-1, 1) from a 64-bit LCG.
-fn uniform(n: usize, seed: u64) -> Vec<f64> {
-    let mut state = seed;
-    (0..n)
-        .map(|_| {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            (state >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        })
-        .collect()
 }
 
 #[test]

@@ -5,6 +5,9 @@
 use std::f64::consts::PI;
 
 use upm_core::motion::spatial::{Spatial, Term};
+mod common;
+
+use common::pentagon;
 use upm_core::motion::PlateMotion;
 use upm_core::polygon::Polygon;
 use upm_core::sim::{simulate, Config, Parts};
@@ -66,17 +69,7 @@ fn polygon_parts(shape: &Polygon, origin: [f64; 2], spin: f64, mu: f64) -> Parts
 fn a_polygon_that_does_not_spin_moves_and_flies_like_a_point_at_its_centroid() {
     // Without rocking the pressure is uniform, scaled by the normal force: a part that translates
     // feels the force a point at its centroid feels, and leaves and lands with it.
-    let shape = Polygon::new(
-        "p",
-        &[
-            [0.0, 0.0],
-            [0.030, -0.004],
-            [0.041, 0.016],
-            [0.022, 0.031],
-            [-0.006, 0.019],
-        ],
-    )
-    .unwrap();
+    let shape = pentagon();
     let dt = 1.0 / 20.0 / 400.0;
     let c = cfg(dt, 1600);
     // (mu 1.1: static friction holds the part through part of each cycle)

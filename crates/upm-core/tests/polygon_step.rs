@@ -2,21 +2,10 @@
 //! a part spinning down in place, the optimality condition of the step written out here, the
 //! limit surface's gauge, the point's closed form and the disk's step.
 
-use upm_core::polygon::{Polygon, Stepper};
+mod common;
 
-fn pentagon() -> Polygon {
-    Polygon::new(
-        "p",
-        &[
-            [0.0, 0.0],
-            [0.030, -0.004],
-            [0.041, 0.016],
-            [0.022, 0.031],
-            [-0.006, 0.019],
-        ],
-    )
-    .unwrap()
-}
+use common::{pentagon, uniform};
+use upm_core::polygon::{Polygon, Stepper};
 
 fn regular(n: usize, r: f64) -> Polygon {
     let v: Vec<[f64; 2]> = (0..n)
@@ -26,19 +15,6 @@ fn regular(n: usize, r: f64) -> Polygon {
         })
         .collect();
     Polygon::new("n-gon", &v).unwrap()
-}
-
-/// Uniform numbers in [-1, 1) from a 64-bit LCG.
-fn uniform(n: usize, seed: u64) -> Vec<f64> {
-    let mut state = seed;
-    (0..n)
-        .map(|_| {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            (state >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        })
-        .collect()
 }
 
 #[test]
