@@ -365,3 +365,35 @@ def test_a_polygon_leaving_the_plate_is_flagged_and_frozen():
     assert run.left_plate[0] and 0.0 < run.left_time[0] < 0.05
     out = run.t > run.left_time[0]
     assert np.ptp(run.positions[out, 0], axis=0).max() == 0.0
+
+
+def test_the_wrench_under_a_pressure_gradient_is_the_sum_over_the_footprint_and_bounds_the_limit_set():
+    # p = (N/A)(1 + k.r): the pressure of a part on a rocking plate (docs/polygons.md)
+    part = upm.Polygon(PENTAGON)
+    k = np.array([0.5, -0.7]) / part.radius
+    v = part.vertices - part.centroid
+    h = 5e-5
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    x, y = np.meshgrid(np.arange(lo[0], hi[0], h) + h / 2, np.arange(lo[1], hi[1], h) + h / 2)
+    inside = np.ones_like(x, bool)
+    for a, b in zip(v, np.roll(v, -1, axis=0), strict=True):
+        inside &= (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]) >= 0
+    r = np.stack([x[inside], y[inside]], axis=1)
+    w = 1 + r @ k
+    for vel, spin in (((0.0, 0.0), 3.0), ((0.02, -0.01), 1.5), ((0.3, 0.1), 0.0)):
+        u = np.asarray(vel) + spin * np.stack([-r[:, 1], r[:, 0]], axis=1)
+        f = -(w[:, None] * u / np.linalg.norm(u, axis=1)[:, None])
+        want = np.array([*f.mean(axis=0), np.mean(r[:, 0] * f[:, 1] - r[:, 1] * f[:, 0])])
+        force, moment = part.wrench(vel, spin, load=k)
+        np.testing.assert_allclose(force, want[:2], atol=2e-3)
+        assert abs(moment - want[2]) < 2e-3 * part.radius
+        # a sliding wrench lies on the limit surface of its own pressure, not of uniform pressure
+        g, _ = part.gauge(force, moment, load=k)
+        assert abs(g - 1.0) < 1e-9
+        assert part.holds(force * 0.999, moment * 0.999, load=k)
+    f0, m0 = part.wrench((0.3, 0.1), 0.0)
+    assert abs(m0) < 1e-15 and abs(part.wrench((0.3, 0.1), 0.0, load=k)[1]) > 1e-4
+    with pytest.raises(upm.ParameterError, match="load"):
+        part.wrench((0.1, 0.0), 1.0, load=3 * k)
+    with pytest.raises(upm.ShapeError, match="load"):
+        part.wrench((0.1, 0.0), 1.0, load=(1.0, 2.0, 3.0))

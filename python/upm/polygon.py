@@ -33,6 +33,16 @@ def _pair(name: str, value: Any) -> tuple[float, float]:
     return float(a[0]), float(a[1])
 
 
+def _load(load: ArrayLike | None) -> tuple[float, float]:
+    """A pressure gradient ``(kx, ky)`` [1/m] (uniform pressure when None)."""
+    if load is None:
+        return (0.0, 0.0)
+    k = as_float("load", load)
+    if k.shape != (2,):
+        raise ShapeError(f"load must be two numbers (kx, ky) [1/m]; got shape {k.shape}")
+    return (float(k[0]), float(k[1]))
+
+
 def _rows(pair_name: str, pair: Any, one_name: str, one: Any) -> tuple[tuple[int, ...], FloatArray]:
     """``pair (..., 2)`` and ``one (...)`` broadcast together: their shape and the ``(N, 3)`` rows."""
     p = as_float(pair_name, pair)
@@ -166,33 +176,51 @@ class Polygon:
 
     # -- friction ------------------------------------------------------------------------------
     def wrench(
-        self, velocity: ArrayLike, spin: ArrayLike, *, threads: int | None = None
+        self,
+        velocity: ArrayLike,
+        spin: ArrayLike,
+        *,
+        load: ArrayLike | None = None,
+        threads: int | None = None,
     ) -> tuple[FloatArray, FloatArray]:
         """Friction force and moment about the centroid, divided by ``mu N``, on the part sliding
         with relative ``velocity`` [m/s] ``(..., 2)`` at its centroid and relative ``spin`` [rad/s]
         ``(...)`` (the part's less the plate surface's), in the part's frame. Returns
         ``(force (..., 2), moment (...) [m])``; zero where there is no relative motion (friction
-        then holds the part with whatever it needs)."""
+        then holds the part with whatever it needs).
+
+        ``load``: the pressure's gradient ``k`` [1/m] in the part's frame, the pressure being
+        ``(N / A) (1 + k . r)`` with ``r`` from the centroid (a part on a rocking plate:
+        docs/polygons.md, "Out of the plane"); uniform by default. It must leave the pressure
+        nowhere negative."""
         shape, twists = _rows("velocity", velocity, "spin", spin)
-        out = _core.polygon_wrench(self._geometry[5], twists, pool(threads))
+        out = _core.polygon_wrench(self._geometry[5], twists, pool(threads), _load(load))
         out = out.reshape(*shape, 3)
         return out[..., :2], out[..., 2]
 
     def gauge(
-        self, force: ArrayLike, moment: ArrayLike, *, threads: int | None = None
+        self,
+        force: ArrayLike,
+        moment: ArrayLike,
+        *,
+        load: ArrayLike | None = None,
+        threads: int | None = None,
     ) -> tuple[FloatArray, FloatArray]:
         """Where the wrench ``(force (..., 2), moment (...) [m])`` per ``mu N`` lies against the
         limit surface (every wrench friction can give the part): its gauge ``(...)``, at most 1
         when static friction can supply it, and the relative twist ``(..., 3)`` ``(vx, vy,
         omega)`` (up to scale) whose sliding friction is the wrench divided by the gauge (the way
         the part starts to slide when the wrench it needs grows past the limit). Exact: a Newton
-        ascent of ``<z, e> / D(e)`` over twist directions (docs/polygons.md)."""
+        ascent of ``<z, e> / D(e)`` over twist directions (docs/polygons.md). ``load``: as for
+        :meth:`wrench`."""
         shape, z = _rows("force", force, "moment", moment)
-        values, twists = _core.polygon_gauge(self._geometry[5], z, pool(threads))
+        values, twists = _core.polygon_gauge(self._geometry[5], z, pool(threads), _load(load))
         return values.reshape(shape), twists.reshape(*shape, 3)
 
-    def holds(self, force: ArrayLike, moment: ArrayLike) -> NDArray[np.bool_]:
+    def holds(
+        self, force: ArrayLike, moment: ArrayLike, *, load: ArrayLike | None = None
+    ) -> NDArray[np.bool_]:
         """Whether static friction can supply the wrench ``(force, moment)`` per ``mu N`` (its
         :meth:`gauge` is at most 1): a part that needs it to move with the plate sticks."""
-        out: NDArray[np.bool_] = self.gauge(force, moment)[0] <= 1.0
+        out: NDArray[np.bool_] = self.gauge(force, moment, load=load)[0] <= 1.0
         return out

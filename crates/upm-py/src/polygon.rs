@@ -80,17 +80,31 @@ pub fn polygon_geometry<'py>(
     )
 }
 
+/// The polygon `vertices (K, 2)` under the pressure gradient `load` (`k` of `p = (N / A) (1 +
+/// k . r)`, [1/m]; `ParameterError` if the pressure would be negative somewhere).
+fn loaded(
+    py: Python<'_>,
+    vertices: &PyReadonlyArray2<'_, f64>,
+    load: [f64; 2],
+) -> PyResult<Polygon> {
+    let mut p = polygon(py, "vertices", vertices)?;
+    core(py, p.set_load(load))?;
+    Ok(p)
+}
+
 /// The friction wrench `(Fx, Fy, M) / (mu N)`, `(M, 3)`, of the polygon `vertices (K, 2)` sliding
-/// with the relative twists `twists (M, 3)` (`vx, vy, omega` at its centroid), in parallel.
+/// with the relative twists `twists (M, 3)` (`vx, vy, omega` at its centroid) under the
+/// pressure gradient `load`, in parallel.
 #[pyfunction]
-#[pyo3(signature = (vertices, twists, threads=None))]
+#[pyo3(signature = (vertices, twists, threads=None, load=(0.0, 0.0)))]
 pub fn polygon_wrench<'py>(
     py: Python<'py>,
     vertices: PyReadonlyArray2<'py, f64>,
     twists: PyReadonlyArray2<'py, f64>,
     threads: Option<usize>,
+    load: (f64, f64),
 ) -> PyResult<Bound<'py, PyAny>> {
-    let p = polygon(py, "vertices", &vertices)?;
+    let p = loaded(py, &vertices, [load.0, load.1])?;
     let rows = triples(py, "twists", &twists)?;
     let m = rows.len();
     let out = each_row(py, &rows, threads, |i, [vx, vy, w]| {
@@ -108,16 +122,18 @@ pub fn polygon_wrench<'py>(
 }
 
 /// The gauges of the wrenches `wrenches (M, 3)` (`Fx, Fy, M` per `mu N`) in the limit set of
-/// the polygon `vertices (K, 2)`, and the sliding twists `(M, 3)` they point to, in parallel.
+/// the polygon `vertices (K, 2)` under the pressure gradient `load`, and the sliding twists
+/// `(M, 3)` they point to, in parallel.
 #[pyfunction]
-#[pyo3(signature = (vertices, wrenches, threads=None))]
+#[pyo3(signature = (vertices, wrenches, threads=None, load=(0.0, 0.0)))]
 pub fn polygon_gauge<'py>(
     py: Python<'py>,
     vertices: PyReadonlyArray2<'py, f64>,
     wrenches: PyReadonlyArray2<'py, f64>,
     threads: Option<usize>,
+    load: (f64, f64),
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let p = polygon(py, "vertices", &vertices)?;
+    let p = loaded(py, &vertices, [load.0, load.1])?;
     let rows = triples(py, "wrenches", &wrenches)?;
     let m = rows.len();
     let all = each_row(py, &rows, threads, |_, [fx, fy, mz]| p.gauge(fx, fy, mz))?;
