@@ -391,7 +391,7 @@ def test_the_wrench_under_a_pressure_gradient_is_the_sum_over_the_footprint_and_
         g, _ = part.gauge(force, moment, load=k)
         assert abs(g - 1.0) < 1e-9
         assert part.holds(force * 0.999, moment * 0.999, load=k)
-    f0, m0 = part.wrench((0.3, 0.1), 0.0)
+    _, m0 = part.wrench((0.3, 0.1), 0.0)
     assert abs(m0) < 1e-15 and abs(part.wrench((0.3, 0.1), 0.0, load=k)[1]) > 1e-4
     with pytest.raises(upm.ParameterError, match="load"):
         part.wrench((0.1, 0.0), 1.0, load=3 * k)
