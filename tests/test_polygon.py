@@ -397,3 +397,13 @@ def test_the_wrench_under_a_pressure_gradient_is_the_sum_over_the_footprint_and_
         part.wrench((0.1, 0.0), 1.0, load=3 * k)
     with pytest.raises(upm.ShapeError, match="load"):
         part.wrench((0.1, 0.0), 1.0, load=(1.0, 2.0, 3.0))
+
+
+def test_second_moments_are_the_rectangles_closed_form_turned_with_the_frame():
+    s = upm.Polygon.rectangle(0.04, 0.02).second_moments
+    np.testing.assert_allclose(s, np.diag([0.04**2 / 12, 0.02**2 / 12]), rtol=1e-12, atol=1e-20)
+    # the same outline turned by 30 degrees: R S R^T
+    c, n = math.cos(math.pi / 6), math.sin(math.pi / 6)
+    r = np.array([[c, -n], [n, c]])
+    turned = upm.Polygon(upm.Polygon.rectangle(0.04, 0.02).vertices @ r.T).second_moments
+    np.testing.assert_allclose(turned, r @ s @ r.T, rtol=0, atol=1e-18)

@@ -322,14 +322,15 @@ def _main(argv: list[str]) -> int:
             for name, (summary, _) in ORIENT.items():
                 print(f"{name:12s} {'polygons':14s} {summary}")
             return 0
+        from .orient_demos import DEMOS as ORIENT_TABLE
+
         if (
             args.name.startswith("mchip-")
-            or args.name in ("ppod", "orient", "orient-ppod")
+            or args.name in ("ppod", *ORIENT_TABLE)
             or args.name.startswith("ppod-")
         ):
             from ._experiments import run_named
             from .mchip_demos import DEMOS as MCHIP_TABLE
-            from .orient_demos import DEMOS as ORIENT_TABLE
             from .ppod_demos import DEMOS as PPOD_TABLE
 
             try:
@@ -350,15 +351,7 @@ def _main(argv: list[str]) -> int:
         from .ppod_demos import DEMOS as PPOD
 
         if args.name not in DEMOS:
-            every = [
-                "feeding",
-                "list",
-                *sorted(DEMOS),
-                *sorted(MCHIP),
-                *sorted(PPOD),
-                "orient",
-                "orient-ppod",
-            ]
+            every = ["feeding", "list", *sorted(DEMOS), *sorted(MCHIP), *sorted(PPOD), *sorted(ORIENT_TABLE)]
             print(f"upm demo: no demo {args.name!r}; the demos: {', '.join(every)}", file=sys.stderr)
             return 2
         try:

@@ -296,8 +296,9 @@ def orientation_equilibria(
         moment, rest = _radial(part, field)
     elif field.profile == "linear":
         period = math.pi
-        moment, rest = _linear_squeeze(part, field)
-        if _isotropic(part):
+        s0 = part.second_moments
+        moment, rest = _linear_squeeze(part, field, s0)
+        if _isotropic(s0):
             # every orientation is neutral: the turn function vanishes
             grid = np.linspace(0.0, period, samples, endpoint=False)
             empty = np.zeros(0)
@@ -335,35 +336,18 @@ def _squeeze(part: Polygon, field: SqueezeField) -> tuple[_Turn, _Rest]:
     return moment, rest
 
 
-def _second_moments(part: Polygon) -> FloatArray:
-    """``∫ r r^T dA / A`` about the centroid, in the part's frame [m²]."""
-    v = np.asarray(part.vertices, dtype=np.float64) - part.centroid
-    a, b = v, np.roll(v, -1, axis=0)
-    cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    xx = np.sum(cross * (a[:, 0] ** 2 + a[:, 0] * b[:, 0] + b[:, 0] ** 2)) / 12
-    yy = np.sum(cross * (a[:, 1] ** 2 + a[:, 1] * b[:, 1] + b[:, 1] ** 2)) / 12
-    xy = (
-        np.sum(
-            cross * (2 * a[:, 0] * a[:, 1] + a[:, 0] * b[:, 1] + b[:, 0] * a[:, 1] + 2 * b[:, 0] * b[:, 1])
-        )
-        / 24
-    )
-    out: FloatArray = np.array([[xx, xy], [xy, yy]]) / (0.5 * np.sum(cross))
-    return out
-
-
-def _isotropic(part: Polygon) -> bool:
-    """Whether the part's second moments of area are the same in every direction."""
-    lo, hi = np.linalg.eigvalsh(_second_moments(part))
+def _isotropic(s0: FloatArray) -> bool:
+    """Whether second moments of area ``s0`` are the same in every direction."""
+    lo, hi = np.linalg.eigvalsh(s0)
     return bool(hi - lo <= 1e-9 * hi)
 
 
-def _linear_squeeze(part: Polygon, field: SqueezeField) -> tuple[_Turn, _Rest]:
+def _linear_squeeze(part: Polygon, field: SqueezeField, s0: FloatArray) -> tuple[_Turn, _Rest]:
     """The turn function in a linear squeeze field of unit gradient (per metre): the push on an
     element at signed distance ``n . r`` from the line through the centroid is ``-(n . r) n``
     per ``mu N`` and unit area, so the moment about the centroid is ``n^T S t`` (``S`` the second
-    moments of area over the area, ``t`` the line's direction, ``n`` its right normal)."""
-    s0 = _second_moments(part)
+    moments of area over the area, ``s0`` in the part's frame, ``t`` the line's direction, ``n``
+    its right normal)."""
     t = np.array([math.cos(field.angle), math.sin(field.angle)])
     n = np.array([t[1], -t[0]])
 

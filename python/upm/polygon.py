@@ -137,6 +137,13 @@ class Polygon:
         return math.sqrt(self._geometry[2] / self._geometry[0])
 
     @property
+    def second_moments(self) -> FloatArray:
+        """``∫ r r^T dA / A`` about the centroid in the part's frame, ``(2, 2)`` [m²]: how the
+        area spreads (its principal axes are the part's)."""
+        xx, xy, yy = self._geometry[6]
+        return np.array([[xx, xy], [xy, yy]])
+
+    @property
     def radius(self) -> float:
         """Largest distance of a vertex from the centroid [m]."""
         return float(self._geometry[3])

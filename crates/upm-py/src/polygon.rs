@@ -54,7 +54,8 @@ where
     Ok(out.into_iter().flatten().collect())
 }
 
-/// `(area, centroid (2,), polar, radius, mean_distance, vertices (K, 2) about the centroid)` of
+/// `(area, centroid (2,), polar, radius, mean_distance, vertices (K, 2) about the centroid,
+/// second moments (xx, xy, yy) over the area)` of
 /// the polygon `vertices (K, 2)`; `ParameterError` naming `name` and the reason if it is not a
 /// convex counter-clockwise polygon.
 #[pyfunction]
@@ -76,6 +77,7 @@ pub fn polygon_geometry<'py>(
             p.radius.into_pyobject(py)?.into_any(),
             p.mean_distance().into_pyobject(py)?.into_any(),
             centred.into_any(),
+            PyArray1::from_vec(py, p.second_moments().to_vec()).into_any(),
         ],
     )
 }

@@ -244,6 +244,11 @@ impl Polygon {
         self.friction_of::<true>(v, omega)
     }
 
+    /// `∫ r r^T dA / A` about the centroid, in the part's frame, as `(xx, xy, yy)` [m²].
+    pub fn second_moments(&self) -> [f64; 3] {
+        self.second
+    }
+
     /// The pressure's gradient over its mean, `k` of `p(r) = (N / A) (1 + k . r)` [1/m], `r`
     /// from the centroid in the part's frame (zero: uniform pressure).
     pub fn load(&self) -> [f64; 2] {

@@ -125,7 +125,7 @@ impl Stepper {
         };
         let load = self.shape.load();
         if load != [0.0; 2] {
-            return self.step_loaded(free, slide, c, guess, load);
+            return self.step_loaded(free, [slide, c, force], guess, load);
         }
         if force + moment <= 1.0 {
             return Ok(stuck); // inside the double cone, inside the limit set
@@ -176,16 +176,16 @@ impl Stepper {
     /// and the double cone; a translating part now feels a moment), so the exact gauge decides,
     /// unless the force alone is outside the cylinder `|F| <= 1` (still the limit set's bound:
     /// the pressure is nowhere negative) and the part slides on from a guess.
+    /// `[slide, c, force]`: the sliding threshold, the threshold in force now (static while
+    /// stuck) and the free twist's force over it.
     fn step_loaded(
         &self,
         free: [f64; 3],
-        slide: f64,
-        c: f64,
+        [slide, c, force]: [f64; 3],
         guess: Option<[f64; 3]>,
         load: [f64; 2],
     ) -> Result<Step> {
         let k = self.gyration;
-        let force = (free[0] * free[0] + free[1] * free[1]).sqrt() / c;
         let guess = guess.filter(|g| g.iter().any(|&x| x != 0.0));
         if force > 1.0 && guess.is_some() {
             return self.slide(free, slide, None, guess);
