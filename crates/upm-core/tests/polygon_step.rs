@@ -201,3 +201,36 @@ fn a_start_far_from_a_small_answer_ends_at_the_minimiser_not_at_the_kink() {
     }
     assert!(checked > 100, "{checked} sliding");
 }
+
+#[test]
+fn a_pure_moment_holds_only_up_to_the_largest_pure_moment_of_the_limit_set() {
+    // A right triangle spinning about its centroid feels a force (0.06 mu N): the largest
+    // moment, its mean distance, comes with that force, and a pure moment holds only up to
+    // 1 / gauge(0, 0, 1), 0.27 % less. Just under the mean distance the part must slide.
+    let shape = Polygon::new("t", &[[0.0, 0.0], [0.03, 0.0], [0.0, 0.015]]).unwrap();
+    let p = Stepper::new(shape.clone());
+    let k2 = p.gyration * p.gyration;
+    let c = 0.3 * 9.81 * 1e-4;
+    let largest = 1.0 / shape.gauge(0.0, 0.0, 1.0).unwrap().value;
+    assert!(
+        largest < 0.998 * p.mean_distance,
+        "{largest} {}",
+        p.mean_distance
+    );
+    for (s, holds) in [(0.999, false), (0.99, true), (1.001, false)] {
+        for sign in [1.0, -1.0] {
+            let m = sign * s * p.mean_distance;
+            let st = p.step([0.0, 0.0, m * c / k2], c, c, false, None).unwrap();
+            let gauge = shape.gauge(0.0, 0.0, m).unwrap().value;
+            assert_eq!(gauge <= 1.0, holds, "gauge {gauge}");
+            assert_eq!(st.stuck, holds, "moment {s} x the mean distance: {st:?}");
+        }
+    }
+    // the same at the boundary itself, either side
+    for (s, holds) in [(1.0 - 1e-9, true), (1.0 + 1e-9, false)] {
+        let st = p
+            .step([0.0, 0.0, s * largest * c / k2], c, c, false, None)
+            .unwrap();
+        assert_eq!(st.stuck, holds, "{s} x the largest pure moment: {st:?}");
+    }
+}
