@@ -62,6 +62,9 @@ impl Polygon {
         for (name, x) in [("force", fx), ("force", fy), ("moment", m)] {
             crate::error::finite(name, x)?;
         }
+        if let Some(t) = self.tripod() {
+            return t.gauge(fx, fy, m);
+        }
         let l = self.radius;
         let z = [fx, fy, m / l];
         let size = dot(z, z).sqrt();

@@ -29,8 +29,10 @@ mod lanes;
 mod limit;
 mod load;
 mod step;
+mod tripod;
 pub use limit::Gauge;
 pub use step::{Step, Stepper};
+pub use tripod::Tripod;
 
 /// Beyond this many part radii the instantaneous centre is "far" (quadrature, see the module).
 pub const FAR: f64 = 1e3;
@@ -64,6 +66,8 @@ pub struct Polygon {
     /// The pressure's gradient over its mean, `k` of `p(r) = (N / A) (1 + k . r)` [1/m]
     /// ([`load`]); zero (the default) for uniform pressure.
     load: [f64; 2],
+    /// Three feet the part rests on instead of its footprint ([`tripod`]), if it does.
+    tripod: Option<Tripod>,
 }
 
 /// The friction of a relative twist ([`Polygon::friction_hessian`]).
@@ -202,7 +206,26 @@ impl Polygon {
             lanes,
             second,
             load: [0.0; 2],
+            tripod: None,
         })
+    }
+
+    /// Rests the part on three feet, given in the frame its vertices were given in, instead of
+    /// its whole footprint (three-point support, [`tripod`]); `None` restores the footprint.
+    /// Refused, naming `name`: feet that are not finite, lie on one line or outside the outline,
+    /// or do not surround the centroid (the part would tip).
+    pub fn set_feet(&mut self, name: &str, feet: Option<[[f64; 2]; 3]>) -> Result<()> {
+        self.tripod = feet
+            .map(|f| Tripod::new(name, f, self.centroid, &self.vertices))
+            .transpose()?;
+        let load = self.load;
+        self.load = [0.0; 2];
+        self.set_load(load)
+    }
+
+    /// The three feet the part rests on, if it does ([`Polygon::set_feet`]).
+    pub fn tripod(&self) -> Option<&Tripod> {
+        self.tripod.as_ref()
     }
 
     /// `(∫ |r - r0| dA, ∫ (r - r0)/|r - r0| dA)` over the polygon, `r0` relative to the centroid
@@ -257,8 +280,17 @@ impl Polygon {
 
     /// Sets the pressure's gradient [`Polygon::load`], which every friction of the polygon then
     /// takes (a part on a plate that rocks). Refused unless finite and the pressure is nowhere
-    /// negative (`1 + k . r >= 0` at every vertex).
+    /// negative (`1 + k . r >= 0` at every vertex; on three feet, every foot pressed with the
+    /// centre of pressure at `S k`, `S` the second moments over the area).
     pub fn set_load(&mut self, k: [f64; 2]) -> Result<()> {
+        let q = self.centre_of_pressure(k);
+        if let Some(t) = &mut self.tripod {
+            crate::error::finite("load", k[0])?;
+            crate::error::finite("load", k[1])?;
+            t.set_centre(q)?;
+            self.load = k;
+            return Ok(());
+        }
         let low = self
             .vertices
             .iter()
@@ -277,7 +309,44 @@ impl Polygon {
         Ok(())
     }
 
+    /// The centre of pressure under the pressure gradient `k`, `S k` from the centroid [m].
+    fn centre_of_pressure(&self, k: [f64; 2]) -> [f64; 2] {
+        let [xx, xy, yy] = self.second;
+        [xx * k[0] + xy * k[1], xy * k[0] + yy * k[1]]
+    }
+
+    /// `k` shortened, if need be, until the part stays flat: until the pressure is nowhere
+    /// negative (a hair short of zero where it is least, so that rounding cannot leave it
+    /// negative), or on three feet until every foot is pressed. A part whose load would lift
+    /// an edge or a foot tips; that is not modelled, its load goes all on the rest.
+    pub fn steady_load(&self, k: [f64; 2]) -> [f64; 2] {
+        let f = match &self.tripod {
+            Some(t) => t.steady(self.centre_of_pressure(k)),
+            None => {
+                let low = self
+                    .vertices
+                    .iter()
+                    .map(|v| k[0] * v[0] + k[1] * v[1])
+                    .fold(0.0, f64::min);
+                if 1.0 + low < 0.0 {
+                    1.0 / -low
+                } else {
+                    1.0
+                }
+            }
+        };
+        if f < 1.0 {
+            let f = f * (1.0 - 1e-12);
+            [k[0] * f, k[1] * f]
+        } else {
+            k
+        }
+    }
+
     fn friction_of<const HESSIAN: bool>(&self, v: [f64; 2], omega: f64) -> Friction {
+        if let Some(t) = &self.tripod {
+            return t.friction::<HESSIAN>(v, omega);
+        }
         // squares, not hypot: the speed only decides the path (an overflow to inf means far)
         let speed2 = v[0] * v[0] + v[1] * v[1];
         if omega == 0.0 && speed2 == 0.0 {
@@ -346,9 +415,13 @@ impl Polygon {
     }
 
     /// Mean distance from the centroid, `∫ |r| dA / A` [m]: the largest friction moment about
-    /// the centroid is this times `mu N` (a part spinning in place).
+    /// the centroid is this times `mu N` (a part spinning in place). On three feet, their mean
+    /// distance weighted by their shares of the load.
     pub fn mean_distance(&self) -> f64 {
-        self.moments([0.0, 0.0]).0 / self.area
+        match &self.tripod {
+            Some(t) => t.largest_moment(),
+            None => self.moments([0.0, 0.0]).0 / self.area,
+        }
     }
 }
 

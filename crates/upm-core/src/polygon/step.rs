@@ -203,8 +203,16 @@ impl Stepper {
             return self.slide(free, slide, None, guess);
         }
         // a moment beyond the loaded mean distance's bound, max(1 + k.r) times the uniform one
-        let heavy = 1.0 + (load[0] * load[0] + load[1] * load[1]).sqrt() * self.shape.radius;
-        let moment = (k * k * free[2]).abs() / (c * self.mean_distance * heavy);
+        // (on three feet, the farthest foot's distance)
+        let bound = match self.shape.tripod() {
+            Some(t) => t.feet.iter().map(|s| s[0].hypot(s[1])).fold(0.0, f64::max),
+            None => {
+                let heavy =
+                    1.0 + (load[0] * load[0] + load[1] * load[1]).sqrt() * self.shape.radius;
+                self.mean_distance * heavy
+            }
+        };
+        let moment = (k * k * free[2]).abs() / (c * bound);
         if moment > 1.0 && guess.is_some() {
             return self.slide(free, slide, None, guess);
         }
@@ -281,6 +289,19 @@ impl Stepper {
             }
         };
         let size = dot(target, target).sqrt();
+        if let Some(t) = self.shape.tripod() {
+            // on three feet it may turn about one of them: a kink of Phi, in closed form; if
+            // it nearly does, Newton starts beside that pivot, off its kink
+            match t.pivot(target, c, k) {
+                Ok(y) => return Ok(self.done(y, 0)),
+                Err(Some(y)) => {
+                    if let Some(st) = self.newton(y, phi(y), size + c, &phi)? {
+                        return Ok(st);
+                    }
+                }
+                Err(None) => {}
+            }
+        }
         if let Some(g) = guess.filter(|g| g.iter().any(|&x| x != 0.0)) {
             let y = [g[0], g[1], k * g[2]];
             if let Some(st) = self.newton(y, phi(y), size + c, &phi)? {

@@ -144,28 +144,17 @@ impl PolygonState {
     /// Sets the pressure across the footprint for a step under the plate's out-of-plane
     /// accelerations `nz` with the normal acceleration `n = g + a_z > 0` at the centroid: each
     /// element is pressed by `g + a_z` where it lies, `1 + k . r` times the mean with `k` the
-    /// gradient of `a_z` over `n`, in the part's frame. Where that would leave an edge pulled
-    /// off the plate (a part tipping), `k` is shortened until the pressure there is zero: the
-    /// part stays flat, its load all on the rest.
+    /// gradient of `a_z` over `n`, in the part's frame (on three feet, the same moment: their
+    /// shares put the centre of pressure where the footprint's is). Where that would lift an
+    /// edge or a foot off the plate (a part tipping), `k` is shortened until it just does not
+    /// ([`Polygon::steady_load`]): the part stays flat.
     fn press(&mut self, nz: &[f64; 3], n: f64) -> Result<()> {
         // a_z = z'' + y alpha'' - x beta'': its gradient is (-beta'', alpha'')
         let world = [-nz[2] / n, nz[1] / n];
         let (c, s) = (self.angle.cos(), self.angle.sin());
-        let mut k = turn([c, -s], world);
-        let low = self
-            .stepper
-            .shape
-            .vertices
-            .iter()
-            .map(|v| k[0] * v[0] + k[1] * v[1])
-            .fold(0.0, f64::min);
-        if 1.0 + low < 0.0 {
-            // (a hair short of zero there, so that rounding cannot leave it negative)
-            let f = (1.0 - 1e-12) / -low;
-            k = [k[0] * f, k[1] * f];
-        }
-        self.stepper
-            .shape
+        let shape = &mut self.stepper.shape;
+        let k = shape.steady_load(turn([c, -s], world));
+        shape
             .set_load(k)
             .map_err(|e| e.with_context(&format!("part {}", self.index)))
     }
