@@ -300,7 +300,7 @@ class SimulatedUPM:
         shape = self.part_shape
         if shape is not None:
             angles = self._angles(self.angles)
-            polygons = [Polygon(shape.vertices, (float(x), float(y)), float(a))
+            polygons = [shape.moved((float(x), float(y)), float(a))
                         for (x, y), a in zip(self.parts[on], angles[on], strict=True)]  # fmt: skip
             result = simulate(
                 motion, polygons, record_every=10**9, contacts=True,

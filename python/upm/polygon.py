@@ -61,7 +61,7 @@ def _rows(pair_name: str, pair: Any, one_name: str, one: Any) -> tuple[tuple[int
 
 @dataclass(frozen=True, eq=False)
 class Polygon:
-    """A flat convex polygon part pressing uniformly on the plate.
+    """A flat convex polygon part pressing uniformly on the plate, or resting on three feet.
 
     ``vertices`` ``(K, 2)`` [m] in the part's frame, counter-clockwise; ``position`` [m] of the
     frame's origin on the plate and ``angle`` [rad] of the frame; ``velocity`` [m/s] of the
@@ -70,9 +70,16 @@ class Polygon:
     has three collinear vertices or no area is refused with :class:`upm.ParameterError` naming
     the reason.
 
+    ``support``: ``None`` (the default) for uniform pressure over the footprint, or three feet
+    ``(3, 2)`` [m] in the part's frame that carry it instead (three-point support, as in Vose,
+    Umbanhowar and Lynch 2012): the normal force splits over them so that they hold the part
+    level (:attr:`shares`), friction acts at the feet alone, and the part may pivot about a
+    foot. The feet must lie within the outline, span a triangle and surround the centroid (else
+    the part would tip); :class:`upm.ParameterError` names the reason otherwise.
+
     :func:`upm.simulate` and :func:`upm.simulate_batch` step it with its exact stick–slip step
-    (out of the plane too, pressed by ``g + a_z`` across its footprint), with contacts through rapier's
-    convex polygon colliders; its friction is :meth:`wrench`.
+    (out of the plane too, pressed by ``g + a_z`` across its footprint or its feet), with contacts
+    through rapier's convex polygon colliders; its friction is :meth:`wrench`.
     """
 
     vertices: Any
@@ -81,6 +88,7 @@ class Polygon:
     velocity: tuple[float, float] = (0.0, 0.0)
     spin: float = 0.0
     mass: float | None = None
+    support: Any = None
     _geometry: tuple[Any, ...] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -89,9 +97,16 @@ class Polygon:
             raise ShapeError(f"vertices must have shape (K, 2) with K >= 3; got {v.shape}")
         v = np.ascontiguousarray(v)
         v.setflags(write=False)
-        geometry = _core.polygon_geometry(v, "vertices")
+        feet = None
+        if self.support is not None:
+            feet = np.ascontiguousarray(as_float("support", self.support))
+            if feet.shape != (3, 2):
+                raise ShapeError(f"support must have shape (3, 2): three feet (x, y); got {feet.shape}")
+            feet.setflags(write=False)
+        geometry = _core.polygon_geometry(v, "vertices", feet)
         set_ = object.__setattr__
         set_(self, "vertices", v)
+        set_(self, "support", feet)
         set_(self, "_geometry", geometry)
         set_(self, "position", _pair("position", self.position))
         set_(self, "velocity", _pair("velocity", self.velocity))
@@ -150,9 +165,25 @@ class Polygon:
 
     @property
     def mean_distance(self) -> float:
-        """Mean distance of the footprint from the centroid [m]: a part spinning in place on a
-        still plate feels the moment ``mu N mean_distance``."""
+        """Mean distance of the footprint (or of the feet, weighted by their :attr:`shares`) from
+        the centroid [m]: a part spinning in place on a still plate feels the moment ``mu N
+        mean_distance``."""
         return float(self._geometry[4])
+
+    @property
+    def shares(self) -> FloatArray | None:
+        """Each foot's share of the normal force on a level plate ``(3,)`` (summing to 1; the
+        barycentric coordinates of the centroid in the feet's triangle), None without feet."""
+        s = self._geometry[7]
+        return None if s is None else np.array(s)
+
+    def moved(
+        self, position: ArrayLike, angle: float, velocity: ArrayLike = (0.0, 0.0), spin: float = 0.0
+    ) -> Polygon:
+        """The same part (outline, feet, mass) in another state: ``position`` [m] of its frame's
+        origin, ``angle`` [rad], ``velocity`` [m/s] of its centroid and ``spin`` [rad/s]."""
+        return Polygon(self.vertices, _pair("position", position), angle, _pair("velocity", velocity), spin,
+                       self.mass, self.support)  # fmt: skip
 
     @property
     def symmetry(self) -> int:
@@ -199,9 +230,11 @@ class Polygon:
         ``load``: the pressure's gradient ``k`` [1/m] in the part's frame, the pressure being
         ``(N / A) (1 + k . r)`` with ``r`` from the centroid (a part on a rocking plate:
         docs/polygons.md, "Out of the plane"); uniform by default. It must leave the pressure
-        nowhere negative."""
+        nowhere negative. On three feet it moves their shares as it moves the footprint's centre
+        of pressure (to ``S k``, ``S`` the :attr:`second_moments`), and must leave every foot
+        pressed."""
         shape, twists = _rows("velocity", velocity, "spin", spin)
-        out = _core.polygon_wrench(self._geometry[5], twists, pool(threads), _load(load))
+        out = _core.polygon_wrench(self._geometry[5], twists, pool(threads), _load(load), self._feet())
         out = out.reshape(*shape, 3)
         return out[..., :2], out[..., 2]
 
@@ -218,11 +251,19 @@ class Polygon:
         when static friction can supply it, and the relative twist ``(..., 3)`` ``(vx, vy,
         omega)`` (up to scale) whose sliding friction is the wrench divided by the gauge (the way
         the part starts to slide when the wrench it needs grows past the limit). Exact: a Newton
-        ascent of ``<z, e> / D(e)`` over twist directions (docs/polygons.md). ``load``: as for
+        ascent of ``<z, e> / D(e)`` over twist directions (on three feet, Dinkelbach's iteration
+        over weighted Fermat–Weber problems; docs/polygons.md). ``load``: as for
         :meth:`wrench`."""
         shape, z = _rows("force", force, "moment", moment)
-        values, twists = _core.polygon_gauge(self._geometry[5], z, pool(threads), _load(load))
+        values, twists = _core.polygon_gauge(self._geometry[5], z, pool(threads), _load(load), self._feet())
         return values.reshape(shape), twists.reshape(*shape, 3)
+
+    def _feet(self) -> FloatArray | None:
+        """The feet about the centroid (the frame of ``_geometry[5]``), None without feet."""
+        if self.support is None:
+            return None
+        out: FloatArray = np.ascontiguousarray(self.support - self._geometry[1])
+        return out
 
     def holds(
         self, force: ArrayLike, moment: ArrayLike, *, load: ArrayLike | None = None

@@ -200,13 +200,13 @@ def _walls(walls: Any, plate_size: float | None) -> np.ndarray | None:
 
 def _parts(parts: Any) -> tuple[Any, ...]:
     """Positions, velocities (M, 2) and radius, angle, spin (M,) of points, disks and polygons,
-    and the polygons as ``[(part, vertices (K, 2))]`` (None without any); for an array of
+    and the polygons as ``[(part, vertices (K, 2), feet (3, 2) or None)]`` (None without any); for an array of
     positions (point parts at rest) the others are None (zero, never built)."""
     vel: np.ndarray | None
     radius: np.ndarray | None
     angle: np.ndarray | None
     spin: np.ndarray | None
-    polygons: list[tuple[int, np.ndarray]] | None = None
+    polygons: list[tuple[int, np.ndarray, np.ndarray | None]] | None = None
     from .polygon import Polygon
 
     kinds = (Point, Disk, Polygon)
@@ -222,7 +222,7 @@ def _parts(parts: Any) -> tuple[Any, ...]:
             raise ParameterError(
                 f"radius must be > 0 for a Disk; got {parts[bad[0]].radius} for part {bad[0]}"
             )
-        polygons = [(i, p.vertices) for i, p in enumerate(parts) if isinstance(p, Polygon)] or None
+        polygons = [(i, p.vertices, p.support) for i, p in enumerate(parts) if isinstance(p, Polygon)] or None
     else:
         # The core checks that every position is finite and names the first part that is not.
         pos = as_float("parts", parts, finite=False)
@@ -321,7 +321,7 @@ def _run(
     pos, vel, radius, angle, spin, polygons = _parts(parts)
     if contacts:
         sized = np.zeros(pos.shape[0], bool) if radius is None else radius > 0
-        for i, _ in polygons or ():
+        for i, *_ in polygons or ():
             sized[i] = True
         if not sized.all():
             first = int(np.flatnonzero(~sized)[0])

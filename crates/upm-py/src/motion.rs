@@ -272,6 +272,14 @@ fn view2<'a>(a: &'a PyReadonlyArray2<'_, f64>) -> std::borrow::Cow<'a, [f64]> {
     }
 }
 
+/// A polygon part as the Python layer passes it: its index, its vertices `(K, 2)` in its frame
+/// and its three feet `(3, 2)` there, if it stands on them.
+type PolygonArg<'py> = (
+    usize,
+    PyReadonlyArray2<'py, f64>,
+    Option<PyReadonlyArray2<'py, f64>>,
+);
+
 /// Simulates point and disk parts under each of `motions` (B worlds); arrays carry a batch axis.
 #[pyfunction]
 #[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4, world_mu=None, world_mu_s=None, polygons=None))]
@@ -302,14 +310,16 @@ pub fn simulate<'py>(
     contact_iterations: usize,
     world_mu: Option<PyReadonlyArray2<'py, f64>>,
     world_mu_s: Option<PyReadonlyArray2<'py, f64>>,
-    polygons: Option<Vec<(usize, PyReadonlyArray2<'py, f64>)>>,
+    polygons: Option<Vec<PolygonArg<'py>>>,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    // Polygon parts: (part, vertices (K, 2) in its frame), checked convex and counter-clockwise.
+    // Polygon parts: (part, vertices (K, 2) in its frame, three feet (3, 2) or None), checked
+    // convex and counter-clockwise, the feet carrying it.
     let polygons = polygons
         .iter()
         .flatten()
-        .map(|(i, v)| {
-            let shape = crate::polygon::polygon(py, &format!("parts[{i}].vertices"), v)?;
+        .map(|(i, v, feet)| {
+            let name = format!("parts[{i}].vertices");
+            let shape = crate::polygon::polygon(py, &name, v, feet.as_ref())?;
             Ok((*i, shape))
         })
         .collect::<PyResult<Vec<_>>>()?;

@@ -11,14 +11,35 @@ use crate::pairs;
 /// Twists per task: the unit of parallel work and of the Ctrl-C check.
 const CHUNK: usize = 256;
 
-/// The convex polygon `vertices (K, 2)`; `ParameterError` naming `name` and the reason otherwise.
+/// The convex polygon `vertices (K, 2)`, resting on the three feet `support (3, 2)` (in the
+/// vertices' frame) if given; `ParameterError` naming `name` (or `{name}` with `.support` for
+/// the feet) and the reason otherwise.
 pub(crate) fn polygon(
     py: Python<'_>,
     name: &str,
     vertices: &PyReadonlyArray2<'_, f64>,
+    support: Option<&PyReadonlyArray2<'_, f64>>,
 ) -> PyResult<Polygon> {
     let v = pairs(py, name, vertices)?;
-    core(py, Polygon::new(name, &v))
+    let mut p = core(py, Polygon::new(name, &v))?;
+    if let Some(s) = support {
+        let feet_name = match name.strip_suffix(".vertices") {
+            Some(part) => format!("{part}.support"),
+            None => "support".to_string(),
+        };
+        let f = pairs(py, &feet_name, s)?;
+        let Ok(feet) = <[[f64; 2]; 3]>::try_from(f.as_slice()) else {
+            return Err(shape_error(
+                py,
+                format!(
+                    "{feet_name} must have shape (3, 2): three feet; got {} rows",
+                    f.len()
+                ),
+            ));
+        };
+        core(py, p.set_feet(&feet_name, Some(feet)))?;
+    }
+    Ok(p)
 }
 
 /// An `(M, 3)` array as rows; `ShapeError` naming `name` otherwise.
@@ -55,17 +76,23 @@ where
 }
 
 /// `(area, centroid (2,), polar, radius, mean_distance, vertices (K, 2) about the centroid,
-/// second moments (xx, xy, yy) over the area)` of
-/// the polygon `vertices (K, 2)`; `ParameterError` naming `name` and the reason if it is not a
-/// convex counter-clockwise polygon.
+/// second moments (xx, xy, yy) over the area, the feet's shares (3,) or None)` of
+/// the polygon `vertices (K, 2)` on the feet `support (3, 2)` if given (then `mean_distance` is
+/// the feet's, weighted by their shares); `ParameterError` naming `name` and the reason if it
+/// is not a convex counter-clockwise polygon or the feet cannot carry it.
 #[pyfunction]
-#[pyo3(signature = (vertices, name="vertices"))]
+#[pyo3(signature = (vertices, name="vertices", support=None))]
 pub fn polygon_geometry<'py>(
     py: Python<'py>,
     vertices: PyReadonlyArray2<'py, f64>,
     name: &str,
+    support: Option<PyReadonlyArray2<'py, f64>>,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let p = polygon(py, name, &vertices)?;
+    let p = polygon(py, name, &vertices, support.as_ref())?;
+    let shares = match p.tripod() {
+        Some(t) => PyArray1::from_vec(py, t.shares.to_vec()).into_any(),
+        None => py.None().into_bound(py),
+    };
     let k = p.vertices.len();
     let centred = PyArray1::from_iter(py, p.vertices.iter().flatten().copied()).reshape([k, 2])?;
     PyTuple::new(
@@ -78,18 +105,21 @@ pub fn polygon_geometry<'py>(
             p.mean_distance().into_pyobject(py)?.into_any(),
             centred.into_any(),
             PyArray1::from_vec(py, p.second_moments().to_vec()).into_any(),
+            shares,
         ],
     )
 }
 
-/// The polygon `vertices (K, 2)` under the pressure gradient `load` (`k` of `p = (N / A) (1 +
-/// k . r)`, [1/m]; `ParameterError` if the pressure would be negative somewhere).
+/// The polygon `vertices (K, 2)` (on the feet `support`, if given) under the pressure gradient
+/// `load` (`k` of `p = (N / A) (1 + k . r)`, [1/m]; `ParameterError` if the pressure would be
+/// negative somewhere, or a foot would pull).
 fn loaded(
     py: Python<'_>,
     vertices: &PyReadonlyArray2<'_, f64>,
+    support: Option<&PyReadonlyArray2<'_, f64>>,
     load: [f64; 2],
 ) -> PyResult<Polygon> {
-    let mut p = polygon(py, "vertices", vertices)?;
+    let mut p = polygon(py, "vertices", vertices, support)?;
     core(py, p.set_load(load))?;
     Ok(p)
 }
@@ -98,15 +128,16 @@ fn loaded(
 /// with the relative twists `twists (M, 3)` (`vx, vy, omega` at its centroid) under the
 /// pressure gradient `load`, in parallel.
 #[pyfunction]
-#[pyo3(signature = (vertices, twists, threads=None, load=(0.0, 0.0)))]
+#[pyo3(signature = (vertices, twists, threads=None, load=(0.0, 0.0), support=None))]
 pub fn polygon_wrench<'py>(
     py: Python<'py>,
     vertices: PyReadonlyArray2<'py, f64>,
     twists: PyReadonlyArray2<'py, f64>,
     threads: Option<usize>,
     load: (f64, f64),
+    support: Option<PyReadonlyArray2<'py, f64>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let p = loaded(py, &vertices, [load.0, load.1])?;
+    let p = loaded(py, &vertices, support.as_ref(), [load.0, load.1])?;
     let rows = triples(py, "twists", &twists)?;
     let m = rows.len();
     let out = each_row(py, &rows, threads, |i, [vx, vy, w]| {
@@ -127,15 +158,16 @@ pub fn polygon_wrench<'py>(
 /// the polygon `vertices (K, 2)` under the pressure gradient `load`, and the sliding twists
 /// `(M, 3)` they point to, in parallel.
 #[pyfunction]
-#[pyo3(signature = (vertices, wrenches, threads=None, load=(0.0, 0.0)))]
+#[pyo3(signature = (vertices, wrenches, threads=None, load=(0.0, 0.0), support=None))]
 pub fn polygon_gauge<'py>(
     py: Python<'py>,
     vertices: PyReadonlyArray2<'py, f64>,
     wrenches: PyReadonlyArray2<'py, f64>,
     threads: Option<usize>,
     load: (f64, f64),
+    support: Option<PyReadonlyArray2<'py, f64>>,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let p = loaded(py, &vertices, [load.0, load.1])?;
+    let p = loaded(py, &vertices, support.as_ref(), [load.0, load.1])?;
     let rows = triples(py, "wrenches", &wrenches)?;
     let m = rows.len();
     let all = each_row(py, &rows, threads, |_, [fx, fy, mz]| p.gauge(fx, fy, mz))?;

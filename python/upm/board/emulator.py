@@ -549,8 +549,9 @@ def main(argv: list[str] | None = None) -> int:
         type=str,
         default=None,
         help='the plate\'s contents, a JSON file: {"parts": [[x, y], ...], "labels": [...], "mu": 0.3, '
-        '"part_radius": r (colliding disks) or "part_shape": [[x, y], ...] and "angles": [...] (colliding '
-        'convex polygons), "plate": [m, I, r], "stroke": 0.01, "camera": {...}, "render": {...}}',
+        '"part_radius": r (colliding disks) or "part_shape": [[x, y], ...], "angles": [...] and optionally '
+        '"part_support": [[x, y] x 3] (colliding convex polygons, on three feet), "plate": [m, I, r], '
+        '"stroke": 0.01, "camera": {...}, "render": {...}}',
     )
     args = parser.parse_args(argv)
     faults = Faults(
@@ -574,7 +575,7 @@ def main(argv: list[str] | None = None) -> int:
     if "part_shape" in scene:  # a convex outline [[x, y], ...] [m]: polygon parts
         from ..polygon import Polygon
 
-        options["part_shape"] = Polygon(scene["part_shape"])
+        options["part_shape"] = Polygon(scene["part_shape"], support=scene.get("part_support"))
         options["angles"] = scene.get("angles")
     plant = SimulatedUPM(snr_db=args.snr_db, seed=args.seed, parts=scene.get("parts", np.zeros((0, 2))),
                          mu=float(scene.get("mu", 0.3)), part_radius=scene.get("part_radius"),

@@ -146,7 +146,7 @@ class PosePlanner:
         motions = [
             PlateMotion.sequence([c.motion(), PlateMotion.rest(longest - c.duration + coast)]) for c in pulses
         ]
-        parts = [Polygon(self.part.vertices, (float(x), float(y)), float(a)) for x, y, a in poses]
+        parts = [self.part.moved((float(x), float(y)), float(a)) for x, y, a in poses]
         dt = 1.0 / (20.0 * 2 * 2 * self.frequency)  # 20 steps a period of the jets' 2nd harmonic
         run = simulate_batch(motions, parts, duration=longest + coast, dt=dt, mu=self.mu, mu_s=self.mu_s,
                              record_every=10**9)  # fmt: skip
