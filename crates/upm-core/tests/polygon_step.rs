@@ -234,3 +234,60 @@ fn a_pure_moment_holds_only_up_to_the_largest_pure_moment_of_the_limit_set() {
         assert_eq!(st.stuck, holds, "{s} x the largest pure moment: {st:?}");
     }
 }
+
+#[test]
+fn near_the_largest_moment_with_little_force_the_step_is_the_minimiser() {
+    // Between the largest pure moment and the mean distance (an asymmetric part's cylinder
+    // bound) a wrench slides though no sampled plane says so: the solve must start from the
+    // gauge's direction, not end at the kink at 0 (found by `upm demo sort-shapes`, a triangle
+    // spinning at 0.0047 rad/s with 4e-7 m/s).
+    let shape = Polygon::new("t", &[[0.0, 0.0], [0.04, 0.0], [0.0, 0.025]]).unwrap();
+    let p = Stepper::new(shape.clone());
+    let k2 = p.gyration * p.gyration;
+    let c = 0.3 * 9.81 * 1.98e-5;
+    let st = p
+        .step(
+            [
+                -2.716486005220002e-8,
+                -3.832646674626287e-7,
+                0.004693536713432422,
+            ],
+            c,
+            c,
+            false,
+            None,
+        )
+        .unwrap();
+    assert!(!st.stuck);
+    let r = uniform(3 * 200, 17);
+    let (mut stuck, mut slid) = (0, 0);
+    for i in 0..200 {
+        let m = (0.995 + 0.02 * (r[3 * i] + 1.0) / 2.0) * p.mean_distance * r[3 * i].signum();
+        let f = 0.02 * c;
+        let a = std::f64::consts::PI * r[3 * i + 1];
+        let free = [f * a.cos(), f * a.sin(), m * c / k2];
+        let st = p.step(free, c, c, false, None).unwrap();
+        let gauge = shape.gauge(free[0] / c, free[1] / c, m).unwrap().value;
+        if (gauge - 1.0).abs() < 1e-9 {
+            continue;
+        }
+        assert_eq!(st.stuck, gauge <= 1.0, "twist {i}: gauge {gauge}, {st:?}");
+        if st.stuck {
+            stuck += 1;
+            continue;
+        }
+        slid += 1;
+        let w = shape.wrench([st.w[0], st.w[1]], st.w[2]);
+        let res = [
+            st.w[0] - free[0] - c * w[0],
+            st.w[1] - free[1] - c * w[1],
+            k2 * (st.w[2] - free[2]) - c * w[2],
+        ];
+        let size = free[0].hypot(free[1]) + p.gyration * free[2].abs();
+        assert!(
+            res[0].abs() + res[1].abs() + res[2].abs() / p.gyration < 1e-11 * size,
+            "twist {i}: residual {res:?} {st:?}"
+        );
+    }
+    assert!(stuck > 20 && slid > 20, "{stuck} stuck, {slid} slid");
+}

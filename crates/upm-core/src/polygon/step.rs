@@ -169,10 +169,12 @@ impl Stepper {
         let (lower, best) = self.lower_bound(zs);
         // the way it starts to slide, in the solve's coordinates (v, k omega): minus the gauge's
         // direction (either sign is tried)
+        // (outside the cylinder but not past a sampled plane, the part slides but the sampled
+        // direction does not point out of the limit set: the gauge's does, for the start)
         let mut toward = [best[0], best[1], k * best[2] / l];
-        if lower <= 1.0 && force <= 1.0 && moment <= 1.0 {
+        if lower <= 1.0 {
             let g = self.shape.gauge_from(z[0], z[1], z[2], Some(best))?;
-            if g.value <= 1.0 {
+            if g.value <= 1.0 && force <= 1.0 && moment <= 1.0 {
                 return Ok(stuck);
             }
             toward = [g.twist[0], g.twist[1], k * g.twist[2]];
@@ -323,6 +325,14 @@ impl Stepper {
             }
         };
         let (y, at) = self.start(target, toward, c, &phi);
+        if let Some(st) = self.newton(y, at, size + c, &phi)? {
+            return Ok(st);
+        }
+        // the last resort: from the exact gauge's direction (the start above may have come
+        // from a sampled one, or from the free twist, and ended at the kink)
+        let z = [free[0] / c, free[1] / c, k * k * free[2] / c];
+        let g = self.shape.gauge(z[0], z[1], z[2])?;
+        let (y, at) = self.start(target, [g.twist[0], g.twist[1], k * g.twist[2]], c, &phi);
         match self.newton(y, at, size + c, &phi)? {
             Some(st) => Ok(st),
             None => Err(Error::Convergence(format!(
