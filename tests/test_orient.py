@@ -83,3 +83,50 @@ def test_the_orient_ppod_demo_measures_when_a_part_settles_at_the_prediction():
     assert abs(r["start_error_deg"] - 40.0) < 1e-9
     assert abs(r["final_error_deg"]) < 3.0
     assert r["within_3_deg_after_s"] is not None and 1.0 < r["within_3_deg_after_s"] < 25.0
+
+
+TRIANGLE = upm.Polygon([(0.0, 0.0), (0.04, 0.0), (0.0, 0.025)])
+
+
+def test_a_bracket_and_a_triangle_sorted_each_to_a_target_of_its_shape():
+    # the triangle starts nearer the bracket's target and the bracket nearer the triangle's: by
+    # distance alone the task would send each to the other's
+    starts, angles = [[0.05, 0.03], [-0.05, -0.03]], [0.5, 2.0]
+    targets = np.array([[0.045, -0.04, 0.0], [-0.04, 0.04, math.pi / 2]])
+    kinds = np.array([0, 1])  # the first target for a bracket, the second for a triangle
+    plant = SimulatedUPM(parts=starts, part_shape=[TRIANGLE, PART], angles=angles)
+    device = SimulatedDevice(plant)
+    planner = PosePlanner([PART, TRIANGLE], device.limits)
+    loop = PoseLoop(device, plant.camera("red"), planner, PoseTask(targets, kinds=kinds))
+    log = loop.run(cycles=60)
+    assert log.done and log.stopped == "done", (log.stopped, log.errors[-1])
+    # the truth: the triangle (part 0) at the triangle's target, the bracket at the bracket's
+    truth = np.column_stack([plant.parts, plant.angles])
+    d = np.hypot(*(truth[:, :2] - targets[[1, 0], :2]).T)
+    assert d.max() < 0.004, d
+    a0 = np.degrees(np.mod(truth[0, 2] - targets[1, 2] + math.pi, 2 * math.pi) - math.pi)
+    a1 = np.degrees(np.mod(truth[1, 2] - targets[0, 2] + math.pi / 2, math.pi) - math.pi / 2)
+    assert abs(a0) < 6.0 and abs(a1) < 6.0, (a0, a1)
+
+
+def test_mixed_shapes_bad_input():
+    plant = SimulatedUPM(parts=[[0.05, 0.03], [-0.05, -0.03]], part_shape=[TRIANGLE, PART])
+    device = SimulatedDevice(plant)
+    planner = PosePlanner([PART, TRIANGLE], device.limits)
+    assert planner.symmetries.tolist() == [2, 1]
+    with pytest.raises(upm.ShapeError, match="one upm.Polygon per part"):
+        SimulatedUPM(parts=[[0.05, 0.03]], part_shape=[TRIANGLE, PART])
+    with pytest.raises(upm.ParameterError, match="part_shape must be"):
+        SimulatedUPM(parts=[[0.05, 0.03]], part_shape=[TRIANGLE, "square"])
+    with pytest.raises(upm.ShapeError, match="keep one row per shape"):
+        plant.move_parts([[0.0, 0.0]])
+    with pytest.raises(upm.ParameterError, match="kinds must hold one shape index"):
+        PoseTask([[0.0, 0.0, 0.0]], kinds=[0, 1])
+    with pytest.raises(upm.ParameterError, match="kinds must be 2 indices"):
+        planner.plan([[0.05, 0.03, 0.0], [-0.05, -0.03, 0.0]], [[0, 0, 0], [0.01, 0, 0]], kinds=[0, 2])
+    with pytest.raises(upm.ParameterError, match="must index the planner's 2 shapes"):
+        PoseLoop(device, plant.camera("red"), planner, PoseTask([[0, 0, 0], [0.01, 0, 0]], kinds=[0, 2]))
+    # the camera sees one of each; a task for two brackets cannot be done
+    loop = PoseLoop(device, plant.camera("red"), planner, PoseTask([[0, 0, 0], [0.01, 0, 0]], kinds=[0, 0]))
+    with pytest.raises(upm.VisionError, match=r"sees \[1, 1\] parts of each shape; the task has \[2, 0\]"):
+        loop.see()

@@ -169,7 +169,9 @@ def test_moved_keeps_the_feet_and_the_mass():
 def test_the_simulated_plant_moves_parts_on_their_feet():
     from upm.plant import SimulatedUPM
 
-    spin = upm.PlateMotion.rotation((0.0, 0.0), upm.TwoHarmonic(0.5, np.pi / 2, amplitude=2.0, frequency=20.0))
+    spin = upm.PlateMotion.rotation(
+        (0.0, 0.0), upm.TwoHarmonic(0.5, np.pi / 2, amplitude=2.0, frequency=20.0)
+    )
     turned = {}
     for name, support in (("feet", even_feet(0.004)), ("footprint", None)):
         plant = SimulatedUPM(parts=[[-0.06, 0.02], [0.05, -0.03]], part_shape=upm.Polygon(BOX, support=support),

@@ -145,3 +145,40 @@ def test_the_board_emulator_process_carries_polygon_parts_its_camera_shows(tmp_p
     finally:
         proc.kill()
         proc.wait()
+
+
+def test_parts_of_mixed_shapes_are_told_apart_and_posed():
+    from upm.plant import SimulatedUPM
+
+    shapes = [SHAPES["rectangle 2:1"], SHAPES["irregular pentagon"], SHAPES["square"]]
+    which = [1, 0, 2, 1, 0]
+    plant = SimulatedUPM(
+        parts=[[-0.08, 0.06], [0.0, 0.07], [0.08, 0.05], [-0.05, -0.06], [0.06, -0.05]],
+        part_shape=[shapes[k] for k in which],
+        angles=[0.3, 1.0, 2.0, 4.0, 5.5],
+    )
+    ok, image = plant.camera("red").read()
+    poses = find_poses(image, find_table(image), shapes)
+    assert len(poses) == 5
+    j = [int(np.argmin(np.hypot(*(poses.centroids - c).T))) for c in plant.centroids()]
+    assert poses.kinds[j].tolist() == which
+    assert poses.symmetries[j].tolist() == [shapes[k].symmetry for k in which]
+    for i, k in enumerate(which):
+        assert abs(angle_error(poses.angles[j[i]], plant.angles[i], shapes[k].symmetry)) < 1.5
+    assert np.hypot(*(poses.positions[j] - plant.parts).T).max() < 5e-4
+    with pytest.raises(upm.ParameterError, match="non-empty list"):
+        find_poses(image, find_table(image), [])
+
+
+def test_render_takes_an_outline_per_part():
+    sq = SHAPES["square"].vertices - SHAPES["square"].centroid
+    frame = render(Camera(), [[0.0, 0.0], [0.05, 0.0]], "red", shapes=[sq, None], radius=0.01, noise=0.0)
+    disks = render(Camera(), [[0.0, 0.0], [0.05, 0.0]], "red", radius=0.01, noise=0.0)
+    assert (frame.truth.visible > 0.99).all()
+    # the first part is drawn as the square (its corners outside the disk), the second as before
+    changed = np.argwhere(np.any(frame.image != disks.image, axis=-1))
+    centres = frame.truth.centers
+    near = np.hypot(*(changed[:, ::-1] - centres[0]).T) < np.hypot(*(changed[:, ::-1] - centres[1]).T)
+    assert len(changed) > 50 and near.all()
+    with pytest.raises(upm.ShapeError, match="one outline"):
+        render(Camera(), [[0.0, 0.0], [0.05, 0.0]], "red", shapes=[sq], radius=0.01)

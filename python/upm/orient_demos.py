@@ -6,6 +6,11 @@ contacts between the parts) brought to four given poses, seen by the virtual cam
 (:func:`upm.vision.find_poses`), each pulse chosen by :class:`upm.plan.orient.PosePlanner`; over
 several seeds, medians and maxima of plate time and final errors.
 
+``upm demo sort-shapes``: parts of mixed shapes sorted by shape: two brackets and two right
+triangles start in one row across the plate in a random order, and the loop brings the brackets
+to the row above and the triangles to the row below, each to a given pose; the camera tells the
+shapes apart by their moments (:attr:`upm.vision.Poses.kinds`).
+
 ``upm demo orient-ppod``: sensorless orienting on the simulated 6-DOF plate: the test polygons
 (a right triangle, a 2:1 rectangle, an irregular pentagon) started 45 degrees either side of the
 orientation :func:`upm.orientation_equilibria` predicts for the PPOD's line sink (a linear
@@ -24,7 +29,15 @@ import numpy as np
 from ._experiments import run_named
 from .polygon import Polygon
 
-__all__ = ["DEMOS", "TARGETS", "TEST_POLYGONS", "line_sink_orienting", "run_orient"]
+__all__ = [
+    "DEMOS",
+    "SORT_TARGETS",
+    "TARGETS",
+    "TEST_POLYGONS",
+    "line_sink_orienting",
+    "run_orient",
+    "run_sort",
+]
 
 #: The brackets' targets: frame origin [m] and angle [rad].
 TARGETS = np.array(
@@ -64,6 +77,76 @@ def run_orient(
         "angle_error_deg": errors[:, 1].tolist(),
         "start_angle_error_deg": log.errors[0][:, 1].tolist(),
         "fallen": plant.fallen,
+    }
+
+
+#: The shapes sorted by ``upm demo sort-shapes``: a 40 x 20 mm bracket and a 40 x 25 mm right
+#: triangle.
+SORT_SHAPES = [Polygon.rectangle(0.04, 0.02), Polygon([(0.0, 0.0), (0.04, 0.0), (0.0, 0.025)])]
+#: Their targets (frame origin [m], angle [rad]) and the shape each is for: brackets to the row
+#: above, triangles to the row below.
+SORT_TARGETS = np.array(
+    [[-0.05, 0.06, 0.0], [0.05, 0.06, 0.0], [-0.06, -0.07, math.pi / 2], [0.04, -0.07, math.pi / 2]]
+)
+SORT_KINDS = np.array([0, 0, 1, 1])
+
+
+def run_sort(seed: int, cycles: int = 200) -> dict[str, Any]:
+    """One run of ``upm demo sort-shapes`` from a layout drawn with ``seed``: the loop's outcome,
+    and how many parts the camera took for the wrong shape in the first frame."""
+    from .control import PoseLoop, PosePlanner, PoseTask, SimulatedDevice
+    from .plant import SimulatedUPM
+    from .vision import find_poses, find_table
+
+    rng = np.random.default_rng(seed)
+    # one row across the middle, 6 cm apart, the shapes in a random order
+    row = np.column_stack([[-0.09, -0.03, 0.03, 0.09], np.zeros(4)]) + rng.uniform(-0.005, 0.005, (4, 2))
+    starts = row[rng.permutation(4)]
+    shapes = [SORT_SHAPES[k] for k in SORT_KINDS]
+    plant = SimulatedUPM(parts=starts, part_shape=shapes, angles=rng.uniform(0, 2 * math.pi, 4), seed=seed)
+    device = SimulatedDevice(plant)
+    camera = plant.camera("red", seed=seed)
+    ok, frame = camera.read()
+    seen = find_poses(frame, find_table(frame), SORT_SHAPES)
+    truth = plant.centroids()
+    nearest = [int(np.argmin(np.hypot(*(truth - c).T))) for c in seen.centroids]
+    mistaken = int(np.sum(seen.kinds != SORT_KINDS[nearest]))
+    planner = PosePlanner(SORT_SHAPES, device.limits)
+    loop = PoseLoop(device, camera, planner, PoseTask(SORT_TARGETS, kinds=SORT_KINDS))
+    log = loop.run(cycles=cycles)
+    errors = log.errors[-1]
+    # where each part really ended (its frame's origin), against the targets of its own shape
+    right = [bool(np.min(np.hypot(*(SORT_TARGETS[SORT_KINDS == k, :2] - p).T)) < 0.01)
+             for k, p in zip(SORT_KINDS, plant.parts, strict=True)]  # fmt: skip
+    return {
+        "seed": seed,
+        "done": log.done,
+        "stopped": log.stopped,
+        "plate_time_s": log.plate_time,
+        "cycles": len(log.pulses),
+        "mistaken_shapes": mistaken,
+        "sorted": int(sum(right)),
+        "position_error_mm": (1e3 * errors[:, 0]).tolist(),
+        "angle_error_deg": errors[:, 1].tolist(),
+        "fallen": plant.fallen,
+    }
+
+
+def _sort(quick: bool, out: Path) -> dict[str, Any]:
+    seeds = [1] if quick else [1, 2, 3]
+    runs = [run_sort(s) for s in seeds]
+    times = [r["plate_time_s"] for r in runs]
+    pos = [max(r["position_error_mm"]) for r in runs]
+    ang = [max(abs(a) for a in r["angle_error_deg"]) for r in runs]
+    return {
+        "runs": runs,
+        "done": f"{sum(r['done'] for r in runs)}/{len(runs)}",
+        "sorted": f"{sum(r['sorted'] for r in runs)}/{4 * len(runs)}",
+        "mistaken_shapes": sum(r["mistaken_shapes"] for r in runs),
+        "plate_time_s_median_max": [float(np.median(times)), max(times)],
+        "position_error_mm_median_max": [float(np.median(pos)), max(pos)],
+        "angle_error_deg_median_max": [float(np.median(ang)), max(ang)],
+        "fallen": sum(r["fallen"] for r in runs),
     }
 
 
@@ -145,6 +228,7 @@ def _orient_ppod(quick: bool, out: Path) -> dict[str, Any]:
 
 DEMOS: dict[str, tuple[str, Callable[[bool, Path], dict[str, Any]]]] = {
     "orient": ("four brackets turned and placed to given poses through the closed loop", _orient),
+    "sort-shapes": ("two brackets and two triangles sorted by shape to given poses through the loop", _sort),
     "orient-ppod": (
         "a triangle, a 2:1 rectangle and a pentagon turned by the PPOD's line sink, against the prediction",
         _orient_ppod,

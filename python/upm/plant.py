@@ -125,11 +125,11 @@ class SimulatedUPM:
         ``contacts=True``, ``restitution`` and ``part_friction``); ``None``: point parts that pass
         through each other. ``min_gap`` [m] is then the smallest distance between two disks' rims
         seen so far (sampled every ``gap_every`` steps; negative: they overlapped).
-    part_shape : upm.Polygon or None
-        Parts are convex polygons of this outline (its vertices; its own pose is ignored) that
-        collide with each other: ``parts`` are then their frames' origins and :attr:`angles`
-        their orientations [rad] (the pose ``upm.simulate`` records; the camera draws them).
-        Exclusive with ``part_radius``.
+    part_shape : upm.Polygon, sequence of M of them, or None
+        Parts are convex polygons of this outline (its vertices and feet; its own pose is
+        ignored), or each of its own (mixed shapes), that collide with each other: ``parts`` are
+        then their frames' origins and :attr:`angles` their orientations [rad] (the pose
+        ``upm.simulate`` records; the camera draws them). Exclusive with ``part_radius``.
     angles : (M,) array_like
         The polygon parts' orientations [rad] (zeros by default; ignored for disks and points).
     """
@@ -150,7 +150,7 @@ class SimulatedUPM:
     stroke: float = 0.010
     motor_force: float = 200.0
     part_radius: float | None = None
-    part_shape: Polygon | None = None
+    part_shape: Polygon | Sequence[Polygon] | None = None
     angles: FloatArray | None = None
     restitution: float = 0.5
     part_friction: float = 0.3
@@ -161,10 +161,22 @@ class SimulatedUPM:
         if self.part_radius is not None and not (np.isfinite(self.part_radius) and self.part_radius > 0):
             raise ParameterError(f"part_radius must be None or finite and > 0; got {self.part_radius}")
         if self.part_shape is not None:
-            if not isinstance(self.part_shape, Polygon):
+            one = isinstance(self.part_shape, Polygon)
+            many = isinstance(self.part_shape, (list, tuple)) and all(
+                isinstance(p, Polygon) for p in self.part_shape
+            )
+            if not (one or many):
                 raise ParameterError(
-                    f"part_shape must be a upm.Polygon or None; got {type(self.part_shape).__name__}"
+                    "part_shape must be a upm.Polygon, a list of them (one per part) or None; got "
+                    f"{type(self.part_shape).__name__}"
                 )
+            if isinstance(self.part_shape, (list, tuple)):
+                self.part_shape = list(self.part_shape)
+                if len(self.part_shape) != len(self.parts):
+                    raise ShapeError(
+                        f"part_shape must hold one upm.Polygon per part ({len(self.parts)}); "
+                        f"got {len(self.part_shape)}"
+                    )
             if self.part_radius is not None:
                 raise ParameterError("give part_radius (disks) or part_shape (polygons), not both")
         self.angles = self._angles(self.angles)
@@ -297,11 +309,11 @@ class SimulatedUPM:
         opts: dict[str, Any] = {"duration": motion.duration or 0.0, "dt": dt, "mu": self.mu,
                                 "mu_s": self.mu_s, "plate_size": self.plate_size}  # fmt: skip
         r = self.part_radius
-        shape = self.part_shape
-        if shape is not None:
+        shapes = self.shapes
+        if shapes is not None:
             angles = self._angles(self.angles)
-            polygons = [shape.moved((float(x), float(y)), float(a))
-                        for (x, y), a in zip(self.parts[on], angles[on], strict=True)]  # fmt: skip
+            polygons = [shapes[i].moved((float(x), float(y)), float(angles[i]))
+                        for i, (x, y) in zip(np.flatnonzero(on), self.parts[on], strict=True)]  # fmt: skip
             result = simulate(
                 motion, polygons, record_every=10**9, contacts=True,
                 restitution=self.restitution, part_friction=self.part_friction, **opts,
@@ -340,9 +352,21 @@ class SimulatedUPM:
 
         return synthetic.VirtualCamera(self, camera or synthetic.Camera(), labels, dict(options), seed)
 
+    @property
+    def shapes(self) -> list[Polygon] | None:
+        """Each part's outline (None: disks or points)."""
+        if self.part_shape is None:
+            return None
+        if isinstance(self.part_shape, Polygon):
+            return [self.part_shape] * len(self.parts)
+        return list(self.part_shape)
+
     def move_parts(self, parts: ArrayLike, angles: ArrayLike | None = None) -> None:
         """Place the parts [m] (polygons: their frames' origins, turned by ``angles`` [rad])."""
-        self.parts = np.array(as_float("parts", parts), dtype=np.float64).reshape(-1, 2)
+        p = np.array(as_float("parts", parts), dtype=np.float64).reshape(-1, 2)
+        if isinstance(self.part_shape, list) and len(p) != len(self.part_shape):
+            raise ShapeError(f"parts must keep one row per shape ({len(self.part_shape)}); got {len(p)}")
+        self.parts = p
         self.angles = self._angles(angles)
 
     def _angles(self, angles: ArrayLike | None) -> FloatArray:
@@ -360,7 +384,10 @@ class SimulatedUPM:
     def centroids(self) -> FloatArray:
         """The parts' centroids [m] (for polygons, ``parts`` are their frames' origins; NaN rows:
         fallen off)."""
-        if self.part_shape is None:
+        shapes = self.shapes
+        if shapes is None:
             return self.parts.copy()
-        out: FloatArray = self.parts + self.part_shape.centroid_offset(self._angles(self.angles))
+        angles = self._angles(self.angles)
+        offsets = [p.centroid_offset(a) for p, a in zip(shapes, angles, strict=True)]
+        out: FloatArray = self.parts + np.reshape(offsets, (-1, 2))
         return out

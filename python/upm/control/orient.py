@@ -25,11 +25,16 @@ FloatArray = NDArray[np.float64]
 class PoseTask:
     """Bring parts to ``targets`` ``(N, 3)``: frame origin [m] and angle [rad] each (the angle
     modulo the outline's symmetry), within ``tolerance`` [m] and ``angle_tolerance`` [deg]. The
-    parts seen first are given the targets that minimise the total distance."""
+    parts seen first are given the targets that minimise the total distance.
+
+    ``kinds`` ``(N,)``: for parts of mixed shapes, the shape (an index into the planner's
+    ``part`` list) each target is for; a part goes only to a target of its own shape (sorting
+    by shape). None: one shape."""
 
     targets: Any
     tolerance: float = 0.003
     angle_tolerance: float = 5.0
+    kinds: Any = None
 
     def __post_init__(self) -> None:
         t = as_float("targets", self.targets)
@@ -38,15 +43,25 @@ class PoseTask:
         if not np.all(np.isfinite(t)):
             raise ParameterError("targets must be finite")
         self.targets = t
+        if self.kinds is None:
+            self.kinds = np.zeros(len(t), dtype=np.int64)
+        else:
+            k = np.asarray(self.kinds)
+            if k.shape != (len(t),) or not np.issubdtype(k.dtype, np.integer) or k.min() < 0:
+                raise ParameterError(
+                    f"kinds must hold one shape index >= 0 per target ({len(t)}); got {self.kinds!r}"
+                )
+            self.kinds = k.astype(np.int64)
         real("tolerance", self.tolerance, low=0.0, low_open=True)
         real("angle_tolerance", self.angle_tolerance, low=0.0, low_open=True)
 
-    def errors(self, poses: FloatArray, symmetry: int) -> FloatArray:
-        """``(N, 2)``: distance [m] and angle error [deg] of each part."""
+    def errors(self, poses: FloatArray, symmetry: int | NDArray[np.int64]) -> FloatArray:
+        """``(N, 2)``: distance [m] and angle error [deg] of each part (of ``symmetry``, or each
+        part's ``(N,)``)."""
         d, a = pose_errors(poses, self.targets, symmetry)
         return np.column_stack([d, np.degrees(a)])
 
-    def done(self, poses: FloatArray, symmetry: int) -> bool:
+    def done(self, poses: FloatArray, symmetry: int | NDArray[np.int64]) -> bool:
         """Whether every part is within both tolerances."""
         e = self.errors(poses, symmetry)
         return bool(np.all(e[:, 0] <= self.tolerance) and np.all(np.abs(e[:, 1]) <= self.angle_tolerance))
@@ -112,6 +127,11 @@ class PoseLoop:
             raise ParameterError(
                 "the planner's drive limits differ from the device's: build it with device.limits"
             )
+        if int(task.kinds.max()) >= len(planner.shapes):
+            raise ParameterError(
+                f"the task's kinds must index the planner's {len(planner.shapes)} shapes; "
+                f"got {task.kinds.max()}"
+            )
         self.camera, self.planner, self.task = camera, planner, task
         self.table = table
         self.palette = THESIS_PALETTE if palette is None else palette
@@ -127,22 +147,26 @@ class PoseLoop:
             raise VisionError("the camera returned no frame")
         if self.table is None:
             self.table = find_table(frame)
-        found = find_poses(frame, self.table, self.planner.part, palette=self.palette)
+        found = find_poses(frame, self.table, self.planner.shapes, palette=self.palette)
         poses = np.column_stack([found.positions, found.angles])
         n = len(self.task.targets)
         if len(poses) != n:
             raise VisionError(f"the camera sees {len(poses)} parts; the task has {n}")
-        if self._last is None:  # the first frame: targets by least total distance
-            from scipy.optimize import linear_sum_assignment
+        from scipy.optimize import linear_sum_assignment
 
-            cost = np.hypot(*(poses[:, None, :2] - self.task.targets[None, :, :2]).transpose(2, 0, 1))
-            rows, cols = linear_sum_assignment(cost)
-            pick = rows[np.argsort(cols)]
-        else:  # later frames: each part is the detection nearest to where it was
-            near = np.hypot(*(poses[None, :, :2] - self._last[:, None, :2]).transpose(2, 0, 1))
-            pick = near.argmin(axis=1)
-            if len(set(pick.tolist())) != n:
-                raise VisionError("two parts matched one detection: they moved too far between frames")
+        seen = np.bincount(found.kinds, minlength=len(self.planner.shapes))
+        want = np.bincount(self.task.kinds, minlength=len(self.planner.shapes))
+        if not np.array_equal(seen, want):
+            raise VisionError(
+                f"the camera sees {seen.tolist()} parts of each shape; the task has {want.tolist()}"
+            )
+        # the first frame: targets by least total distance; later frames: each part the detection
+        # that keeps the total distance moved least; either way only between parts of one shape
+        ref = self.task.targets if self._last is None else self._last
+        cost = np.hypot(*(poses[:, None, :2] - ref[None, :, :2]).transpose(2, 0, 1))
+        cost = np.where(found.kinds[:, None] == self.task.kinds[None, :], cost, 1e9)
+        rows, cols = linear_sum_assignment(cost)
+        pick = rows[np.argsort(cols)]
         self._last = poses[pick]
         return self._last.copy()
 
@@ -153,7 +177,7 @@ class PoseLoop:
         if timeout is not None:
             real("timeout", timeout, low=0.0, low_open=True)
         log = PoseLog()
-        k = self.planner.symmetry
+        k = self.planner.symmetries[self.task.kinds]
         for cycle in range(cycles + 1):
             poses = self.see()
             log.times.append(self.plate_time)
@@ -165,7 +189,7 @@ class PoseLoop:
             if cycle == cycles or (timeout is not None and self.plate_time >= timeout):
                 log.stopped = "cycles" if cycle == cycles else "timeout"
                 break
-            pulse = self.planner.plan(poses, self.task.targets)
+            pulse = self.planner.plan(poses, self.task.targets, self.task.kinds)
             log.pulses.append(pulse)
             if pulse is None:
                 log.stopped = "stuck: no candidate lowers the score"

@@ -11,6 +11,9 @@ Candidates, within the plate's force and stroke (:meth:`upm.drive.DriveLimits.he
   plate plays a tenth of the amplitude it plays at 70 Hz), two widths, full and at 30 % (a
   nudge to finish).
 
+Parts may have different shapes (``part`` a list of outlines, ``kinds`` naming each part's):
+each is rolled out and scored as its own.
+
 Each is rolled out by :func:`upm.simulate_batch` on the polygons as they are seen (the exact
 stick–slip step; no contacts, for speed), through its rest until the parts stop, and scored by
 ``sum_i (d_i / position_scale)² + (a_i / angle_scale)²`` (``d`` the distance, ``a`` the angle
@@ -22,7 +25,7 @@ the score.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -42,10 +45,13 @@ __all__ = ["PosePlanner", "pose_errors"]
 FloatArray = NDArray[np.float64]
 
 
-def pose_errors(poses: FloatArray, targets: FloatArray, symmetry: int) -> tuple[FloatArray, FloatArray]:
+def pose_errors(
+    poses: FloatArray, targets: FloatArray, symmetry: int | NDArray[np.int64]
+) -> tuple[FloatArray, FloatArray]:
     """Distances [m] and angle errors [rad, in ``(-pi/k, pi/k]``] of ``poses`` ``(N, 3)`` (x, y,
-    angle) from ``targets`` ``(N, 3)`` for an outline of ``symmetry``-fold symmetry."""
-    period = 2 * math.pi / symmetry
+    angle) from ``targets`` ``(N, 3)`` for an outline of ``symmetry``-fold symmetry (or each
+    part's, ``(N,)``)."""
+    period = 2 * math.pi / np.asarray(symmetry)
     d = np.hypot(*(poses[:, :2] - targets[:, :2]).T)
     a = np.mod(poses[:, 2] - targets[:, 2] + period / 2, period) - period / 2
     return d, a
@@ -53,9 +59,10 @@ def pose_errors(poses: FloatArray, targets: FloatArray, symmetry: int) -> tuple[
 
 @dataclass
 class PosePlanner:
-    """Chooses each pulse by simulating the candidates (module docs)."""
+    """Chooses each pulse by simulating the candidates (module docs). ``part``: the parts'
+    outline, or a list of the outlines they may have (``kinds`` then index it)."""
 
-    part: Polygon
+    part: Polygon | Sequence[Polygon]
     limits: DriveLimits
     mu: float = 0.3
     mu_s: float | None = None
@@ -66,26 +73,53 @@ class PosePlanner:
     edge: float = 0.04
     edge_weight: float = 10.0
     symmetry: int = field(init=False)
+    shapes: list[Polygon] = field(init=False)
+    symmetries: NDArray[np.int64] = field(init=False)
 
     def __post_init__(self) -> None:
-        instance("part", self.part, Polygon, "a upm.Polygon")
+        many = isinstance(self.part, (list, tuple)) and len(self.part) > 0
+        if not many:
+            instance("part", self.part, Polygon, "a upm.Polygon or a non-empty list of them")
+        self.shapes = list(self.part) if many else [self.part]  # type: ignore[arg-type, list-item]
+        for i, p in enumerate(self.shapes):
+            instance(f"part[{i}]", p, Polygon, "a upm.Polygon")
+        self.symmetries = np.array([p.symmetry for p in self.shapes], dtype=np.int64)
         instance("limits", self.limits, DriveLimits, "a upm.drive.DriveLimits (device.limits)")
         for name in ("mu", "frequency", "position_scale", "angle_scale"):
             real(name, getattr(self, name), low=0.0, low_open=True)
-        self.symmetry = self.part.symmetry
+        self.symmetry = int(self.symmetries[0])
         if not self.sustains or min(self.sustains) <= 0:
             raise ParameterError(f"sustains must be positive times [s]; got {self.sustains!r}")
 
-    def _centroids(self, poses: FloatArray) -> FloatArray:
-        out: FloatArray = poses[..., :2] + self.part.centroid_offset(poses[..., 2])
+    def _kinds(self, kinds: ArrayLike | None, n: int) -> NDArray[np.int64]:
+        """``kinds`` ``(n,)`` checked against the shapes (zeros when None)."""
+        if kinds is None:
+            return np.zeros(n, dtype=np.int64)
+        k = np.asarray(kinds)
+        if (
+            k.shape != (n,)
+            or not np.issubdtype(k.dtype, np.integer)
+            or k.min() < 0
+            or k.max() >= len(self.shapes)
+        ):
+            raise ParameterError(
+                f"kinds must be {n} indices into the planner's {len(self.shapes)} shapes; got {kinds!r}"
+            )
+        return k.astype(np.int64)
+
+    def _centroids(self, poses: FloatArray, kinds: NDArray[np.int64]) -> FloatArray:
+        offsets = [self.shapes[k].centroid_offset(poses[..., i, 2]) for i, k in enumerate(kinds)]
+        out: FloatArray = poses[..., :2] + np.stack(offsets, axis=-2)
         return out
 
-    def score(self, poses: FloatArray, targets: FloatArray) -> FloatArray:
-        """The score of poses ``(..., N, 3)`` against ``targets`` ``(N, 3)`` (module docs)."""
-        period = 2 * math.pi / self.symmetry
+    def score(self, poses: FloatArray, targets: FloatArray, kinds: ArrayLike | None = None) -> FloatArray:
+        """The score of poses ``(..., N, 3)`` against ``targets`` ``(N, 3)`` (module docs), the
+        parts of shapes ``kinds`` ``(N,)`` (indices into ``part``; all the first by default)."""
+        k = self._kinds(kinds, targets.shape[0])
+        period = 2 * math.pi / self.symmetries[k]
         d = np.hypot(*np.moveaxis(poses[..., :2] - targets[:, :2], -1, 0))
         a = np.mod(poses[..., 2] - targets[:, 2] + period / 2, period) - period / 2
-        band = np.maximum(np.abs(self._centroids(poses)) - (0.5 * self.limits.size - self.edge), 0.0).sum(
+        band = np.maximum(np.abs(self._centroids(poses, k)) - (0.5 * self.limits.size - self.edge), 0.0).sum(
             axis=-1
         )
         terms = (d / self.position_scale) ** 2 + (a / self.angle_scale) ** 2
@@ -99,10 +133,13 @@ class PosePlanner:
         room = self.limits.headroom(pulse)
         return make(amplitude * 0.9 * room) if room < 1.0 else pulse
 
-    def candidates(self, poses: FloatArray, targets: FloatArray) -> list[Pulse]:
-        """The candidate pulses for parts at ``poses`` ``(N, 3)`` (module docs)."""
-        d, a = pose_errors(poses, targets, self.symmetry)
-        centroids = self._centroids(poses)
+    def candidates(
+        self, poses: FloatArray, targets: FloatArray, kinds: ArrayLike | None = None
+    ) -> list[Pulse]:
+        """The candidate pulses for parts at ``poses`` ``(N, 3)`` of shapes ``kinds`` (module docs)."""
+        k = self._kinds(kinds, len(poses))
+        d, a = pose_errors(poses, targets, self.symmetries[k])
+        centroids = self._centroids(poses, k)
         out: list[Pulse] = []
         f = self.frequency
         # ramps of a few periods (a jet's period is three of its base frequency's): a plate on
@@ -139,22 +176,28 @@ class PosePlanner:
                         out += [strong, jet(0.3 * strong.amplitude)]  # and a nudge, to finish
         return out
 
-    def predict(self, poses: FloatArray, pulses: list[Pulse]) -> FloatArray:
-        """The poses ``(K, N, 3)`` each pulse leaves the parts at ``poses`` in once they stop."""
+    def predict(self, poses: FloatArray, pulses: list[Pulse], kinds: ArrayLike | None = None) -> FloatArray:
+        """The poses ``(K, N, 3)`` each pulse leaves the parts at ``poses`` (of shapes ``kinds``)
+        in once they stop."""
+        k = self._kinds(kinds, len(poses))
         longest = max(c.duration for c in pulses)
         coast = 0.15
         motions = [
             PlateMotion.sequence([c.motion(), PlateMotion.rest(longest - c.duration + coast)]) for c in pulses
         ]
-        parts = [self.part.moved((float(x), float(y)), float(a)) for x, y, a in poses]
+        parts = [
+            self.shapes[j].moved((float(x), float(y)), float(a))
+            for j, (x, y, a) in zip(k, poses, strict=True)
+        ]
         dt = 1.0 / (20.0 * 2 * 2 * self.frequency)  # 20 steps a period of the jets' 2nd harmonic
         run = simulate_batch(motions, parts, duration=longest + coast, dt=dt, mu=self.mu, mu_s=self.mu_s,
                              record_every=10**9)  # fmt: skip
         out: FloatArray = np.concatenate([run.positions[:, -1], run.angles[:, -1, :, None]], axis=-1)
         return out
 
-    def plan(self, poses: ArrayLike, targets: ArrayLike) -> Pulse | None:
-        """The best candidate for parts at ``poses`` ``(N, 3)`` (frame origins and angles) towards
+    def plan(self, poses: ArrayLike, targets: ArrayLike, kinds: ArrayLike | None = None) -> Pulse | None:
+        """The best candidate for parts at ``poses`` ``(N, 3)`` (frame origins and angles), of
+        shapes ``kinds`` ``(N,)`` (indices into ``part``; all the first by default), towards
         ``targets`` ``(N, 3)``, or None when none lowers the score."""
         p = as_float("poses", poses)
         t = as_float("targets", targets)
@@ -162,11 +205,12 @@ class PosePlanner:
             raise ShapeError(f"poses and targets must both have shape (N, 3); got {p.shape} and {t.shape}")
         if not (np.all(np.isfinite(p)) and np.all(np.isfinite(t))):
             raise ParameterError("poses and targets must be finite")
-        cands = self.candidates(p, t)
+        k = self._kinds(kinds, len(p))
+        cands = self.candidates(p, t, k)
         if not cands:
             return None
-        scores = self.score(self.predict(p, cands), t)
+        scores = self.score(self.predict(p, cands, k), t, k)
         best = int(np.argmin(scores))
-        if scores[best] >= float(self.score(p, t)) * (1 - 1e-6):
+        if scores[best] >= float(self.score(p, t, k)) * (1 - 1e-6):
             return None
         return cands[best]

@@ -223,7 +223,7 @@ def render(
     *,
     radius: float | ArrayLike | None = None,
     angles: ArrayLike | None = None,
-    shapes: Mapping[str, ArrayLike] | None = None,
+    shapes: Mapping[str, ArrayLike] | Sequence[ArrayLike | None] | None = None,
     colors: Mapping[str, Sequence[float]] | None = None,
     noise: float = 5.0,
     blur: float = 0.7,
@@ -247,9 +247,9 @@ def render(
         Part radii [m]; default from the kind (penny 9.5 mm, chip 19.5 mm).
     angles : (M,) array_like, optional
         Part orientations [rad] (for ``shapes``).
-    shapes : mapping of label to (K, 2) array_like, optional
-        Convex outlines [m] in the part's frame (centroid at the origin) for labels drawn as
-        polygons instead of disks.
+    shapes : mapping of label to (K, 2) array_like, or sequence of M of them (or None), optional
+        Convex outlines [m] in the part's frame (centroid at the origin) for labels (or for
+        parts, in a sequence; None: a disk) drawn as polygons instead of disks.
     colors : mapping of name to BGR, optional
         Overrides of :data:`COLORS` (also ``"plate"``, ``"background"``, ``"occluder"``).
     noise : float
@@ -276,8 +276,15 @@ def render(
     unknown = sorted({k for k in kinds if k not in palette})
     if unknown:
         raise ParameterError(f"labels {unknown} have no colour; known: {sorted(palette)} (or pass colors=)")
+    if shapes is not None and not isinstance(shapes, Mapping):
+        per_part = list(shapes)
+        if len(per_part) != m:
+            raise ShapeError(f"shapes must hold one outline (or None) per part ({m}); got {len(per_part)}")
+        outlines = [None if o is None else as_float(f"shapes[{k}]", o) for k, o in enumerate(per_part)]
+    else:
+        outlines = [as_float(f"shapes[{k!r}]", shapes[k]) if shapes and k in shapes else None for k in kinds]
     if radius is None:
-        missing = sorted({k for k in kinds if k not in RADII and k not in (shapes or {})})
+        missing = sorted({k for k, o in zip(kinds, outlines, strict=True) if k not in RADII and o is None})
         if missing:
             raise ParameterError(f"radius is needed for labels {missing}")
         radii = np.array([RADII.get(k, 0.0) for k in kinds])
@@ -296,11 +303,11 @@ def render(
 
     covers = []
     for k in range(m):
-        local = as_float(f"shapes[{kinds[k]!r}]", shapes[kinds[k]]) if shapes and kinds[k] in shapes else None
+        local = outlines[k]
         if local is None:
             local = _circle(float(radii[k]))
         elif local.ndim != 2 or local.shape[1] != 2 or len(local) < 3:
-            raise ShapeError(f"shapes[{kinds[k]!r}] must have shape (K >= 3, 2) [m]; got {local.shape}")
+            raise ShapeError(f"the outline of part {k} must have shape (K >= 3, 2) [m]; got {local.shape}")
         c, s = math.cos(ang[k]), math.sin(ang[k])
         outline = project(hom, local @ np.array([[c, s], [-s, c]]) + pos[k])
         origin, cover = _coverage((h, w), outline)
@@ -374,13 +381,12 @@ class VirtualCamera:
             else [k for k, h in zip(self.labels, here, strict=True) if h]
         )
         options = dict(self.options)
-        shape = getattr(self.source, "part_shape", None)
-        if shape is not None:  # polygons: drawn at their centroids, turned by their angles
+        shapes = getattr(self.source, "shapes", None)
+        if shapes is not None:  # polygons: drawn at their centroids, turned by their angles
             source: Any = self.source
             parts = np.asarray(source.centroids(), dtype=np.float64).reshape(-1, 2)
-            outline = np.asarray(shape.vertices) - shape.centroid
-            kinds = [labels] if isinstance(labels, str) else list(labels)
-            options["shapes"] = {k: outline for k in kinds}
+            outlines = [np.asarray(p.vertices) - p.centroid for p in shapes]
+            options["shapes"] = [o for o, h in zip(outlines, here, strict=True) if h]
             options["angles"] = np.asarray(source.angles)[here]
         self.last = render(self.camera, parts[here], labels, rng=self._rng, **options)
         return True, self.last.image
