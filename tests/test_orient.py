@@ -114,7 +114,7 @@ def test_mixed_shapes_bad_input():
     device = SimulatedDevice(plant)
     planner = PosePlanner([PART, TRIANGLE], device.limits)
     assert planner.symmetries.tolist() == [2, 1]
-    with pytest.raises(upm.ShapeError, match="one upm.Polygon per part"):
+    with pytest.raises(upm.ShapeError, match=r"one upm\.Polygon per part"):
         SimulatedUPM(parts=[[0.05, 0.03]], part_shape=[TRIANGLE, PART])
     with pytest.raises(upm.ParameterError, match="part_shape must be"):
         SimulatedUPM(parts=[[0.05, 0.03]], part_shape=[TRIANGLE, "square"])

@@ -106,7 +106,7 @@ def run_sort(seed: int, cycles: int = 200) -> dict[str, Any]:
     plant = SimulatedUPM(parts=starts, part_shape=shapes, angles=rng.uniform(0, 2 * math.pi, 4), seed=seed)
     device = SimulatedDevice(plant)
     camera = plant.camera("red", seed=seed)
-    ok, frame = camera.read()
+    _, frame = camera.read()
     seen = find_poses(frame, find_table(frame), SORT_SHAPES)
     truth = plant.centroids()
     nearest = [int(np.argmin(np.hypot(*(truth - c).T))) for c in seen.centroids]
