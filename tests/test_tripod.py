@@ -174,8 +174,8 @@ def test_the_simulated_plant_moves_parts_on_their_feet():
     )
     turned = {}
     for name, support in (("feet", even_feet(0.004)), ("footprint", None)):
-        plant = SimulatedUPM(parts=[[-0.06, 0.02], [0.05, -0.03]], part_shape=upm.Polygon(BOX, support=support),
-                             angles=[0.0, 1.0])  # fmt: skip
+        shape = upm.Polygon(BOX, support=support)
+        plant = SimulatedUPM(parts=[[-0.06, 0.02], [0.05, -0.03]], part_shape=shape, angles=[0.0, 1.0])
         plant.play(spin.for_duration(0.3))
         turned[name] = plant.angles - [0.0, 1.0]
     # on feet 4 mm from the centroid the spin's friction moment is a third of the footprint's:

@@ -158,6 +158,7 @@ def test_parts_of_mixed_shapes_are_told_apart_and_posed():
         angles=[0.3, 1.0, 2.0, 4.0, 5.5],
     )
     ok, image = plant.camera("red").read()
+    assert ok
     poses = find_poses(image, find_table(image), shapes)
     assert len(poses) == 5
     j = [int(np.argmin(np.hypot(*(poses.centroids - c).T))) for c in plant.centroids()]
