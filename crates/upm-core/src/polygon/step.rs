@@ -20,9 +20,10 @@
 //! largest pure moments `±M0` (a wrench inside it sticks), and lies inside the cylinder `|F| <=
 //! 1`, `|M| <=` the mean distance (a wrench outside it slides). The mean distance is the largest
 //! moment, spinning about the centroid; `M0` equals it only for a part that spinning there
-//! pushes nowhere (a symmetric one): a right triangle's is 0.27 % less (`Stepper::pure_moment`). A twist with no relative
-//! spin and no free spin slides as a point does (uniform pressure gives a translating part no
-//! moment about its centroid), in closed form.
+//! pushes nowhere (a symmetric one): a right triangle's is 0.27 % less
+//! (`Stepper::pure_moment`). A twist with no relative spin and no free spin slides as a point
+//! does (uniform pressure gives a translating part no moment about its centroid), in closed
+//! form.
 //!
 //! [gauge]: Polygon::gauge
 

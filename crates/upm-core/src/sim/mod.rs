@@ -413,7 +413,9 @@ where
         .into_iter()
         .map(|(timing, b)| (timing, b, recorder.rec(b, steps, cfg.record_every)))
         .collect();
-    // Each world set up on the thread that takes it (a batch of many small worlds).
+    // Each world set up on the thread that takes it (a batch of many small worlds); the polygons'
+    // steppers built once, per distinct shape.
+    let steppers = polygons::steppers(&parts.polygons);
     let not_finite = &not_finite;
     let mut worlds: Vec<World> = recs
         .into_par_iter()
@@ -429,7 +431,8 @@ where
             let shapes: Vec<polygons::PolygonState> = parts
                 .polygons
                 .iter()
-                .map(|(i, shape)| polygons::PolygonState::new(parts, *i, shape, cfg, u0))
+                .zip(&steppers)
+                .map(|((i, _), st)| polygons::PolygonState::new(parts, *i, st, cfg, u0))
                 .collect();
             World {
                 motion,
