@@ -415,7 +415,7 @@ where
         .collect();
     // Each world set up on the thread that takes it (a batch of many small worlds); the polygons'
     // steppers built once, per distinct shape.
-    let steppers = polygons::steppers(&parts.polygons);
+    let steppers = polygons::steppers(parts.polygons);
     let not_finite = &not_finite;
     let mut worlds: Vec<World> = recs
         .into_par_iter()
