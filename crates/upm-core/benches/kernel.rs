@@ -6,6 +6,8 @@
 //! parts on a translating + rotating plate, recording only the last step. Beside them: a
 //! four-lane `sqrt` plus a division on independent data of realistic magnitude, the bound of a
 //! step written with a correctly rounded root and division (the vector builds use neither).
+//! `ONLY=trans` or `ONLY=rot` runs the disk and polygon benches (`--disks`, `--polygons`) on one
+//! plate only (for a profile of one).
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -96,6 +98,9 @@ fn on_both_plates(parts: &Parts, n: usize, trans: &PlateMotion, rot: &PlateMotio
     let one = one_thread();
     let steps = (cfg.duration / cfg.dt).round() as usize;
     for (name, motion) in [("translating plate", trans), ("rotating plate", rot)] {
+        if std::env::var("ONLY").is_ok_and(|o| !name.starts_with(&o)) {
+            continue;
+        }
         let t = one.install(|| best_of(5, || simulate(motion, parts, cfg).unwrap()));
         println!("  {name:<22}{:8.1}", t * 1e9 / (n * steps) as f64);
     }

@@ -57,18 +57,66 @@ fn linear<const HESSIAN: bool>(p: &Polygon, v: [f64; 2], omega: f64, speed: f64)
     }
 }
 
+/// Quadrature points over a polygon: on each triangle that fans from the centroid, `K x K`
+/// Gauss–Legendre points, in lanes of [`LANES`] (padded with points of no weight).
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Nodes {
+    x: Box<[f64]>,
+    y: Box<[f64]>,
+    /// The area element `ws wt s |a x b|` of each point (the triangle `(0, a, b)` as `s (a + t
+    /// (b - a))`).
+    w: Box<[f64]>,
+}
+
+/// Lanes of the quadrature's sums: the sums run in this many partial sums whatever the build,
+/// so that every build gives the same bits.
+const LANES: usize = 4;
+
+/// The `K x K`-point nodes of the polygon with `vertices` (about the centroid).
+pub(super) fn nodes<const K: usize>(vertices: &[[f64; 2]]) -> Nodes {
+    let (x, w) = rule::<K>();
+    let n = vertices.len();
+    let (mut px, mut py, mut pw) = (vec![], vec![], vec![]);
+    for k in 0..n {
+        let (a, b) = (vertices[k], vertices[(k + 1) % n]);
+        let jac = cross(a, b);
+        for (&s, &ws) in x.iter().zip(w) {
+            for (&t, &wt) in x.iter().zip(w) {
+                px.push(s * (a[0] + t * (b[0] - a[0])));
+                py.push(s * (a[1] + t * (b[1] - a[1])));
+                pw.push(ws * wt * s * jac);
+            }
+        }
+    }
+    // (padding of no weight at the last point: inside the part, like every other)
+    let padded = px.len().div_ceil(LANES) * LANES;
+    let (lx, ly) = (px[px.len() - 1], py[py.len() - 1]);
+    px.resize(padded, lx);
+    py.resize(padded, ly);
+    pw.resize(padded, 0.0);
+    Nodes {
+        x: px.into(),
+        y: py.into(),
+        w: pw.into(),
+    }
+}
+
+fn rule<const K: usize>() -> (&'static [f64], &'static [f64]) {
+    match K {
+        4 => (&GAUSS4_X, &GAUSS4_W),
+        8 => (&GAUSS8_X, &GAUSS8_W),
+        _ => unreachable!("4 or 8 points"),
+    }
+}
+
 /// The friction by `K x K`-point Gauss–Legendre quadrature on each triangle fanning from the
-/// centroid (`K` = 4 or 8).
+/// centroid (`K` = 4 or 8), the points' sums in lanes (AVX2 where the simulations take it; the
+/// same bits on every build).
 pub(super) fn quadrature<const HESSIAN: bool, const K: usize>(
     p: &Polygon,
     v: [f64; 2],
     omega: f64,
 ) -> Friction {
-    let (x, w): (&[f64], &[f64]) = match K {
-        4 => (&GAUSS4_X, &GAUSS4_W),
-        8 => (&GAUSS8_X, &GAUSS8_W),
-        _ => unreachable!("4 or 8 points"),
-    };
     // the twist scaled to slip speeds of order 1 (no overflow or underflow in the squares);
     // the wrench does not change, the rate of work scales with it and its Hessian inversely
     let scale = v[0].abs() + v[1].abs() + omega.abs() * p.radius;
@@ -76,53 +124,160 @@ pub(super) fn quadrature<const HESSIAN: bool, const K: usize>(
         return Friction::default();
     }
     let (v, omega) = ([v[0] / scale, v[1] / scale], omega / scale);
-    let n = p.vertices.len();
-    let (mut fx, mut fy, mut m, mut work) = (0.0, 0.0, 0.0, 0.0);
-    let mut hessian = [[0.0; 3]; 3];
-    for k in 0..n {
-        let (a, b) = (p.vertices[k], p.vertices[(k + 1) % n]);
-        let jac = cross(a, b);
-        for (&s, &ws) in x.iter().zip(w) {
-            for (&t, &wt) in x.iter().zip(w) {
-                // the triangle (0, a, b) as s (a + t (b - a)), dA = s |a x b| ds dt
-                let r = [
-                    s * (a[0] + t * (b[0] - a[0])),
-                    s * (a[1] + t * (b[1] - a[1])),
-                ];
-                let u = [v[0] - omega * r[1], v[1] + omega * r[0]];
-                let norm = (u[0] * u[0] + u[1] * u[1]).sqrt();
-                if norm == 0.0 {
-                    continue;
-                }
-                // (the pressure's weight, 1 under uniform pressure)
-                let area = ws * wt * s * jac * (1.0 + p.load[0] * r[0] + p.load[1] * r[1]);
-                let wgt = area / norm;
-                fx -= wgt * u[0];
-                fy -= wgt * u[1];
-                m -= wgt * cross(r, u);
-                work += area * norm;
-                if HESSIAN {
-                    // J^T (I - û û^T) J / |u| = J^T p p^T J / |u|, p = z x û
-                    let q = [-u[1] / norm, u[0] / norm];
-                    let q = [q[0], q[1], cross(r, q)];
-                    for (i, row) in hessian.iter_mut().enumerate() {
-                        for (j, h) in row.iter_mut().enumerate() {
-                            *h += wgt * q[i] * q[j];
-                        }
-                    }
-                }
-            }
-        }
-    }
+    let nodes = match K {
+        4 => &p.nodes[0],
+        _ => &p.nodes[1],
+    };
+    #[cfg(target_arch = "x86_64")]
+    let sums = if matches!(
+        crate::sim::kernel::simd(),
+        crate::sim::kernel::Simd::Avx2 | crate::sim::kernel::Simd::Avx512
+    ) {
+        // SAFETY: simd() chooses these builds only on a CPU that has AVX2.
+        unsafe { sums_avx2::<HESSIAN>(nodes, v, omega, p.load) }
+    } else {
+        sums::<HESSIAN>(nodes, v, omega, p.load)
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let sums = sums::<HESSIAN>(nodes, v, omega, p.load);
+    let [fx, fy, m, work, h00, h01, h02, h11, h12, h22] = sums;
     let a = p.area;
-    for h in hessian.iter_mut().flatten() {
-        *h /= a * scale;
-    }
+    let q = a * scale;
+    let hessian = if HESSIAN {
+        [
+            [h00 / q, h01 / q, h02 / q],
+            [h01 / q, h11 / q, h12 / q],
+            [h02 / q, h12 / q, h22 / q],
+        ]
+    } else {
+        [[0.0; 3]; 3]
+    };
     Friction {
         wrench: [fx / a, fy / a, m / a],
         work: work / a * scale,
         hessian,
     }
+}
+
+/// [`sums`] in AVX2 lanes, the same operations in the same order on each lane (the same bits).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn sums_avx2<const HESSIAN: bool>(
+    nodes: &Nodes,
+    v: [f64; 2],
+    omega: f64,
+    load: [f64; 2],
+) -> [f64; 10] {
+    use std::arch::x86_64::*;
+    let (v0, v1, om) = (
+        _mm256_set1_pd(v[0]),
+        _mm256_set1_pd(v[1]),
+        _mm256_set1_pd(omega),
+    );
+    let (k0, k1, one) = (
+        _mm256_set1_pd(load[0]),
+        _mm256_set1_pd(load[1]),
+        _mm256_set1_pd(1.0),
+    );
+    let floor = _mm256_set1_pd(1e-100);
+    let mut acc = [_mm256_setzero_pd(); 10];
+    let n = nodes.x.len();
+    let mut i = 0;
+    while i < n {
+        // SAFETY: the three arrays have the same length, a multiple of LANES, and i < n.
+        let (x, y, w) = unsafe {
+            (
+                _mm256_loadu_pd(nodes.x.as_ptr().add(i)),
+                _mm256_loadu_pd(nodes.y.as_ptr().add(i)),
+                _mm256_loadu_pd(nodes.w.as_ptr().add(i)),
+            )
+        };
+        let ux = _mm256_sub_pd(v0, _mm256_mul_pd(om, y));
+        let uy = _mm256_add_pd(v1, _mm256_mul_pd(om, x));
+        let sq = _mm256_add_pd(_mm256_mul_pd(ux, ux), _mm256_mul_pd(uy, uy));
+        let norm = _mm256_max_pd(_mm256_sqrt_pd(sq), floor);
+        let weight = _mm256_add_pd(
+            _mm256_add_pd(one, _mm256_mul_pd(k0, x)),
+            _mm256_mul_pd(k1, y),
+        );
+        let area = _mm256_mul_pd(w, weight);
+        let wgt = _mm256_div_pd(area, norm);
+        acc[0] = _mm256_sub_pd(acc[0], _mm256_mul_pd(wgt, ux));
+        acc[1] = _mm256_sub_pd(acc[1], _mm256_mul_pd(wgt, uy));
+        let cr = _mm256_sub_pd(_mm256_mul_pd(x, uy), _mm256_mul_pd(y, ux));
+        acc[2] = _mm256_sub_pd(acc[2], _mm256_mul_pd(wgt, cr));
+        acc[3] = _mm256_add_pd(acc[3], _mm256_mul_pd(area, norm));
+        if HESSIAN {
+            let q2 = _mm256_add_pd(_mm256_mul_pd(x, ux), _mm256_mul_pd(y, uy));
+            let g = _mm256_div_pd(wgt, _mm256_mul_pd(norm, norm));
+            let gy = _mm256_mul_pd(g, uy);
+            let gx = _mm256_mul_pd(g, ux);
+            acc[4] = _mm256_add_pd(acc[4], _mm256_mul_pd(gy, uy));
+            acc[5] = _mm256_sub_pd(acc[5], _mm256_mul_pd(gy, ux));
+            acc[6] = _mm256_sub_pd(acc[6], _mm256_mul_pd(gy, q2));
+            acc[7] = _mm256_add_pd(acc[7], _mm256_mul_pd(gx, ux));
+            acc[8] = _mm256_add_pd(acc[8], _mm256_mul_pd(gx, q2));
+            acc[9] = _mm256_add_pd(acc[9], _mm256_mul_pd(_mm256_mul_pd(g, q2), q2));
+        }
+        i += LANES;
+    }
+    acc.map(|a| {
+        let mut l = [0.0; LANES];
+        // SAFETY: l holds LANES doubles.
+        unsafe { _mm256_storeu_pd(l.as_mut_ptr(), a) };
+        (l[0] + l[1]) + (l[2] + l[3])
+    })
+}
+
+/// The quadrature's sums `(-∫ û, -∫ r x û, ∫ |u|` and the Hessian's six terms `∫ q q^T / |u|`,
+/// `q = (z x û, r x (z x û))`), each over the lanes and then added in one order. A point the
+/// twist leaves still (`u = 0`, the instantaneous centre on it) adds nothing: its speed is
+/// floored at 1e-100 (the twist is scaled to speeds of order 1), which leaves `u` zero.
+#[inline(always)]
+fn sums<const HESSIAN: bool>(nodes: &Nodes, v: [f64; 2], omega: f64, load: [f64; 2]) -> [f64; 10] {
+    let mut acc = [[0.0f64; LANES]; 10];
+    for ((x, y), w) in nodes
+        .x
+        .chunks_exact(LANES)
+        .zip(nodes.y.chunks_exact(LANES))
+        .zip(nodes.w.chunks_exact(LANES))
+    {
+        let (x, y, w): (&[f64; LANES], &[f64; LANES], &[f64; LANES]) = (
+            x.try_into().unwrap(),
+            y.try_into().unwrap(),
+            w.try_into().unwrap(),
+        );
+        let ux: [f64; LANES] = std::array::from_fn(|l| v[0] - omega * y[l]);
+        let uy: [f64; LANES] = std::array::from_fn(|l| v[1] + omega * x[l]);
+        let norm: [f64; LANES] =
+            std::array::from_fn(|l| (ux[l] * ux[l] + uy[l] * uy[l]).sqrt().max(1e-100));
+        // (the pressure's weight, 1 under uniform pressure)
+        let area: [f64; LANES] =
+            std::array::from_fn(|l| w[l] * (1.0 + load[0] * x[l] + load[1] * y[l]));
+        let wgt: [f64; LANES] = std::array::from_fn(|l| area[l] / norm[l]);
+        for l in 0..LANES {
+            acc[0][l] -= wgt[l] * ux[l];
+            acc[1][l] -= wgt[l] * uy[l];
+            acc[2][l] -= wgt[l] * (x[l] * uy[l] - y[l] * ux[l]);
+            acc[3][l] += area[l] * norm[l];
+        }
+        if HESSIAN {
+            // J^T (I - û û^T) J / |u| = J^T p p^T J / |u|, p = z x û: wgt q q^T / |u|² with
+            // q = (-u_y, u_x, r x (z x u))
+            let q2: [f64; LANES] = std::array::from_fn(|l| x[l] * ux[l] + y[l] * uy[l]);
+            let g: [f64; LANES] = std::array::from_fn(|l| wgt[l] / (norm[l] * norm[l]));
+            for l in 0..LANES {
+                let (gy, gx) = (g[l] * uy[l], g[l] * ux[l]);
+                acc[4][l] += gy * uy[l];
+                acc[5][l] -= gy * ux[l];
+                acc[6][l] -= gy * q2[l];
+                acc[7][l] += gx * ux[l];
+                acc[8][l] += gx * q2[l];
+                acc[9][l] += (g[l] * q2[l]) * q2[l];
+            }
+        }
+    }
+    acc.map(|a| (a[0] + a[1]) + (a[2] + a[3]))
 }
 
 /// Gauss–Legendre nodes on [0, 1], 4 points.
@@ -168,6 +323,69 @@ const GAUSS8_W: [f64; 8] = [
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The quadrature point by point, summed in order (the form before the lanes): the
+    /// reference the lanes' sums must match to rounding.
+    fn reference<const K: usize>(p: &Polygon, v: [f64; 2], omega: f64) -> [f64; 4] {
+        let (x, w) = rule::<K>();
+        let n = p.vertices.len();
+        let mut out = [0.0; 4];
+        for k in 0..n {
+            let (a, b) = (p.vertices[k], p.vertices[(k + 1) % n]);
+            let jac = cross(a, b);
+            for (&s, &ws) in x.iter().zip(w) {
+                for (&t, &wt) in x.iter().zip(w) {
+                    let r = [
+                        s * (a[0] + t * (b[0] - a[0])),
+                        s * (a[1] + t * (b[1] - a[1])),
+                    ];
+                    let u = [v[0] - omega * r[1], v[1] + omega * r[0]];
+                    let norm = u[0].hypot(u[1]);
+                    let area = ws * wt * s * jac * (1.0 + p.load[0] * r[0] + p.load[1] * r[1]);
+                    out[0] -= area * u[0] / norm;
+                    out[1] -= area * u[1] / norm;
+                    out[2] -= area * cross(r, u) / norm;
+                    out[3] += area * norm;
+                }
+            }
+        }
+        out.map(|x| x / p.area)
+    }
+
+    #[test]
+    fn the_lanes_sum_the_points_as_one_by_one_does() {
+        let mut p = part();
+        for load in [[0.0, 0.0], [20.0, -15.0]] {
+            p.set_load(load).unwrap();
+            for (i, (v, omega)) in [([0.3, -0.2], 2.0), ([1.0, 0.0], 1e-3), ([0.0, 0.4], -30.0)]
+                .into_iter()
+                .enumerate()
+            {
+                let want = reference::<8>(&p, v, omega);
+                let got = quadrature::<true, 8>(&p, v, omega);
+                let got4 = quadrature::<false, 4>(&p, v, omega);
+                let want4 = reference::<4>(&p, v, omega);
+                let speed = v[0].hypot(v[1]) + omega.abs() * p.radius;
+                for k in 0..3 {
+                    let tol = if k == 2 { 1e-15 * p.radius } else { 1e-15 };
+                    assert!(
+                        (got.wrench[k] - want[k]).abs() <= tol,
+                        "{i} {k}: {got:?} {want:?}"
+                    );
+                    assert!((got4.wrench[k] - want4[k]).abs() <= tol, "{i} {k} (4)");
+                }
+                assert!((got.work - want[3]).abs() <= 1e-15 * speed);
+                // the AVX2 build and the portable one give the same bits
+                #[cfg(target_arch = "x86_64")]
+                if is_x86_feature_detected!("avx2") {
+                    let scale = v[0].abs() + v[1].abs() + omega.abs() * p.radius;
+                    let (vs, ws) = ([v[0] / scale, v[1] / scale], omega / scale);
+                    let fast = unsafe { sums_avx2::<true>(&p.nodes[1], vs, ws, p.load) };
+                    assert_eq!(fast, sums::<true>(&p.nodes[1], vs, ws, p.load));
+                }
+            }
+        }
+    }
 
     fn part() -> Polygon {
         Polygon::new("p", &[[0.0, 0.0], [0.03, 0.0], [0.04, 0.02], [0.0, 0.01]]).unwrap()
@@ -232,7 +450,7 @@ mod tests {
     fn the_second_moments_are_the_quadrature_s() {
         let p = part();
         let mut want = [0.0; 3];
-        let (x, w) = (&GAUSS8_X, &GAUSS8_W);
+        let (x, w) = rule::<8>();
         let n = p.vertices.len();
         for k in 0..n {
             let (a, b) = (p.vertices[k], p.vertices[(k + 1) % n]);

@@ -67,7 +67,10 @@ pub struct Polygon {
     /// ([`load`]); zero (the default) for uniform pressure.
     load: [f64; 2],
     /// Three feet the part rests on instead of its footprint ([`tripod`]), if it does.
-    tripod: Option<Tripod>,
+    tripod: Option<Box<Tripod>>,
+    /// The far field's quadrature points, 4 x 4 and 8 x 8 a triangle ([`far`]), shared by
+    /// the clones.
+    nodes: std::sync::Arc<[far::Nodes; 2]>,
 }
 
 /// The friction of a relative twist ([`Polygon::friction_hessian`]).
@@ -188,6 +191,7 @@ impl Polygon {
             .map(|v| v[0].hypot(v[1]))
             .fold(0.0, f64::max);
         let lanes = lanes::edges(&vertices);
+        let nodes = std::sync::Arc::new([far::nodes::<4>(&vertices), far::nodes::<8>(&vertices)]);
         let mut second = [0.0; 3];
         for k in 0..n {
             let (a, b) = (vertices[k], vertices[(k + 1) % n]);
@@ -207,6 +211,7 @@ impl Polygon {
             second,
             load: [0.0; 2],
             tripod: None,
+            nodes,
         })
     }
 
@@ -216,7 +221,7 @@ impl Polygon {
     /// or do not surround the centroid (the part would tip).
     pub fn set_feet(&mut self, name: &str, feet: Option<[[f64; 2]; 3]>) -> Result<()> {
         self.tripod = feet
-            .map(|f| Tripod::new(name, f, self.centroid, &self.vertices))
+            .map(|f| Tripod::new(name, f, self.centroid, &self.vertices).map(Box::new))
             .transpose()?;
         let load = self.load;
         self.load = [0.0; 2];
@@ -225,7 +230,7 @@ impl Polygon {
 
     /// The three feet the part rests on, if it does ([`Polygon::set_feet`]).
     pub fn tripod(&self) -> Option<&Tripod> {
-        self.tripod.as_ref()
+        self.tripod.as_deref()
     }
 
     /// `(∫ |r - r0| dA, ∫ (r - r0)/|r - r0| dA)` over the polygon, `r0` relative to the centroid

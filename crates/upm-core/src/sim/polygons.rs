@@ -54,6 +54,9 @@ pub(super) struct PolygonState {
     pub(super) hold: f64,
     /// Its place among all parts.
     pub(super) index: usize,
+    /// The cosine and sine of the angle, and the angle they are of: a part that does not turn
+    /// (stuck, or sliding without spin) reuses them ([`PolygonState::turned`]).
+    turned: std::cell::Cell<(f64, [f64; 2])>,
 }
 
 /// The steppers of `polygons` (`(part, shape)`), in order: one built per distinct shape (its
@@ -127,7 +130,19 @@ impl PolygonState {
             slide: parts.mu(i) * cfg.g * cfg.dt,
             hold: parts.mu_s(i) * cfg.g * cfg.dt,
             index: i,
+            turned: std::cell::Cell::new((f64::NAN, [1.0, 0.0])),
         }
+    }
+
+    /// `[cos, sin]` of the angle, computed again only when the angle changed.
+    fn turned(&self) -> [f64; 2] {
+        let (at, cs) = self.turned.get();
+        if at.to_bits() == self.angle.to_bits() {
+            return cs;
+        }
+        let cs = [self.angle.cos(), self.angle.sin()];
+        self.turned.set((self.angle, cs));
+        cs
     }
 
     /// One step (0-based `s`) under the plate velocity `u`, if the part is still on the plate.
@@ -181,7 +196,7 @@ impl PolygonState {
     fn press(&mut self, nz: &[f64; 3], n: f64) -> Result<()> {
         // a_z = z'' + y alpha'' - x beta'': its gradient is (-beta'', alpha'')
         let world = [-nz[2] / n, nz[1] / n];
-        let (c, s) = (self.angle.cos(), self.angle.sin());
+        let [c, s] = self.turned();
         let shape = &mut self.stepper.shape;
         let k = shape.steady_load(turn([c, -s], world));
         shape
@@ -196,7 +211,7 @@ impl PolygonState {
         let [x, y] = self.c;
         let surface = [u1 - u3 * y, u2 + u3 * x];
         let free = [self.v[0] - surface[0], self.v[1] - surface[1]];
-        let cs = [self.angle.cos(), self.angle.sin()];
+        let cs = self.turned();
         let local = turn([cs[0], -cs[1]], free);
         let st = self
             .stepper
@@ -256,10 +271,7 @@ impl PolygonState {
     /// Records the state after step `s` (1-based; 0: the initial state) if that step is recorded.
     pub(super) fn record(&self, s: usize, rec: &Rec) {
         if let Some(row) = rec.row(s) {
-            let off = turn(
-                [self.angle.cos(), self.angle.sin()],
-                self.stepper.shape.centroid,
-            );
+            let off = turn(self.turned(), self.stepper.shape.centroid);
             let origin = [self.c[0] - off[0], self.c[1] - off[1]];
             let state = (origin, self.v, self.angle, self.spin, self.stuck);
             // SAFETY: row < rows (from Rec::row), index < m, one polygon is one cell of a row.
