@@ -132,38 +132,32 @@ def run_sort(seed: int, cycles: int = 200) -> dict[str, Any]:
     }
 
 
-def _sort(quick: bool, out: Path) -> dict[str, Any]:
-    seeds = [1] if quick else [1, 2, 3]
-    runs = [run_sort(s) for s in seeds]
+def _summary(runs: list[dict[str, Any]]) -> dict[str, Any]:
+    """Medians and maxima over the seeds of a loop demo's runs (plate time, worst final errors)."""
     times = [r["plate_time_s"] for r in runs]
     pos = [max(r["position_error_mm"]) for r in runs]
     ang = [max(abs(a) for a in r["angle_error_deg"]) for r in runs]
     return {
         "runs": runs,
         "done": f"{sum(r['done'] for r in runs)}/{len(runs)}",
-        "sorted": f"{sum(r['sorted'] for r in runs)}/{4 * len(runs)}",
-        "mistaken_shapes": sum(r["mistaken_shapes"] for r in runs),
         "plate_time_s_median_max": [float(np.median(times)), max(times)],
         "position_error_mm_median_max": [float(np.median(pos)), max(pos)],
         "angle_error_deg_median_max": [float(np.median(ang)), max(ang)],
         "fallen": sum(r["fallen"] for r in runs),
+    }
+
+
+def _sort(quick: bool, out: Path) -> dict[str, Any]:
+    runs = [run_sort(s) for s in ([1] if quick else [1, 2, 3])]
+    return {
+        **_summary(runs),
+        "sorted": f"{sum(r['sorted'] for r in runs)}/{4 * len(runs)}",
+        "mistaken_shapes": sum(r["mistaken_shapes"] for r in runs),
     }
 
 
 def _orient(quick: bool, out: Path) -> dict[str, Any]:
-    seeds = [1] if quick else [1, 2, 3]
-    runs = [run_orient(s) for s in seeds]
-    times = [r["plate_time_s"] for r in runs]
-    pos = [max(r["position_error_mm"]) for r in runs]
-    ang = [max(abs(a) for a in r["angle_error_deg"]) for r in runs]
-    return {
-        "runs": runs,
-        "done": f"{sum(r['done'] for r in runs)}/{len(runs)}",
-        "plate_time_s_median_max": [float(np.median(times)), max(times)],
-        "position_error_mm_median_max": [float(np.median(pos)), max(pos)],
-        "angle_error_deg_median_max": [float(np.median(ang)), max(ang)],
-        "fallen": sum(r["fallen"] for r in runs),
-    }
+    return _summary([run_orient(s) for s in ([1] if quick else [1, 2, 3])])
 
 
 #: The test polygons of sensorless orienting: a right triangle, a 2:1 rectangle and an irregular
