@@ -130,3 +130,26 @@ def test_mixed_shapes_bad_input():
     loop = PoseLoop(device, plant.camera("red"), planner, PoseTask([[0, 0, 0], [0.01, 0, 0]], kinds=[0, 0]))
     with pytest.raises(upm.VisionError, match=r"sees \[1, 1\] parts of each shape; the task has \[2, 0\]"):
         loop.see()
+
+
+def test_a_part_whose_shape_cannot_be_told_stops_the_mixed_loop_with_its_place(monkeypatch):
+    import upm.vision.poses as poses_module
+
+    plant = SimulatedUPM(parts=[[0.05, 0.03], [-0.05, -0.03]], part_shape=[TRIANGLE, PART])
+    device = SimulatedDevice(plant)
+    planner = PosePlanner([PART, TRIANGLE], device.limits)
+    loop = PoseLoop(device, plant.camera("red"), planner, PoseTask([[0, 0, 0], [0.01, 0, 0]], kinds=[0, 1]))
+    real_pose = poses_module._pose
+    calls = []
+
+    def cut_off(*args):  # the second part seen as one too near the view's edge to measure
+        calls.append(1)
+        return (0, math.nan) if len(calls) == 2 else real_pose(*args)
+
+    monkeypatch.setattr(poses_module, "_pose", cut_off)
+    ok, frame = plant.camera("red").read()
+    found = poses_module.find_poses(frame, upm.vision.find_table(frame), [PART, TRIANGLE])
+    assert ok and found.kinds.tolist().count(-1) == 1 and found.symmetries[found.kinds < 0].tolist() == [1]
+    calls.clear()
+    with pytest.raises(upm.VisionError, match="too near the view's edge to tell its shape"):
+        loop.see()

@@ -154,6 +154,11 @@ class PoseLoop:
             raise VisionError(f"the camera sees {len(poses)} parts; the task has {n}")
         from scipy.optimize import linear_sum_assignment
 
+        if (found.kinds < 0).any():
+            where = found.centroids[int(np.flatnonzero(found.kinds < 0)[0])]
+            raise VisionError(
+                f"a part at {where.round(4).tolist()} m is too near the view's edge to tell its shape"
+            )
         seen = np.bincount(found.kinds, minlength=len(self.planner.shapes))
         want = np.bincount(self.task.kinds, minlength=len(self.planner.shapes))
         if not np.array_equal(seen, want):

@@ -63,7 +63,8 @@ class Poses:
     parts : Parts
         The detections (labels, contrast, visible area).
     kinds : (N,) ndarray of int
-        Which of the shapes each part is (all 0 for one shape).
+        Which of the shapes each part is (all 0 for one shape; -1 for a part too near the
+        view's edge to tell among several, whose angle is NaN too).
     symmetries : (N,) ndarray of int
         Each part's symmetry (its shape's).
     """
@@ -149,6 +150,8 @@ def find_poses(
     kinds = np.array([k for k, _ in found], dtype=np.int64)
     angles = np.array([a for _, a in found], dtype=np.float64)
     offsets = [shapes[k].centroid_offset(a) for k, a in found]
+    if len(shapes) > 1:
+        kinds[np.isnan(angles)] = -1
     return Poses(
         positions=parts.positions - np.reshape(offsets, (-1, 2)),
         centroids=parts.positions,
@@ -156,7 +159,7 @@ def find_poses(
         symmetry=int(symmetries[0]),
         parts=parts,
         kinds=kinds,
-        symmetries=symmetries[kinds],
+        symmetries=np.where(kinds >= 0, symmetries[np.maximum(kinds, 0)], 1),
     )
 
 
