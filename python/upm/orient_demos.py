@@ -66,6 +66,12 @@ def run_orient(
     device = SimulatedDevice(plant)
     loop = PoseLoop(device, plant.camera("red", seed=seed), PosePlanner(part, device.limits), PoseTask(t))
     log = loop.run(cycles=cycles)
+    return {**_outcome(seed, log, plant), "start_angle_error_deg": log.errors[0][:, 1].tolist()}
+
+
+def _outcome(seed: int, log: Any, plant: Any) -> dict[str, Any]:
+    """What a pose loop's run ended with: done, why it stopped, plate time, pulses, the final
+    errors per part and the parts that fell off."""
     errors = log.errors[-1]
     return {
         "seed": seed,
@@ -75,7 +81,6 @@ def run_orient(
         "cycles": len(log.pulses),
         "position_error_mm": (1e3 * errors[:, 0]).tolist(),
         "angle_error_deg": errors[:, 1].tolist(),
-        "start_angle_error_deg": log.errors[0][:, 1].tolist(),
         "fallen": plant.fallen,
     }
 
@@ -114,22 +119,10 @@ def run_sort(seed: int, cycles: int = 200) -> dict[str, Any]:
     planner = PosePlanner(SORT_SHAPES, device.limits)
     loop = PoseLoop(device, camera, planner, PoseTask(SORT_TARGETS, kinds=SORT_KINDS))
     log = loop.run(cycles=cycles)
-    errors = log.errors[-1]
     # where each part really ended (its frame's origin), against the targets of its own shape
     right = [bool(np.min(np.hypot(*(SORT_TARGETS[SORT_KINDS == k, :2] - p).T)) < 0.01)
              for k, p in zip(SORT_KINDS, plant.parts, strict=True)]  # fmt: skip
-    return {
-        "seed": seed,
-        "done": log.done,
-        "stopped": log.stopped,
-        "plate_time_s": log.plate_time,
-        "cycles": len(log.pulses),
-        "mistaken_shapes": mistaken,
-        "sorted": int(sum(right)),
-        "position_error_mm": (1e3 * errors[:, 0]).tolist(),
-        "angle_error_deg": errors[:, 1].tolist(),
-        "fallen": plant.fallen,
-    }
+    return {**_outcome(seed, log, plant), "mistaken_shapes": mistaken, "sorted": int(sum(right))}
 
 
 def _summary(runs: list[dict[str, Any]]) -> dict[str, Any]:
