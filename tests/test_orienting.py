@@ -12,6 +12,7 @@ import pytest
 from scipy.optimize import minimize
 
 import upm
+from footprint import cells
 from upm.orienting import RadialField, SqueezeField, orientation_equilibria
 
 PENTAGON = np.array([[0.0, 0.0], [0.030, -0.004], [0.041, 0.016], [0.022, 0.031], [-0.006, 0.019]])
@@ -90,17 +91,6 @@ def test_bad_input():
         RadialField(bias=(1.2, 0.0))
     with pytest.raises(upm.ParameterError, match="center must be finite"):
         RadialField(center=(np.inf, 0.0))
-
-
-def cells(part: upm.Polygon, h: float = 2.5e-4) -> np.ndarray:
-    """Centres of a grid of cells over the footprint, in the part's frame about its centroid."""
-    v = np.asarray(part.vertices) - part.centroid
-    lo, hi = v.min(axis=0), v.max(axis=0)
-    x, y = np.meshgrid(np.arange(lo[0], hi[0], h) + h / 2, np.arange(lo[1], hi[1], h) + h / 2)
-    inside = np.ones_like(x, bool)
-    for a, b in zip(v, np.roll(v, -1, axis=0), strict=True):
-        inside &= (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]) >= 0
-    return np.stack([x[inside], y[inside]], axis=1)
 
 
 def brute_potential(

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import upm
+from footprint import cells
 from upm import _core
 
 # an irregular convex pentagon (part frame, counter-clockwise, centroid off the origin)
@@ -371,14 +372,7 @@ def test_the_wrench_under_a_pressure_gradient_is_the_sum_over_the_footprint_and_
     # p = (N/A)(1 + k.r): the pressure of a part on a rocking plate (docs/polygons.md)
     part = upm.Polygon(PENTAGON)
     k = np.array([0.5, -0.7]) / part.radius
-    v = part.vertices - part.centroid
-    h = 5e-5
-    lo, hi = v.min(axis=0), v.max(axis=0)
-    x, y = np.meshgrid(np.arange(lo[0], hi[0], h) + h / 2, np.arange(lo[1], hi[1], h) + h / 2)
-    inside = np.ones_like(x, bool)
-    for a, b in zip(v, np.roll(v, -1, axis=0), strict=True):
-        inside &= (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]) >= 0
-    r = np.stack([x[inside], y[inside]], axis=1)
+    r = cells(part, 5e-5)
     w = 1 + r @ k
     for vel, spin in (((0.0, 0.0), 3.0), ((0.02, -0.01), 1.5), ((0.3, 0.1), 0.0)):
         u = np.asarray(vel) + spin * np.stack([-r[:, 1], r[:, 0]], axis=1)

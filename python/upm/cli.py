@@ -220,9 +220,9 @@ def main(argv: list[str] | None = None) -> int:
 
 def _main(argv: list[str]) -> int:
     if argv[:1] == ["emulate"]:  # its own options: hand them over untouched
-        from .board import emulator
+        from .board import process
 
-        return emulator.main(argv[1:])
+        return process.main(argv[1:])
     parser = argparse.ArgumentParser(prog="upm", description="Vibratory planar manipulation.")
     parser.add_argument("--version", action="version", version=f"upm {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
