@@ -482,7 +482,8 @@ fn a_result_written_with_streaming_stores_equals_small_runs_of_the_same_parts() 
     // 300 001 parts and 3 rows pass the 16 MB above which positions and velocities are streamed;
     // an odd count puts every other row off the 32-byte alignment of the wide stores. Point
     // parts do not interact, so each part's record must equal a run of a few parts (written
-    // with plain stores) bitwise.
+    // with plain stores) bitwise: positions, velocities, stuck flags (streamed eight to a word)
+    // and the times of leaving the plate (streamed too; parts outside its edge leave at once).
     let m = 300_001;
     let position: Vec<[f64; 2]> = (0..m)
         .map(|i| {
@@ -493,12 +494,25 @@ fn a_result_written_with_streaming_stores_equals_small_runs_of_the_same_parts() 
             ]
         })
         .collect();
-    let velocity: Vec<[f64; 2]> = (0..m)
-        .map(|i| [1e-3 * (i % 7) as f64, -2e-3 * (i % 5) as f64])
-        .collect();
     let motion = PlateMotion::rotation([0.01, -0.02], asymmetric(0.4, 30.0)).unwrap();
+    // Every eleventh part starts just inside the plate's edge, moving out fast (it leaves in
+    // the run); every third other part starts moving with the plate's surface (so it starts
+    // stuck).
+    let mut position = position;
+    for p in position.iter_mut().step_by(11) {
+        *p = [0.0995 - 2e-7, 0.9 * p[1]];
+    }
+    let u = motion.velocity(0.0);
+    let velocity: Vec<[f64; 2]> = (0..m)
+        .map(|i| match (i % 11, i % 3) {
+            (0, _) => [0.01, 0.0],
+            (_, 0) => [u[0] - u[2] * position[i][1], u[1] + u[2] * position[i][0]],
+            _ => [1e-3 * (i % 7) as f64, -2e-3 * (i % 5) as f64],
+        })
+        .collect();
     let mut c = cfg(1.0 / 30.0 / 300.0, 4.0 / 30.0 / 300.0);
     c.record_every = 2;
+    c.plate_size = Some(0.199);
     let whole = simulate(
         &motion,
         &parts(position.clone(), velocity.clone(), 0.3, 0.4),
@@ -528,9 +542,36 @@ fn a_result_written_with_streaming_stores_equals_small_runs_of_the_same_parts() 
                 assert_eq!(whole.stuck[a], few.stuck[b], "row {r} part {i}");
             }
         }
+        assert_eq!(
+            whole.left_plate[lo..hi],
+            few.left_plate[..],
+            "parts {lo}..{hi}"
+        );
+    }
+    for row in whole.stuck.chunks(m) {
+        assert!(row.iter().any(|&s| !s), "some parts must slide");
     }
     assert!(
-        whole.stuck[2 * m..].iter().any(|&s| !s),
-        "some parts must slide"
+        whole.stuck[..m].iter().filter(|&&s| s).count() > 1000,
+        "parts moving with the plate start stuck"
     );
+    let left = whole.left_plate.iter().filter(|l| l.is_some()).count();
+    assert!(left > m / 11 && left < m / 5, "{left} parts left the plate");
+    assert!(
+        whole
+            .left_plate
+            .iter()
+            .step_by(11)
+            .all(|l| l.is_some_and(|t| t > 0.0)),
+        "the parts at the edge leave in the run"
+    );
+    let lo = whole.left_plate.iter().position(Option::is_some).unwrap();
+    let few = simulate(
+        &motion,
+        &parts(vec![position[lo]], vec![velocity[lo]], 0.3, 0.4),
+        &c,
+    )
+    .unwrap();
+    assert_eq!(whole.left_plate[lo], few.left_plate[0]);
+    assert_eq!(whole.positions[m + lo], few.positions[1], "frozen once off");
 }

@@ -184,6 +184,11 @@ impl<'p> Points<'p> {
         rec: &Rec,
         dt: f64,
     ) {
+        if index.is_none() && air.is_none() {
+            // SAFETY: the chunk's parts are below m, and belong to this chunk alone.
+            unsafe { rec.left_run(start, l.left, dt) };
+            return;
+        }
         for q in 0..l.x.len() {
             let left = (l.left[q] != NEVER).then(|| l.left[q] * dt);
             let flown = air.map_or(0.0, |a| a.flight[q] * dt);
@@ -304,62 +309,98 @@ impl Source<'_> {
         k: usize,
         spatial: bool,
     ) {
+        #[cfg(target_arch = "x86_64")]
+        if super::simd() != super::Simd::Portable {
+            return self.fill_avx2(base, at, start, k, spatial);
+        }
+        self.fill_any(base, at, start, k, spatial)
+    }
+
+    /// [`Source::fill`] compiled for AVX2 (the same operations, so the same results: no
+    /// contraction into fused multiply–adds).
+    ///
+    /// # Safety
+    /// As [`Source::fill`]; the CPU must support AVX2 and FMA (as [`super::simd`] found).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn fill_avx2(&self, base: &Base, at: usize, start: usize, k: usize, spatial: bool) {
+        self.fill_any(base, at, start, k, spatial)
+    }
+
+    /// [`Source::fill`] in plain Rust, one array at a time in branch-free loops the compiler
+    /// vectorises when the points are all the parts (no index).
+    #[inline(always)]
+    unsafe fn fill_any(&self, base: &Base, at: usize, start: usize, k: usize, spatial: bool) {
+        use std::mem::MaybeUninit;
         let p = &self.parts;
         let out = |a: usize| std::slice::from_raw_parts_mut(base.0[a].add(at).cast(), k);
-        let [x, y, vx, vy, stuck, active, left, slide, hold]: [&mut [std::mem::MaybeUninit<f64>];
-            9] = std::array::from_fn(out);
+        let [x, y, vx, vy, stuck, active, left, slide, hold]: [&mut [MaybeUninit<f64>]; 9] =
+            std::array::from_fn(out);
         let ix = |q: usize| self.index.map_or(start + q, |ix| ix[start + q]);
-        // One array at a time, in loops the compiler vectorises when the points are all the
-        // parts (no index).
-        let (pos, vel) = match self.index {
-            None => (
-                &p.position[start..start + k],
-                p.velocity.map(|v| &v[start..start + k]),
-            ),
-            Some(_) => (&[][..], None),
-        };
-        for q in 0..k {
-            let [a, b] = if self.index.is_none() {
-                pos[q]
-            } else {
-                p.position[ix(q)]
-            };
-            x[q].write(a);
-            y[q].write(b);
+        match self.index {
+            None => {
+                for (q, &[a, b]) in p.position[start..start + k].iter().enumerate() {
+                    x[q].write(a);
+                    y[q].write(b);
+                }
+            }
+            Some(_) => {
+                for q in 0..k {
+                    let [a, b] = p.position[ix(q)];
+                    x[q].write(a);
+                    y[q].write(b);
+                }
+            }
         }
-        for q in 0..k {
-            let [a, b] = match (self.index, vel, p.velocity) {
-                (_, _, None) => [0.0, 0.0],
-                (None, Some(v), _) => v[q],
-                (_, _, Some(v)) => v[ix(q)],
-            };
-            vx[q].write(a);
-            vy[q].write(b);
+        match (self.index, p.velocity) {
+            (_, None) => {
+                vx.fill(MaybeUninit::new(0.0));
+                vy.fill(MaybeUninit::new(0.0));
+            }
+            (None, Some(v)) => {
+                for (q, &[a, b]) in v[start..start + k].iter().enumerate() {
+                    vx[q].write(a);
+                    vy[q].write(b);
+                }
+            }
+            (Some(_), Some(v)) => {
+                for q in 0..k {
+                    let [a, b] = v[ix(q)];
+                    vx[q].write(a);
+                    vy[q].write(b);
+                }
+            }
         }
         let [x, y, vx, vy] =
-            [x, y, vx, vy].map(|a| &*(a as *const [std::mem::MaybeUninit<f64>] as *const [f64]));
+            [x, y, vx, vy].map(|a| &*(a as *const [MaybeUninit<f64>] as *const [f64]));
         let finite = |a: &[f64]| a.iter().fold(true, |ok, v| ok & v.is_finite());
-        if !(finite(x) && finite(y) && finite(vx) && finite(vy)) {
+        let moving = p.velocity.is_some();
+        if !(finite(x) && finite(y) && (!moving || (finite(vx) && finite(vy)))) {
             self.not_finite.store(true, Ordering::Relaxed);
         }
+        let (u0, half) = (self.u0, self.half);
         for q in 0..k {
             // A part that starts moving with the plate surface starts stuck.
-            let s = moves_with_plate([x[q], y[q]], [vx[q], vy[q]], self.u0);
-            stuck[q].write(f64::from(u8::from(s)));
+            let s = moves_with_plate([x[q], y[q]], [vx[q], vy[q]], u0);
+            stuck[q].write(if s { 1.0 } else { 0.0 });
             // On an unbounded plate (infinite `half`) every part is on it.
-            let on = !off_plate(x[q], y[q], self.half);
-            active[q].write(f64::from(u8::from(on)));
+            let on = !off_plate(x[q], y[q], half);
+            active[q].write(if on { 1.0 } else { 0.0 });
             left[q].write(if on { NEVER } else { 0.0 });
         }
-        let one = p.mu.len() == 1 && p.mu_s.len() == 1;
-        for q in 0..k {
-            let i = if one { 0 } else { ix(q) };
-            slide[q].write(p.mu(i) * self.scale);
-            hold[q].write(p.mu_s(i) * self.scale);
+        if p.mu.len() == 1 && p.mu_s.len() == 1 {
+            slide.fill(MaybeUninit::new(p.mu(0) * self.scale));
+            hold.fill(MaybeUninit::new(p.mu_s(0) * self.scale));
+        } else {
+            for q in 0..k {
+                let i = ix(q);
+                slide[q].write(p.mu(i) * self.scale);
+                hold[q].write(p.mu_s(i) * self.scale);
+            }
         }
         if spatial {
             for a in 9..ARRAYS {
-                out(a).fill(std::mem::MaybeUninit::new(0.0));
+                out(a).fill(MaybeUninit::new(0.0));
             }
         }
     }

@@ -229,6 +229,52 @@ unsafe fn pairs_streamed(out: *mut [f64; 2], a: &[f64], b: &[f64]) {
     }
 }
 
+/// Eight flags (the bits of the index, flag `j` bit `j`) as eight bools (byte `j`, little-endian).
+const FLAG_BYTES: [u64; 256] = {
+    let mut table = [0u64; 256];
+    let mut bits = 0;
+    while bits < 256 {
+        let mut j = 0;
+        while j < 8 {
+            table[bits] |= (((bits >> j) & 1) as u64) << (8 * j);
+            j += 1;
+        }
+        bits += 1;
+    }
+    table
+};
+
+/// `out[q] = flags[q] > 0` for every `q`; whole aligned words of eight with non-temporal stores.
+///
+/// # Safety
+/// The build has AVX; `out` is valid for `flags.len()` writes, and nothing else addresses them
+/// meanwhile.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn flags_streamed(out: *mut bool, flags: &[f64]) {
+    use std::arch::x86_64::*;
+    let k = flags.len();
+    let mut q = 0;
+    while q < k && !(out.add(q) as usize).is_multiple_of(8) {
+        out.add(q).write(flags[q] > 0.0);
+        q += 1;
+    }
+    let set = |at: usize| {
+        let v = _mm256_loadu_pd(flags.as_ptr().add(at));
+        _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GT_OQ>(v, _mm256_setzero_pd())) as usize
+    };
+    while q + 8 <= k {
+        let word = FLAG_BYTES[set(q) | set(q + 4) << 4];
+        // The word is aligned and within `out` (above).
+        _mm_stream_si64(out.add(q).cast(), word as i64);
+        q += 8;
+    }
+    while q < k {
+        out.add(q).write(flags[q] > 0.0);
+        q += 1;
+    }
+}
+
 impl Rec {
     /// The row step `s` (1-based; 0 is the initial state) is recorded in, if it is recorded.
     #[inline]
@@ -314,9 +360,7 @@ impl Rec {
             let i = row * self.m + part;
             pairs_streamed(self.pos.add(i), s.x, s.y);
             pairs_streamed(self.vel.add(i), s.vx, s.vy);
-            for q in 0..k {
-                self.stuck.add(i + q).write(s.stuck[q] > 0.0);
-            }
+            flags_streamed(self.stuck.add(i), s.stuck);
             return;
         }
         for q in 0..k {
@@ -353,6 +397,37 @@ impl Rec {
         self.left.add(part).write(left.unwrap_or(f64::NAN));
         if !self.flight.is_null() {
             self.flight.add(part).write(flight);
+        }
+    }
+
+    /// [`Rec::ended`] for the parts `part ..` of a chunk that never leaves the plate's plane:
+    /// `steps[q]` is the step count when part `part + q` left the plate ([`super::kernel::NEVER`]:
+    /// it did not), written as a time (NaN: it did not), with non-temporal stores where the
+    /// result is streamed, then fenced.
+    ///
+    /// # Safety
+    /// `part + steps.len() <= m`, and no other thread writes these parts' times.
+    pub(super) unsafe fn left_run(&self, part: usize, steps: &[f64], dt: f64) {
+        debug_assert!(part + steps.len() <= self.m);
+        let time = |s: f64| {
+            if s != super::kernel::NEVER {
+                s * dt
+            } else {
+                f64::NAN
+            }
+        };
+        #[cfg(target_arch = "x86_64")]
+        if self.stream {
+            for (q, &s) in steps.iter().enumerate() {
+                // SAFETY: SSE2 is part of x86-64; the cell is within the times (above).
+                let cell = self.left.add(part + q).cast::<i64>();
+                std::arch::x86_64::_mm_stream_si64(cell, time(s).to_bits() as i64);
+            }
+            self.fence();
+            return;
+        }
+        for (q, &s) in steps.iter().enumerate() {
+            self.left.add(part + q).write(time(s));
         }
     }
 
