@@ -157,6 +157,22 @@ fn ztable() -> &'static [[f64; 2]] {
     })
 }
 
+/// [`ztable`] with its first and last rows repeated once more at either end: row `i + 1` is the
+/// table's row `i`, so the four rows `i - 1 ..= i + 2` that [`curve_z`] reads (with its indices
+/// clamped to the table) lie together from row `i` on, for every `i` it takes (one wide load
+/// each where a gather would read them one by one).
+fn ztable_padded() -> &'static [[f64; 2]] {
+    static T: OnceLock<Vec<[f64; 2]>> = OnceLock::new();
+    T.get_or_init(|| {
+        let tab = ztable();
+        let mut padded = Vec::with_capacity(ZTABLE + 2);
+        padded.push(tab[0]);
+        padded.extend_from_slice(tab);
+        padded.push(tab[ZTABLE - 1]);
+        padded
+    })
+}
+
 /// `(f, t, df/dz, dt/dz)` at `z = b / (a + b)` in `[0, 1]` (cubic Catmull–Rom on [`ztable`]).
 pub fn limit_curve_z(z: f64) -> (f64, f64, f64, f64) {
     let [[f, df, _], [t, dt, _]] = curve_z(ztable(), z);
@@ -297,8 +313,53 @@ pub fn implicit_step(
 /// pure spinning; what remains is a [`Pre::Slide`] (solved one disk at a time by [`slide`], or
 /// many at once by [`lanes::slide_many`]).
 pub fn prepare(w_free: [f64; 2], s_free: f64, slide: f64, hold: f64, was_stuck: bool) -> Pre {
+    decide(
+        w_free,
+        s_free,
+        slide,
+        magnitudes(w_free, s_free, slide, hold, was_stuck),
+    )
+}
+
+/// The magnitudes [`prepare`] decides on: `|w_free|`, `|s_free|` and the wrench that would stop
+/// the disk, in units of `mu m g` and `mu m g R` (for the static coefficient while stuck).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Magnitudes {
+    /// `|w_free|` [m/s].
+    pub a0: f64,
+    /// `|s_free|` [m/s].
+    pub b0: f64,
+    /// The stopping force over `mu m g`.
+    pub na: f64,
+    /// The stopping torque over `mu m g R`.
+    pub nb: f64,
+}
+
+/// [`Magnitudes`] of a disk's free step: branch-free arithmetic, so that a loop over many disks
+/// vectorises.
+#[inline(always)]
+pub fn magnitudes(
+    w_free: [f64; 2],
+    s_free: f64,
+    slide: f64,
+    hold: f64,
+    was_stuck: bool,
+) -> Magnitudes {
     let a0 = (w_free[0] * w_free[0] + w_free[1] * w_free[1]).sqrt();
     let b0 = s_free.abs();
+    let c = if was_stuck { hold } else { slide };
+    Magnitudes {
+        a0,
+        b0,
+        na: a0 / c,
+        nb: 0.5 * b0 / c,
+    }
+}
+
+/// [`prepare`]'s decision from the disk's [`Magnitudes`] `m`.
+#[inline]
+pub fn decide(w_free: [f64; 2], s_free: f64, slide: f64, m: Magnitudes) -> Pre {
+    let Magnitudes { a0, b0, na, nb } = m;
     let stuck = Pre::Done(Step {
         w: [0.0; 2],
         s: 0.0,
@@ -307,10 +368,8 @@ pub fn prepare(w_free: [f64; 2], s_free: f64, slide: f64, hold: f64, was_stuck: 
     if a0 == 0.0 && b0 == 0.0 {
         return stuck;
     }
-    // Stick test: the wrench that stops the disk, in units of mu m g (and mu m g R), inside the
-    // limit curve (for the static coefficient while stuck), which lies in [0, 1] x [0, 2/3].
-    let c = if was_stuck { hold } else { slide };
-    let (na, nb) = (a0 / c, 0.5 * b0 / c);
+    // Stick test: the wrench that stops the disk inside the limit curve, which lies in
+    // [0, 1] x [0, 2/3].
     if na <= 1.0 && nb <= 2.0 / 3.0 && stick::holds(na, nb) {
         return stuck;
     }

@@ -139,6 +139,10 @@ impl DiskState {
     }
 }
 
+/// A disk's plate surface velocity, relative velocity and `R` times relative spin
+/// ([`DiskState::relative`]).
+type Relative = ([f64; 2], [f64; 2], f64);
+
 /// Disks per group of [`run_disks`].
 pub(super) const DISK_GROUP: usize = 32;
 
@@ -172,7 +176,21 @@ pub(super) fn run_disks(
 /// [`DiskState::step`] takes it one disk at a time (bitwise the same): the stick tests and
 /// closed forms first, then the sliding solves of all sliding disks at once.
 fn step_group(group: &mut [DiskState], u: [f64; 3], s: usize, cfg: &Config) {
-    use crate::disk::{finish, lanes::slide_many, prepare, slide_safe, Pre};
+    use crate::disk::{decide, finish, lanes::slide_many, magnitudes, slide_safe, Magnitudes, Pre};
+    // First every disk's relative motion and magnitudes, in one branch-free pass (the square
+    // roots and divisions of independent disks overlap), then the decisions.
+    let none = Magnitudes {
+        a0: 0.0,
+        b0: 0.0,
+        na: 0.0,
+        nb: 0.0,
+    };
+    let mut rel: [Relative; DISK_GROUP] = [([0.0; 2], [0.0; 2], 0.0); DISK_GROUP];
+    let mut mag = [none; DISK_GROUP];
+    for ((d, r), m) in group.iter().zip(&mut rel).zip(&mut mag) {
+        *r = d.relative(u);
+        *m = magnitudes(r.1, r.2, d.slide, d.hold, d.stuck);
+    }
     let mut a0 = [0.0; DISK_GROUP];
     let mut b0 = [0.0; DISK_GROUP];
     let mut c = [0.0; DISK_GROUP];
@@ -183,8 +201,8 @@ fn step_group(group: &mut [DiskState], u: [f64; 3], s: usize, cfg: &Config) {
         if !d.active {
             continue;
         }
-        let (surface, free, spin) = d.relative(u);
-        match prepare(free, spin, d.slide, d.hold, d.stuck) {
+        let (surface, free, spin) = rel[i];
+        match decide(free, spin, d.slide, mag[i]) {
             Pre::Done(st) => {
                 d.take(d.absolute(surface, u[2], st), s, cfg);
             }
@@ -197,7 +215,7 @@ fn step_group(group: &mut [DiskState], u: [f64; 3], s: usize, cfg: &Config) {
     slide_many(&a0[..k], &b0[..k], &c[..k], &mut out[..k]);
     for j in 0..k {
         let d = &mut group[which[j]];
-        let (surface, free, spin) = d.relative(u);
+        let (surface, free, spin) = rel[which[j]];
         let (a, b) = out[j].unwrap_or_else(|| slide_safe(a0[j], b0[j], c[j]));
         let st = finish(free, spin, a0[j], a, b);
         d.take(d.absolute(surface, u[2], st), s, cfg);
