@@ -253,26 +253,20 @@ unsafe fn step(base: *const f64, st: &mut Four) {
     let settled = _mm256_and_pd(live, _mm256_cmp_pd::<_CMP_LE_OQ>(abs(step), set(1e-6)));
     if _mm256_movemask_pd(settled) != 0 {
         let h = _mm256_mul_pd(_mm256_mul_pd(set(0.5), step), step);
-        let fa = _mm256_sub_pd(
-            va0,
-            _mm256_mul_pd(
-                vc,
-                _mm256_add_pd(
-                    _mm256_sub_pd(f, _mm256_mul_pd(df, step)),
-                    _mm256_mul_pd(ddf, h),
+        // x0 - k (v - v' step + v'' h): the result from the curve's Taylor polynomial
+        let taylor = |x0: __m256d, k: __m256d, v: __m256d, dv: __m256d, ddv: __m256d| {
+            _mm256_sub_pd(
+                x0,
+                _mm256_mul_pd(
+                    k,
+                    _mm256_add_pd(
+                        _mm256_sub_pd(v, _mm256_mul_pd(dv, step)),
+                        _mm256_mul_pd(ddv, h),
+                    ),
                 ),
-            ),
-        );
-        let fb = _mm256_sub_pd(
-            vb0,
-            _mm256_mul_pd(
-                c2,
-                _mm256_add_pd(
-                    _mm256_sub_pd(t, _mm256_mul_pd(dt, step)),
-                    _mm256_mul_pd(ddt, h),
-                ),
-            ),
-        );
+            )
+        };
+        let (fa, fb) = (taylor(va0, vc, f, df, ddf), taylor(vb0, c2, t, dt, ddt));
         let positive = _mm256_and_pd(
             _mm256_cmp_pd::<_CMP_GT_OQ>(fa, zero),
             _mm256_cmp_pd::<_CMP_GT_OQ>(fb, zero),
