@@ -171,6 +171,23 @@ def per_call(motion: upm.PlateMotion, dt: float) -> None:
     print(f"  numpy writing the same positions, velocities and stuck flags: {floor:.1f} ns per part")
 
 
+def small_calls(motion: upm.PlateMotion, dt: float) -> None:
+    """The whole cost of a small call, as a control loop or a planner makes many: 8 parts, 100
+    steps, from Python (arguments checked, result built), on every core and on one thread."""
+    pos = np.random.default_rng(5).uniform(-0.1, 0.1, (8, 2))
+    out, calls = [], 500
+    for th in (None, 1):
+        kw = dict(duration=100 * dt, dt=dt, mu=MU, mu_s=MU_S, record_every=100, threads=th)
+
+        def many(kw=kw) -> None:
+            for _ in range(calls):
+                upm.simulate(motion, pos, **kw)
+
+        many()
+        out.append(best_of(many, 5) * 1e6 / calls)
+    print(f"\na call of 8 parts x 100 steps: {out[0]:.0f} us on every core, {out[1]:.0f} us on one thread")
+
+
 def batch_times(quick: bool) -> None:
     """Batches of small worlds (the predictive planner's rollouts: enveloped jets, 8 parts each)
     against one world of as many parts on the first of those motions, per part-step on every
@@ -313,6 +330,7 @@ def main() -> None:
     if not numba:
         print("(no Numba peer: pip install 'upm[bench]')")
     per_call(motion, dt)
+    small_calls(motion, dt)
     batch_times(quick=args.quick)
     disk_times(dt, quick=args.quick)
     polygon_times(dt, quick=args.quick)

@@ -45,6 +45,37 @@ from upm import _core, actuation, theory
         (lambda: upm.BangBang(0.5, 1e300, 1e300), r"a_max \* period must be a normal"),
         (lambda: theory.viscous_gain(1.0, 1.0, mu_m_g=0.0), "mu_m_g must be finite and > 0"),
         (lambda: theory.gamma(np.nan), "b must be finite"),
+        # (scalars take a fast path past NumPy: the same checks and messages)
+        (
+            lambda: upm.simulate(
+                upm.PlateMotion.rest(1.0), [[0.0, 0.0]], duration=0.01, dt=0.001, mu=math.nan
+            ),
+            "mu must be finite; got nan",
+        ),
+        (
+            lambda: upm.simulate(
+                upm.PlateMotion.rest(1.0), [[0.0, 0.0]], duration=0.01, dt=0.001, mu=10**400
+            ),
+            "mu is too large for a float",
+        ),
+        (
+            lambda: upm.simulate(
+                upm.PlateMotion.rest(1.0), [[0.0, 0.0]], duration=0.01, dt=0.001, mu=np.float64(np.inf)
+            ),
+            "mu must be finite; got inf",
+        ),
+        (
+            lambda: upm.simulate(
+                upm.PlateMotion.rest(1.0), [[0.0, 0.0]], duration=0.01, dt=0.001, mu=np.array(10**400)
+            ),
+            "mu is too large for a float",
+        ),
+        (
+            lambda: upm.simulate(
+                upm.PlateMotion.rest(1.0), [[0.0, 0.0]], duration=0.01, dt=0.001, mu=[0.3, 10**400]
+            ),
+            "mu is too large for a float",
+        ),
     ],
 )
 def test_bad_input_names_the_parameter(call, match):

@@ -1,5 +1,6 @@
 """A forked child (multiprocessing's default start method on Linux) can simulate after its parent
-did: rayon's global pool does not survive fork(), so the child must not wait on it."""
+did: rayon's pools (the global one, and those kept for ``threads=``) do not survive fork(), so
+the child must not wait on them."""
 
 from __future__ import annotations
 
@@ -14,8 +15,9 @@ def _simulate(queue: mp.Queue) -> None:  # runs in the child
     motion = upm.PlateMotion.translation(
         (1.0, 0.0), upm.TwoHarmonic(0.5, np.pi / 2, amplitude=0.05, frequency=35)
     )
-    run = upm.simulate(motion, np.zeros((300, 2)), duration=0.01, dt=1e-4, mu=0.3)
-    queue.put(float(run.positions[-1, 0, 0]))
+    for threads in (None, 1, 2):
+        run = upm.simulate(motion, np.zeros((300, 2)), duration=0.01, dt=1e-4, mu=0.3, threads=threads)
+        queue.put(float(run.positions[-1, 0, 0]))
 
 
 def test_a_forked_child_simulates_after_its_parent() -> None:
@@ -23,6 +25,8 @@ def test_a_forked_child_simulates_after_its_parent() -> None:
         (1.0, 0.0), upm.TwoHarmonic(0.5, np.pi / 2, amplitude=0.05, frequency=35)
     )
     here = upm.simulate(motion, np.zeros((300, 2)), duration=0.01, dt=1e-4, mu=0.3)  # the global pool starts
+    for threads in (1, 2):  # and pools of one and two threads are kept for this thread
+        upm.simulate(motion, np.zeros((300, 2)), duration=0.01, dt=1e-4, mu=0.3, threads=threads)
     ctx = mp.get_context("fork")
     queue = ctx.Queue()
     child = ctx.Process(target=_simulate, args=(queue,))
@@ -33,4 +37,4 @@ def test_a_forked_child_simulates_after_its_parent() -> None:
         child.kill()
     assert not hung, "the forked child hung in the simulation"
     assert child.exitcode == 0
-    assert queue.get(timeout=5) == float(here.positions[-1, 0, 0])
+    assert [queue.get(timeout=5) for _ in range(3)] == [float(here.positions[-1, 0, 0])] * 3

@@ -133,6 +133,33 @@ def test_results_kept_are_never_overwritten_and_recycled_memory_gives_the_same_r
     assert np.array_equal(upm.simulate(motion, a, **kw).positions, kept[0])
 
 
+def test_what_points_lack_is_a_read_only_zero_that_takes_no_memory():
+    """Point parts have no angle, spin or flight: those results are one zero seen at every index
+    (no memory cleared or mapped), which no one can write through, in one world and in a batch."""
+    motion = upm.PlateMotion.translation((1, 0), upm.TwoHarmonic(0.5, 0.0, amplitude=0.02, frequency=35.0))
+    kw = dict(duration=0.01, dt=1e-4, mu=0.3, record_every=10)
+    one = upm.simulate(motion, np.zeros((4, 2)), **kw)
+    many = upm.simulate_batch([motion] * 3, np.zeros((4, 2)), **kw)
+    for r, lead in ((one, ()), (many, (3,))):
+        rows = len(r.t)
+        for a, shape in (
+            (r.angles, (*lead, rows, 4)),
+            (r.spins, (*lead, rows, 4)),
+            (r.flight_time, (*lead, 4)),
+        ):
+            assert a.shape == shape and a.dtype == np.float64
+            assert not np.any(a) and all(s == 0 for s in a.strides)
+            assert not a.flags.writeable
+            with pytest.raises(ValueError, match="read-only"):
+                a[(0,) * a.ndim] = 1.0
+            with pytest.raises(ValueError):
+                a.setflags(write=True)
+            c = a.copy()
+            c[(0,) * c.ndim] = 2.0  # a copy is the caller's own
+            assert a[(0,) * a.ndim] == 0.0
+    assert np.array_equal(upm.simulate(motion, np.zeros((4, 2)), **kw).angles, np.zeros((len(one.t), 4)))
+
+
 def test_parts_that_leave_the_plate_are_flagged():
     run = upm.simulate(
         upm.PlateMotion.rest(1.0),

@@ -103,8 +103,19 @@ def as_float(name: str, value: ArrayLike, *, finite: bool = True) -> FloatArray:
     """``value`` as a float64 array; `ParameterError` naming ``name`` if it is not real or finite."""
     if value is None:
         raise ParameterError(f"{name} must be a real number or an array of them; got None")
+    if type(value) is float or type(value) is int:
+        # the common scalar without NumPy's per-call cost (a control loop's many small calls)
+        try:
+            x = float(value)
+        except OverflowError:
+            raise ParameterError(f"{name} is too large for a float; got {show(value)}") from None
+        if finite and not math.isfinite(x):
+            raise ParameterError(f"{name} must be finite; got {x}")
+        return np.array(x)
     try:
         array = np.asarray(value, dtype=np.float64)
+    except OverflowError:
+        raise ParameterError(f"{name} is too large for a float; got {show(value)}") from None
     except (TypeError, ValueError) as error:
         raise ParameterError(f"{name} must be a real number or an array of them; got {value!r}") from error
     if finite and not np.all(np.isfinite(array)):

@@ -153,6 +153,48 @@ fn per_call(motion: &PlateMotion, n: usize, dt: f64) -> f64 {
     t * 1e9 / n as f64
 }
 
+/// The fixed cost of a small call, as a control loop or a planner makes many: 8 parts at rest,
+/// 100 steps, recording the last, as the binding calls the core; on rayon's global pool (every
+/// core) and on one thread, microseconds per call (the steps themselves take about 2 us).
+fn small_calls(motion: &PlateMotion, dt: f64) {
+    let position = spread(8);
+    let (mu, mu_s) = ([0.3], [0.4]);
+    let parts = PartsView {
+        position: &position,
+        velocity: None,
+        mu: &mu,
+        mu_s: &mu_s,
+        radius: None,
+        angle: None,
+        spin: None,
+        polygons: &[],
+    };
+    let cfg = last_step_only(100, dt);
+    let call = || {
+        simulate_stacked::<upm_core::Error, _>(
+            std::slice::from_ref(motion),
+            &parts,
+            &cfg,
+            None,
+            None,
+            |_| Ok(()),
+        )
+        .unwrap()
+    };
+    let calls = 2000;
+    let many = |n: usize| {
+        (0..n).for_each(|_| {
+            black_box(call());
+        })
+    };
+    let global = best_of(5, || many(calls)) * 1e6 / calls as f64;
+    let one = one_thread();
+    let single = one.install(|| best_of(5, || many(calls))) * 1e6 / calls as f64;
+    println!(
+        "a call of 8 parts x 100 steps: {global:.1} us on every core, {single:.1} us on one thread"
+    );
+}
+
 fn main() {
     let f = 35.0;
     let trans = PlateMotion::translation(
@@ -182,6 +224,10 @@ fn main() {
         for _ in 0..10 {
             println!("{:.1} ns per part", per_call(&motion, 1_000_000, dt));
         }
+        return;
+    }
+    if std::env::args().any(|a| a == "--small") {
+        small_calls(&motion, dt);
         return;
     }
     if std::env::args().any(|a| a == "--table") {

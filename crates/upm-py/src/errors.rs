@@ -7,7 +7,7 @@
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::mpsc::{self, RecvTimeoutError};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
@@ -104,8 +104,9 @@ pub fn interrupted(_done: usize) -> Result<(), Failure> {
 /// `work(between)` on a pool of `threads` threads, or on this thread with rayon's global pool
 /// (`None`); `between` is the Ctrl-C check `work` runs between its blocks.
 ///
-/// CPython acts on signals only on its main thread, and `pool.install` runs `work` on a pool
-/// worker, so with a pool this thread waits for `work` and checks for signals itself, every 20 ms;
+/// CPython acts on signals only on its main thread, and `work` runs as a job on a worker of the
+/// pool (one kept for this thread, [`pool_of`]), so with a pool this thread waits for `work` and
+/// checks for signals itself, every 20 ms;
 /// a pending SIGINT is handed to `work`'s next `between`, which stops it with that error (and
 /// ends the call with it if `work` had already passed its last check).
 pub fn on_threads<T, F>(threads: Option<usize>, work: F) -> Result<T, Failure>
@@ -126,19 +127,22 @@ where
     let Some(n) = threads else {
         return work(&interrupted);
     };
-    let pool = upm_core::parallel::pool(n)?;
+    let pool = pool_of(n)?;
     let signal: Mutex<Option<PyErr>> = Mutex::new(None);
     let between = |_done: usize| match signal.lock().map(|mut s| s.take()) {
         Ok(Some(e)) => Err(Failure::Python(e)),
         _ => Ok(()),
     };
-    std::thread::scope(|scope| {
+    let mut outcome = None;
+    // `work` goes to the pool as a job (no thread is started for it); this thread waits for it
+    // here, checking for signals. A panic in the job comes back here when the scope ends.
+    pool.in_place_scope(|scope| {
         let (sender, receiver) = mpsc::channel();
-        let worker = scope.spawn(move || {
-            let result = pool.install(|| work(&between));
-            // The receiver only goes away once this thread is joined.
+        let (slot, between) = (&mut outcome, &between);
+        scope.spawn(move |_| {
+            *slot = Some(work(between));
+            // The receiver only goes away once the scope has ended.
             let _ = sender.send(());
-            result
         });
         let mut pending = true;
         while let Err(RecvTimeoutError::Timeout) = receiver.recv_timeout(Duration::from_millis(20))
@@ -152,16 +156,51 @@ where
                 }
             }
         }
-        let result = match worker.join() {
-            Ok(result) => result,
-            Err(p) => std::panic::resume_unwind(p),
-        };
-        // A signal caught after `work`'s last check still ends the call with its error.
-        match signal.lock().ok().and_then(|mut s| s.take()) {
-            Some(e) => Err(Failure::Python(e)),
-            None => result,
+    });
+    let result = outcome.unwrap_or_else(|| {
+        Err(Failure::Panic(
+            "the pool ended without running the call".into(),
+        ))
+    });
+    // A signal caught after `work`'s last check still ends the call with its error.
+    match signal.lock().ok().and_then(|mut s| s.take()) {
+        Some(e) => Err(Failure::Python(e)),
+        None => result,
+    }
+}
+
+/// Pools kept for reuse, per calling thread (two threads calling with `threads=1` each keep
+/// their own pool, so their calls run side by side as before) and per process (a forked child
+/// has none of its parent's pool threads): building one took about 100 us, a small call's
+/// whole cost several times over.
+const KEPT_POOLS: usize = 4;
+
+thread_local! {
+    static POOLS: std::cell::RefCell<Vec<(u32, usize, Arc<rayon::ThreadPool>)>> =
+        const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// A pool of `n` threads for this thread's calls: kept from an earlier call, or new (and kept
+/// while fewer than [`KEPT_POOLS`] are).
+fn pool_of(n: usize) -> Result<Arc<rayon::ThreadPool>, Failure> {
+    let pid = std::process::id();
+    let kept = POOLS.with(|p| {
+        p.borrow()
+            .iter()
+            .find(|(id, size, _)| (*id, *size) == (pid, n))
+            .map(|(_, _, pool)| pool.clone())
+    });
+    if let Some(pool) = kept {
+        return Ok(pool);
+    }
+    let pool = Arc::new(upm_core::parallel::pool(n)?);
+    POOLS.with(|p| {
+        let mut p = p.borrow_mut();
+        if p.len() < KEPT_POOLS {
+            p.push((pid, n, pool.clone()));
         }
-    })
+    });
+    Ok(pool)
 }
 
 /// `f(i)` for `i` in `0..n`, in parallel, GIL released, checking for Ctrl-C between chunks.
