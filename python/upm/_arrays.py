@@ -42,17 +42,24 @@ def real(
         value = value[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, _REALS):
         raise ParameterError(f"{name} must be a real number; got {show(value)}")
+    x = _float(name, value, finite)
+    ok = (low is None or (x > low if low_open else x >= low)) and (
+        high is None or (x < high if high_open else x <= high)
+    )
+    if not ok:
+        raise ParameterError(f"{name} must lie in {_interval(low, high, low_open, high_open)}; got {x:g}")
+    return x
+
+
+def _float(name: str, value: Any, finite: bool) -> float:
+    """A real scalar ``value`` as a Python float, finite if ``finite``; `ParameterError` naming
+    ``name`` otherwise."""
     try:
         x = float(value)
     except OverflowError:
         raise ParameterError(f"{name} is too large for a float; got {show(value)}") from None
     if finite and not math.isfinite(x):
         raise ParameterError(f"{name} must be finite; got {x}")
-    ok = (low is None or (x > low if low_open else x >= low)) and (
-        high is None or (x < high if high_open else x <= high)
-    )
-    if not ok:
-        raise ParameterError(f"{name} must lie in {_interval(low, high, low_open, high_open)}; got {x:g}")
     return x
 
 
@@ -105,13 +112,7 @@ def as_float(name: str, value: ArrayLike, *, finite: bool = True) -> FloatArray:
         raise ParameterError(f"{name} must be a real number or an array of them; got None")
     if type(value) is float or type(value) is int:
         # the common scalar without NumPy's per-call cost (a control loop's many small calls)
-        try:
-            x = float(value)
-        except OverflowError:
-            raise ParameterError(f"{name} is too large for a float; got {show(value)}") from None
-        if finite and not math.isfinite(x):
-            raise ParameterError(f"{name} must be finite; got {x}")
-        return np.array(x)
+        return np.array(_float(name, value, finite))
     try:
         array = np.asarray(value, dtype=np.float64)
     except OverflowError:

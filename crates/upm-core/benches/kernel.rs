@@ -116,33 +116,46 @@ fn integrator(motion: &PlateMotion, n: usize, steps: usize, dt: f64) -> f64 {
     t * 1e9 / (n * steps) as f64
 }
 
-/// A 2-step call on `n` parts at rest as `upm.simulate` makes it (one friction coefficient for
-/// all, no velocities, the result's buffers recycled when it goes), ns per part, one thread.
-fn per_call(motion: &PlateMotion, n: usize, dt: f64) -> f64 {
-    let (one, position) = (one_thread(), spread(n));
-    let (mu, mu_s) = ([0.3], [0.4]);
-    let parts = PartsView {
-        position: &position,
+/// One friction coefficient for every part, as `upm.simulate` passes a scalar `mu`.
+const MU: [f64; 1] = [0.3];
+const MU_S: [f64; 1] = [0.4];
+
+/// Point parts at `position`, at rest, as the binding passes them (no velocities, one `mu`).
+fn at_rest(position: &[[f64; 2]]) -> PartsView<'_> {
+    PartsView {
+        position,
         velocity: None,
-        mu: &mu,
-        mu_s: &mu_s,
+        mu: &MU,
+        mu_s: &MU_S,
         radius: None,
         angle: None,
         spin: None,
         polygons: &[],
-    };
+    }
+}
+
+/// `parts` on `motion` as the binding runs one world (stacked).
+fn stacked(motion: &PlateMotion, parts: &PartsView, cfg: &Config) -> upm_core::sim::Stacked {
+    let run = simulate_stacked::<upm_core::Error, _>(
+        std::slice::from_ref(motion),
+        parts,
+        cfg,
+        None,
+        None,
+        |_| Ok(()),
+    );
+    run.unwrap()
+}
+
+/// A 2-step call on `n` parts at rest as `upm.simulate` makes it (one friction coefficient for
+/// all, no velocities, the result's buffers recycled when it goes), ns per part, one thread.
+fn per_call(motion: &PlateMotion, n: usize, dt: f64) -> f64 {
+    let (one, position) = (one_thread(), spread(n));
+    let parts = at_rest(&position);
     let steps = std::env::var("STEPS").map_or(2, |s| s.parse().unwrap());
     let cfg = last_step_only(steps, dt);
     let call = || {
-        let run = simulate_stacked::<upm_core::Error, _>(
-            std::slice::from_ref(motion),
-            &parts,
-            &cfg,
-            None,
-            None,
-            |_| Ok(()),
-        )
-        .unwrap();
+        let run = stacked(motion, &parts, &cfg);
         let first = run.positions[0][0];
         recycle(run.positions.into_flattened());
         recycle(run.velocities.into_flattened());
@@ -158,33 +171,12 @@ fn per_call(motion: &PlateMotion, n: usize, dt: f64) -> f64 {
 /// core) and on one thread, microseconds per call (the steps themselves take about 2 us).
 fn small_calls(motion: &PlateMotion, dt: f64) {
     let position = spread(8);
-    let (mu, mu_s) = ([0.3], [0.4]);
-    let parts = PartsView {
-        position: &position,
-        velocity: None,
-        mu: &mu,
-        mu_s: &mu_s,
-        radius: None,
-        angle: None,
-        spin: None,
-        polygons: &[],
-    };
+    let parts = at_rest(&position);
     let cfg = last_step_only(100, dt);
-    let call = || {
-        simulate_stacked::<upm_core::Error, _>(
-            std::slice::from_ref(motion),
-            &parts,
-            &cfg,
-            None,
-            None,
-            |_| Ok(()),
-        )
-        .unwrap()
-    };
     let calls = 2000;
     let many = |n: usize| {
         (0..n).for_each(|_| {
-            black_box(call());
+            black_box(stacked(motion, &parts, &cfg));
         })
     };
     let global = best_of(5, || many(calls)) * 1e6 / calls as f64;
