@@ -1,5 +1,6 @@
 //! The AVX2 build of [`super::lanes`]' lockstep: four disks per instruction, up to eight vectors
-//! side by side, the table read by gathers, each lane's exits kept in vector masks. Every lane does
+//! side by side, each lane's table rows read by two wide loads, each lane's exits kept in vector
+//! masks. Every lane does
 //! exactly the one-disk solve's arithmetic ([`super::halley`]: the same operations in the same
 //! order, no fused multiply–add), so the results are bitwise those of the portable lockstep.
 
@@ -28,7 +29,7 @@ struct Four {
 
 /// Up to `4 VECTORS` disks (`a0.len() <= 32`) through [`super::slide_newton`], four to a vector;
 /// round by round, each round one Halley step of every vector still iterating, so that the
-/// vectors' long dependency chains (gathers, cubic, three divisions) overlap in the out-of-order
+/// vectors' long dependency chains (table rows, cubic, three divisions) overlap in the out-of-order
 /// core.
 ///
 /// # Safety
@@ -75,7 +76,7 @@ pub(super) unsafe fn lockstep(
         s.c = _mm256_maskload_pd(c.as_ptr().add(at), lanes_i);
         s.c2 = _mm256_mul_pd(_mm256_set1_pd(2.0), s.c);
         s.c4 = _mm256_mul_pd(_mm256_set1_pd(4.0), s.c);
-        // Padding lanes: z = 0 and never live (their gathers read nothing).
+        // Padding lanes: z = 0 (their loads read the table's first rows) and never live.
         s.z = _mm256_and_pd(lanes, _mm256_div_pd(s.b0, _mm256_add_pd(s.a0, s.b0)));
         s.live = lanes;
     }
@@ -158,12 +159,8 @@ unsafe fn step(base: *const f64, st: &mut Four) {
     };
     let (f0, f1, t0, t1) = transpose(lo);
     let (f2, f3, t2, t3) = transpose(hi);
-    let cr = |col: usize| {
-        let (a, b, cc, d) = if col == 0 {
-            (f0, f1, f2, f3)
-        } else {
-            (t0, t1, t2, t3)
-        };
+    // the cubic through the rows a, b, cc, d at s, with its first two derivatives
+    let cr = |a: __m256d, b: __m256d, cc: __m256d, d: __m256d| {
         let c1 = _mm256_mul_pd(set(0.5), _mm256_sub_pd(cc, a));
         let c2 = _mm256_sub_pd(
             _mm256_add_pd(
@@ -211,7 +208,7 @@ unsafe fn step(base: *const f64, st: &mut Four) {
         );
         (v0, v1, v2)
     };
-    let ((f, df, ddf), (t, dt, ddt)) = (cr(0), cr(1));
+    let ((f, df, ddf), (t, dt, ddt)) = (cr(f0, f1, f2, f3), cr(t0, t1, t2, t3));
     // One Halley step (super::halley).
     let a = _mm256_sub_pd(va0, _mm256_mul_pd(vc, f));
     let b = _mm256_sub_pd(vb0, _mm256_mul_pd(c2, t));

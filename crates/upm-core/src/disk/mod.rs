@@ -144,17 +144,9 @@ const ZTABLE: usize = 16385;
 
 /// `(f, t)` tabulated over `z`, a rational function of the disk's `(|w|, R |W|)`: `z = b / (a + b)`
 /// (no `atan2` to find the entry). `phi = atan2(z, 1 - z)`, so `dphi/dz` lies in `[1, 2]`.
+/// (The rows of [`ztable_padded`] between its repeated edge rows.)
 fn ztable() -> &'static [[f64; 2]] {
-    static T: OnceLock<Vec<[f64; 2]>> = OnceLock::new();
-    T.get_or_init(|| {
-        (0..ZTABLE)
-            .map(|i| {
-                let z = i as f64 / (ZTABLE - 1) as f64;
-                let (f, t) = force_torque(z.atan2(1.0 - z));
-                [f, t]
-            })
-            .collect()
-    })
+    &ztable_padded()[1..=ZTABLE]
 }
 
 /// [`ztable`] with its first and last rows repeated once more at either end: row `i + 1` is the
@@ -164,11 +156,15 @@ fn ztable() -> &'static [[f64; 2]] {
 fn ztable_padded() -> &'static [[f64; 2]] {
     static T: OnceLock<Vec<[f64; 2]>> = OnceLock::new();
     T.get_or_init(|| {
-        let tab = ztable();
+        let row = |i: usize| {
+            let z = i as f64 / (ZTABLE - 1) as f64;
+            let (f, t) = force_torque(z.atan2(1.0 - z));
+            [f, t]
+        };
         let mut padded = Vec::with_capacity(ZTABLE + 2);
-        padded.push(tab[0]);
-        padded.extend_from_slice(tab);
-        padded.push(tab[ZTABLE - 1]);
+        padded.extend((0..ZTABLE).map(row));
+        padded.insert(0, padded[0]);
+        padded.push(padded[ZTABLE]);
         padded
     })
 }
@@ -323,7 +319,7 @@ pub fn prepare(w_free: [f64; 2], s_free: f64, slide: f64, hold: f64, was_stuck: 
 
 /// The magnitudes [`prepare`] decides on: `|w_free|`, `|s_free|` and the wrench that would stop
 /// the disk, in units of `mu m g` and `mu m g R` (for the static coefficient while stuck).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Magnitudes {
     /// `|w_free|` [m/s].
     pub a0: f64,
@@ -335,8 +331,8 @@ pub struct Magnitudes {
     pub nb: f64,
 }
 
-/// [`Magnitudes`] of a disk's free step: branch-free arithmetic, so that a loop over many disks
-/// vectorises.
+/// [`Magnitudes`] of a disk's free step: branch-free arithmetic, so that in a pass over many
+/// disks their square roots and divisions overlap (no branch waits on them).
 #[inline(always)]
 pub fn magnitudes(
     w_free: [f64; 2],

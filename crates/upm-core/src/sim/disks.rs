@@ -179,14 +179,8 @@ fn step_group(group: &mut [DiskState], u: [f64; 3], s: usize, cfg: &Config) {
     use crate::disk::{decide, finish, lanes::slide_many, magnitudes, slide_safe, Magnitudes, Pre};
     // First every disk's relative motion and magnitudes, in one branch-free pass (the square
     // roots and divisions of independent disks overlap), then the decisions.
-    let none = Magnitudes {
-        a0: 0.0,
-        b0: 0.0,
-        na: 0.0,
-        nb: 0.0,
-    };
     let mut rel: [Relative; DISK_GROUP] = [([0.0; 2], [0.0; 2], 0.0); DISK_GROUP];
-    let mut mag = [none; DISK_GROUP];
+    let mut mag = [Magnitudes::default(); DISK_GROUP];
     for ((d, r), m) in group.iter().zip(&mut rel).zip(&mut mag) {
         *r = d.relative(u);
         *m = magnitudes(r.1, r.2, d.slide, d.hold, d.stuck);
