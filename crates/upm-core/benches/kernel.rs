@@ -360,27 +360,36 @@ fn disks(trans: &PlateMotion, rot: &PlateMotion, dt: f64) {
     on_both_plates(&parts, n, trans, rot, &cfg);
 }
 
-/// Hexagons (issue 27's shape for its 150 ns target) of 8 mm circumradius spinning at the start
-/// (up to 5 rad/s either way), ns per part-step on one thread, recording only the last step.
+/// Hexagons (issue 27's shape for its 150 ns target) of 8 mm circumradius, then 16 x 8 mm
+/// rectangles (four edges: half the fan's lanes), spinning at the start (up to 5 rad/s either
+/// way), ns per part-step on one thread, recording only the last step.
 fn polygons(trans: &PlateMotion, rot: &PlateMotion, dt: f64) {
     let (n, steps) = (200, 2000);
-    let mut parts = Parts::points(spread(n), vec![[0.0; 2]; n], vec![0.3; n], vec![0.4; n]);
     let hexagon: Vec<[f64; 2]> = (0..6)
         .map(|k| {
             let a = std::f64::consts::PI * k as f64 / 3.0;
             [0.008 * a.cos(), 0.008 * a.sin()]
         })
         .collect();
-    let shape = upm_core::polygon::Polygon::new("hexagon", &hexagon).unwrap();
-    parts.polygons = (0..n).map(|i| (i, shape.clone())).collect();
-    parts.spin = (0..n)
-        .map(|i| 5.0 * (2.0 * (i * 7919 % n) as f64 / n as f64 - 1.0))
-        .collect();
-    parts.angle = (0..n).map(|i| (i * 104_729 % 628) as f64 / 100.0).collect();
-    let cfg = last_step_only(steps, dt);
-    println!(
-        "hexagons, {n} x {steps} steps, ns per part-step on 1 thread (fan build: {}):",
-        upm_core::sim::simd().name()
-    );
-    on_both_plates(&parts, n, trans, rot, &cfg);
+    let rectangle = [
+        [-0.008, -0.004],
+        [0.008, -0.004],
+        [0.008, 0.004],
+        [-0.008, 0.004],
+    ];
+    for (name, outline) in [("hexagons", &hexagon[..]), ("rectangles", &rectangle[..])] {
+        let mut parts = Parts::points(spread(n), vec![[0.0; 2]; n], vec![0.3; n], vec![0.4; n]);
+        let shape = upm_core::polygon::Polygon::new(name, outline).unwrap();
+        parts.polygons = (0..n).map(|i| (i, shape.clone())).collect();
+        parts.spin = (0..n)
+            .map(|i| 5.0 * (2.0 * (i * 7919 % n) as f64 / n as f64 - 1.0))
+            .collect();
+        parts.angle = (0..n).map(|i| (i * 104_729 % 628) as f64 / 100.0).collect();
+        let cfg = last_step_only(steps, dt);
+        println!(
+            "{name}, {n} x {steps} steps, ns per part-step on 1 thread (fan build: {}):",
+            upm_core::sim::simd().name()
+        );
+        on_both_plates(&parts, n, trans, rot, &cfg);
+    }
 }

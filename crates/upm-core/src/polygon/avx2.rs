@@ -1,6 +1,7 @@
 //! The AVX2 build of the fan integrals ([`super::lanes`]), taken on AVX2 and AVX-512 machines:
-//! a group of eight edges as two vectors of four, the same operations in the same order as the
-//! portable lanes (no fused multiply–adds), so the same bits.
+//! a group of eight edges as two vectors of four (the second left out when none of its edges is
+//! live), the same operations in the same order as the portable lanes (no fused multiply–adds),
+//! so the same bits.
 
 use std::arch::x86_64::*;
 
@@ -16,9 +17,18 @@ pub(super) unsafe fn fan<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fa
     let zero = _mm256_setzero_pd();
     // lanes 0..4 and 4..8 of each sum
     let (mut lo, mut hi) = ([zero; 6], [zero; 6]);
-    for e in &p.lanes {
+    // only the last group can leave its upper half out (the loops are kept free of a branch
+    // between the halves: with one, the compiler no longer interleaves them)
+    let (full, last) = match p.lanes.split_last() {
+        Some((last, rest)) if !last.upper => (rest, Some(last)),
+        _ => (&p.lanes[..], None),
+    };
+    for e in full {
         half::<CURVATURE>(e, 0, r0, &mut lo);
         half::<CURVATURE>(e, 4, r0, &mut hi);
+    }
+    if let Some(e) = last {
+        half::<CURVATURE>(e, 0, r0, &mut lo);
     }
     let sum = |l: __m256d, h: __m256d| {
         // the portable lanes' pairwise order: (a0 + a4) ... first
@@ -73,7 +83,8 @@ unsafe fn half<const CURVATURE: bool>(e: &Edges, at: usize, r0: [f64; 2], acc: &
     let neg_ta = _mm256_xor_pd(ta, set(-0.0));
     let arg2 = _mm256_and_pd(across, div(m(neg_ta, sub(a(hh, ra), ta)), m(hh, a(hh, ra))));
     let h = _mm256_and_pd(area, h);
-    let d = a(ln_1p(arg1), ln_1p(arg2));
+    // ln(1 + arg1) + ln(1 + arg2), both arguments >= 0: one logarithm of the product
+    let d = ln_1p(a(a(arg1, arg2), m(arg1, arg2)));
     let (nx, ny) = (ey, _mm256_xor_pd(ex, set(-0.0)));
     let h2 = m(h, h);
     // (h/6) (len rb + ta drho + h² d)

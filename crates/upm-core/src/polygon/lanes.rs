@@ -25,6 +25,9 @@ pub(super) struct Edges {
     pub(super) live: [bool; LANES],
     /// `live` as lane masks (all ones in a live lane).
     pub(super) bits: [u64; LANES],
+    /// Whether any of the upper half's lanes (`LANES / 2..`) is live: every build leaves out a
+    /// half that is not (a triangle or a quadrilateral fills four lanes of eight).
+    pub(super) upper: bool,
 }
 
 /// The polygon's edges (`vertices` about the centroid, counter-clockwise) in groups of
@@ -43,6 +46,7 @@ pub(super) fn edges(vertices: &[[f64; 2]]) -> Vec<Edges> {
                 len: [0.0; LANES],
                 live: [false; LANES],
                 bits: [0; LANES],
+                upper: g * LANES + LANES / 2 < n,
             };
             for l in 0..LANES {
                 // a padding lane repeats edge 0, so that its arithmetic stays finite
@@ -83,10 +87,11 @@ fn pick(c: bool, a: f64, b: f64) -> f64 {
 pub(super) fn fan_with<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fan {
     let mut acc = [[0.0; LANES]; 6];
     for e in &p.lanes {
-        let mut dasinh = [0.0; LANES];
+        // (a half with no live lane adds nothing: left out, as the vector builds do)
+        let width = if e.upper { LANES } else { LANES / 2 };
         let (mut arg1, mut arg2) = ([0.0; LANES], [0.0; LANES]);
         let mut geo = [[0.0; LANES]; 6]; // h, ta, ra, rb, drho, skip
-        for l in 0..LANES {
+        for l in 0..width {
             let a = [e.ax[l] - r0[0], e.ay[l] - r0[1]];
             let b = [e.bx[l] - r0[0], e.by[l] - r0[1]];
             let (ex, ey, len) = (e.ex[l], e.ey[l], e.len[l]);
@@ -119,11 +124,13 @@ pub(super) fn fan_with<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fan 
             (geo[2][l], geo[3][l], geo[4][l]) = (ra, rb, drho);
             geo[5][l] = pick(skip, 1.0, 0.0);
         }
-        let (l1, l2) = (ln_1p8(&arg1), ln_1p8(&arg2));
-        for l in 0..LANES {
-            dasinh[l] = l1[l] + l2[l];
+        // ln(1 + arg1) + ln(1 + arg2), both arguments >= 0: one logarithm of the product
+        let mut arg = [0.0; LANES];
+        for l in 0..width {
+            arg[l] = (arg1[l] + arg2[l]) + arg1[l] * arg2[l];
         }
-        for l in 0..LANES {
+        let dasinh = ln_1p8(&arg);
+        for l in 0..width {
             let [h, ta, ra, rb, drho, skip] = [0, 1, 2, 3, 4, 5].map(|i| geo[i][l]);
             let (ex, ey, len) = (e.ex[l], e.ey[l], e.len[l]);
             let d = dasinh[l];

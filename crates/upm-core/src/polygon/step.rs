@@ -449,23 +449,25 @@ impl Stepper {
     }
 }
 
-/// `a x = b` for a symmetric 3x3 `a` by Cramer's rule, None when `a` is singular.
+/// `a x = b` for a symmetric 3x3 `a` by its adjugate (six cofactors, one division), None when
+/// `a` is singular.
 fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
-    let det = |m: [[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-    };
-    let d = det(a);
+    let [[a00, a01, a02], [_, a11, a12], [_, _, a22]] = a;
+    let c00 = a11 * a22 - a12 * a12;
+    let c01 = a02 * a12 - a01 * a22;
+    let c02 = a01 * a12 - a02 * a11;
+    let c11 = a00 * a22 - a02 * a02;
+    let c12 = a01 * a02 - a00 * a12;
+    let c22 = a00 * a11 - a01 * a01;
+    let d = a00 * c00 + a01 * c01 + a02 * c02;
     if !(d.is_finite() && d.abs() > 0.0) {
         return None;
     }
-    let x: [f64; 3] = std::array::from_fn(|j| {
-        let mut m = a;
-        for i in 0..3 {
-            m[i][j] = b[i];
-        }
-        det(m) / d
-    });
+    let inv = 1.0 / d;
+    let x = [
+        (c00 * b[0] + c01 * b[1] + c02 * b[2]) * inv,
+        (c01 * b[0] + c11 * b[1] + c12 * b[2]) * inv,
+        (c02 * b[0] + c12 * b[1] + c22 * b[2]) * inv,
+    ];
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
