@@ -28,6 +28,13 @@ pub struct Gauge {
     pub iterations: usize,
 }
 
+/// [`Polygon::ratio`] at one direction.
+struct Ratio {
+    value: f64,
+    grad: [f64; 3],
+    hess: [[f64; 3]; 3],
+}
+
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
@@ -38,15 +45,28 @@ fn unit(a: [f64; 3]) -> [f64; 3] {
 }
 
 impl Polygon {
-    /// The ratio `<z, e> / D(e)` and its gradient in the scaled coordinates (`e = (vx, vy,
-    /// radius * omega)`, `z = (Fx, Fy, M / radius)`).
-    fn ratio(&self, z: [f64; 3], e: [f64; 3]) -> (f64, [f64; 3]) {
+    /// The ratio `<z, e> / D(e)` with its gradient and Hessian in the scaled coordinates (`e =
+    /// (vx, vy, radius * omega)`, `z = (Fx, Fy, M / radius)`), from the exact friction and its
+    /// Hessian at `e`.
+    fn ratio(&self, z: [f64; 3], e: [f64; 3]) -> Ratio {
         let l = self.radius;
-        let (w, d) = self.friction([e[0], e[1]], e[2] / l);
-        let grad_d = [-w[0], -w[1], -w[2] / l];
-        let ze = dot(z, e);
-        let g = std::array::from_fn(|k| (z[k] * d - ze * grad_d[k]) / (d * d));
-        (ze / d, g)
+        let f = self.friction_hessian([e[0], e[1]], e[2] / l);
+        let d = f.work;
+        // D's gradient and Hessian in the scaled coordinates
+        let s = [1.0, 1.0, 1.0 / l];
+        let gd: [f64; 3] = std::array::from_fn(|k| -f.wrench[k] * s[k]);
+        let inv = 1.0 / d;
+        let value = dot(z, e) * inv;
+        let grad = std::array::from_fn(|k| (z[k] - value * gd[k]) * inv);
+        // d²(R = <z, e> / D) = (2 R gd gd^T - z gd^T - gd z^T) / D² - R d²D / D
+        let hess = std::array::from_fn(|j| {
+            std::array::from_fn(|k| {
+                let hd = f.hessian[j][k] * s[j] * s[k];
+                (2.0 * value * gd[j] * gd[k] - z[j] * gd[k] - gd[j] * z[k]) * inv * inv
+                    - value * hd * inv
+            })
+        });
+        Ratio { value, grad, hess }
     }
 
     /// The gauge of the wrench `(fx, fy, m) / (mu N)` (`m` in metres) in the limit set
@@ -76,15 +96,15 @@ impl Polygon {
             });
         }
         let mut e = unit(z);
-        let (mut f, mut g) = self.ratio(z, e);
+        let mut at = self.ratio(z, e);
         if let Some(s) = start.filter(|s| dot(*s, *s) > 0.0) {
-            let (fs, gs) = self.ratio(z, unit(s));
-            if fs > f {
-                (e, f, g) = (unit(s), fs, gs);
+            let there = self.ratio(z, unit(s));
+            if there.value > at.value {
+                (e, at) = (unit(s), there);
             }
         }
-        const H: f64 = 1e-6;
         for it in 0..60 {
+            let (f, g) = (at.value, at.grad);
             // an orthonormal basis of the directions' tangent plane at e
             let pick = if e[0].abs() < 0.6 {
                 [1.0, 0.0, 0.0]
@@ -103,21 +123,25 @@ impl Polygon {
             if gnorm <= 1e-13 * f.abs().max(size) {
                 return Ok(self.done(f, e, it));
             }
-            // the tangent Hessian by differences of the gradient
-            let mut hess = [[0.0; 2]; 2];
-            for (j, t) in [t1, t2].into_iter().enumerate() {
-                let ej = unit([e[0] + H * t[0], e[1] + H * t[1], e[2] + H * t[2]]);
-                let (_, gj) = self.ratio(z, ej);
-                hess[0][j] = (dot(gj, t1) - grad[0]) / H;
-                hess[1][j] = (dot(gj, t2) - grad[1]) / H;
-            }
-            let (a, b, c) = (hess[0][0], 0.5 * (hess[0][1] + hess[1][0]), hess[1][1]);
+            // the tangent Hessian: the ratio is constant along e (degree 0), so over the plane
+            // e + s1 t1 + s2 t2 (each point's direction) its Hessian is T^T (d² ratio) T
+            let h = at.hess;
+            let ht = |t: [f64; 3]| -> [f64; 3] { std::array::from_fn(|j| dot(h[j], t)) };
+            let (h1, h2) = (ht(t1), ht(t2));
+            let (a, b, c) = (dot(t1, h1), 0.5 * (dot(t1, h2) + dot(t2, h1)), dot(t2, h2));
             let det = a * c - b * b;
             let mut step = if a < 0.0 && det > 0.0 {
-                [
+                let step = [
                     -(c * grad[0] - b * grad[1]) / det,
                     -(a * grad[1] - b * grad[0]) / det,
-                ]
+                ];
+                // concave: Newton's step would raise the ratio by half of grad . step; below
+                // its rounding, this is the maximum to rounding (the gradient, from wrenches
+                // that cancel when the centre is far, may not fall further)
+                if 0.5 * (grad[0] * step[0] + grad[1] * step[1]) <= 1e-15 * f.abs() {
+                    return Ok(self.done(f, e, it));
+                }
+                step
             } else {
                 // not concave here: a gradient step of a tenth of a radian at most
                 let s = (0.1 / gnorm.max(1e-300)).min(1.0 / (a.abs() + c.abs()).max(1e-300));
@@ -131,16 +155,16 @@ impl Polygon {
                     e[1] + step[0] * t1[1] + step[1] * t2[1],
                     e[2] + step[0] * t1[2] + step[1] * t2[2],
                 ]);
-                let (fc, gc) = self.ratio(z, cand);
-                if fc > f {
-                    (e, f, g, moved) = (cand, fc, gc, true);
+                let next = self.ratio(z, cand);
+                if next.value > f {
+                    (e, at, moved) = (cand, next, true);
                     break;
                 }
                 step = [0.5 * step[0], 0.5 * step[1]];
             }
             if !moved {
                 // no direction within rounding does better: the maximum to rounding
-                return Ok(self.done(f, e, it + 1));
+                return Ok(self.done(at.value, e, it + 1));
             }
         }
         Err(Error::Convergence(format!(
@@ -208,6 +232,42 @@ mod tests {
             assert!((inside.value - 0.999).abs() < 1e-12);
         }
         Ok(())
+    }
+
+    #[test]
+    fn the_ratio_s_hessian_is_the_derivative_of_its_gradient() {
+        let p = pentagon();
+        let z = [0.3, -0.5, 0.012 / p.radius];
+        // directions whose centres of rotation lie inside, near and outside the part, and a
+        // nearly pure translation
+        let dirs = [
+            [0.2, 0.1, 0.9],
+            [-0.7, 0.3, 0.4],
+            [0.5, -0.8, 0.1],
+            [0.9, 0.3, -0.05],
+            [0.6, 0.6, 1e-3],
+        ];
+        let h = 1e-6;
+        for e in dirs {
+            let e = unit(e);
+            let at = p.ratio(z, e);
+            for k in 0..3 {
+                let mut up = e;
+                let mut down = e;
+                up[k] += h;
+                down[k] -= h;
+                let (gu, gd) = (p.ratio(z, up).grad, p.ratio(z, down).grad);
+                for j in 0..3 {
+                    let want = (gu[j] - gd[j]) / (2.0 * h);
+                    let scale = at.hess.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+                    assert!(
+                        (at.hess[j][k] - want).abs() < 1e-5 * scale,
+                        "{e:?}: d²R[{j}][{k}] {} vs differences {want}",
+                        at.hess[j][k]
+                    );
+                }
+            }
+        }
     }
 
     #[test]
