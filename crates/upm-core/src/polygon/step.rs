@@ -129,8 +129,8 @@ impl Stepper {
         let k = self.gyration;
         let c = if was_stuck { hold } else { slide };
         // the wrench per mu N that keeps the part with the plate, force and moment / mean distance
-        let force = (free[0] * free[0] + free[1] * free[1]).sqrt() / c;
-        let moment = (k * k * free[2]).abs() / (c * self.mean_distance);
+        let speed = (free[0] * free[0] + free[1] * free[1]).sqrt();
+        let force = speed / c;
         let stuck = Step {
             w: [0.0; 3],
             stuck: true,
@@ -140,21 +140,22 @@ impl Stepper {
         if load != [0.0; 2] {
             return self.step_loaded(free, [slide, c, force], guess, load);
         }
-        if force + moment * self.mean_distance / self.pure_moment <= 1.0 {
-            return Ok(stuck); // inside the double cone, inside the limit set
-        }
         if free[2] == 0.0 {
-            // no spin: a point's slide (a translating part feels no moment)
+            // no spin: a point's stick or slide (a translating part feels no moment)
             if force <= 1.0 {
                 return Ok(stuck);
             }
             // |free| > hold >= slide: it slides on
-            let f = 1.0 - slide / (force * c);
+            let f = 1.0 - slide / speed;
             return Ok(Step {
                 w: [free[0] * f, free[1] * f, 0.0],
                 stuck: false,
                 iterations: 0,
             });
+        }
+        let moment = (k * k * free[2]).abs() / (c * self.mean_distance);
+        if force + moment * self.mean_distance / self.pure_moment <= 1.0 {
+            return Ok(stuck); // inside the double cone, inside the limit set
         }
         // outside the cylinder that holds the limit set a part sliding on needs no direction to
         // start from: it slides, from its last twist
