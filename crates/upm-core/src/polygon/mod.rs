@@ -377,8 +377,7 @@ impl Polygon {
             }
             return far::quadrature::<HESSIAN, 8>(self, v, omega);
         }
-        let turn = 1.0 / omega;
-        let r0 = [-v[1] * turn, v[0] * turn];
+        let r0 = [-v[1] / omega, v[0] / omega];
         let mut fan = self.fan_of::<HESSIAN>(r0);
         if loaded {
             let k = self.load;
@@ -390,8 +389,7 @@ impl Polygon {
         }
         let (dist, [ux, uy]) = (fan.dist, fan.unit);
         // u/|u| = sign(omega) z x (r - r0)/|r - r0|; r x (z x d) = (r . d) z
-        let q = 1.0 / (omega.abs() * self.area);
-        let s = omega * q; // sign(omega) / A
+        let s = omega.signum() / self.area;
         let wrench = [s * uy, -s * ux, -s * (dist + r0[0] * ux + r0[1] * uy)];
         let mut hessian = [[0.0; 3]; 3];
         if HESSIAN {
@@ -399,6 +397,7 @@ impl Polygon {
             // here I - û û^T = d d^T / rho², |u| = |omega| rho and J^T d = (d, r0 x d), so it
             // is T G T^T / (|omega| A), G = ∫ d d^T / rho³ dA, T = [I; (-r0_y, r0_x)]
             let [gxx, gxy, gyy] = fan.curvature;
+            let q = 1.0 / (omega.abs() * self.area);
             let (px, py) = (-r0[1], r0[0]);
             let (g3x, g3y) = (px * gxx + py * gxy, px * gxy + py * gyy);
             hessian = [
