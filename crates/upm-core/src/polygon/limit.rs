@@ -251,6 +251,7 @@ mod tests {
         for e in dirs {
             let e = unit(e);
             let at = p.ratio(z, e);
+            let scale = at.hess.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
             for k in 0..3 {
                 let mut up = e;
                 let mut down = e;
@@ -259,7 +260,6 @@ mod tests {
                 let (gu, gd) = (p.ratio(z, up).grad, p.ratio(z, down).grad);
                 for j in 0..3 {
                     let want = (gu[j] - gd[j]) / (2.0 * h);
-                    let scale = at.hess.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
                     assert!(
                         (at.hess[j][k] - want).abs() < 1e-5 * scale,
                         "{e:?}: d²R[{j}][{k}] {} vs differences {want}",
