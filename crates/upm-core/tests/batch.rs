@@ -123,7 +123,9 @@ fn pulses(b: usize) -> Vec<PlateMotion> {
 #[test]
 fn pulses_sharing_their_timing_in_a_batch_are_bitwise_each_alone() {
     // Worlds whose pulses share frequency and envelope run in the same groups, which turn their
-    // phasors once; the others beside them keep their own.
+    // phasors once; the others beside them keep their own. 35 worlds of 8 points: three timings
+    // of 9 worlds span two groups of 8 each (their samples taken once for the batch), the fourth
+    // (8 worlds) is sampled by its groups.
     let cfg = Config {
         dt: 1.0 / 50.0 / 48.0,
         duration: 0.4,
@@ -131,7 +133,7 @@ fn pulses_sharing_their_timing_in_a_batch_are_bitwise_each_alone() {
         plate_size: Some(0.2),
         record_every: 5,
     };
-    let (m, b) = (8, 23);
+    let (m, b) = (8, 35);
     let (motions, parts) = (pulses(b), parts(m));
     let batch = simulate_batch(&motions, &parts, &cfg).unwrap();
     for (w, motion) in motions.iter().enumerate() {

@@ -17,6 +17,7 @@ pub mod spatial;
 mod table;
 
 pub use spatial::{Spatial, Term};
+pub(crate) use table::Phases;
 use table::{about, along, feed, jet, Stretch};
 
 /// One kind of plate motion.

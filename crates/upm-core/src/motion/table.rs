@@ -12,8 +12,9 @@
 //!
 //! Motions of one timing (the same items' times, envelopes and phases; the planner's rollouts:
 //! one kind of pulse at many places) turn the phasors once for all of them: the phasors are
-//! sampled over a piece of steps, and each motion's segment is evaluated on the samples (with
-//! 8-wide vectors where the CPU has AVX-512).
+//! sampled over a block of steps ([`Phases`]), and each motion's segment is evaluated on the
+//! samples (with 8-wide vectors where the CPU has AVX-512). A batch takes each timing's samples
+//! once per block for all its worlds.
 //!
 //! The velocity formulas of a translation, a rotation and a jet, and the stretches of an item's
 //! envelope, live here once for both this table and [`PlateMotion::velocity`].
@@ -226,9 +227,6 @@ impl PlateMotion {
     }
 }
 
-/// Steps whose phasor samples are taken at a time, then read by every motion sharing them.
-const PIECE: usize = 256;
-
 /// What every motion of one timing reads at one step: the segment's phase (`c`, `s`), the
 /// envelope's factor (exactly 1 outside its ramps), and for a jet its feeding profile and the
 /// sine of its `2/3` phase, each times the envelope's factor.
@@ -326,72 +324,77 @@ pub(crate) fn fill_many(
     dt: f64,
     outs: &mut [Vec<[f64; 3]>],
 ) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx512f") {
-        /// The same loops with 8-wide vectors (the segments' arithmetic over a piece of steps):
-        /// the same operations in the same order, so the same bits.
-        #[target_feature(enable = "avx512f")]
-        unsafe fn wide(m: &[&PlateMotion], s: Range<usize>, dt: f64, o: &mut [Vec<[f64; 3]>]) {
-            fill_many_with(m, s, dt, o);
-        }
-        // SAFETY: the CPU has AVX-512F (checked just above).
-        return unsafe { wide(motions, steps, dt, outs) };
-    }
-    fill_many_with(motions, steps, dt, outs);
-}
-
-#[inline(always)]
-fn fill_many_with(
-    motions: &[&PlateMotion],
-    steps: Range<usize>,
-    dt: f64,
-    outs: &mut [Vec<[f64; 3]>],
-) {
     assert_eq!(motions.len(), outs.len(), "a table for each motion");
     let Some(&lead) = motions.first() else {
         return;
     };
     debug_assert!(motions.iter().all(|m| m.timing() == lead.timing()));
-    for out in outs.iter_mut() {
-        out.reserve(steps.len());
+    let phases = Phases::of(lead, steps, dt);
+    for (motion, out) in motions.iter().zip(outs.iter_mut()) {
+        phases.extend(motion, out);
     }
-    let Some(first) = steps.clone().next() else {
-        return;
-    };
-    let (mut i, mut stretch) = lead.place(first, dt);
-    // the anchor of the first step, found by walking back through its stretch
-    let mut anchor = first;
-    while !anchor.is_multiple_of(RESEED) && lead.place(anchor - 1, dt) == (i, stretch) {
-        anchor -= 1;
-    }
-    let mut ph = Phasors::new(&lead.items[i], stretch, dt);
-    ph.seed(
-        &lead.items[i],
-        stretch,
-        sample_time(anchor, dt) - lead.starts[i],
-    );
-    for _ in anchor..first {
-        ph.advance();
-    }
-    let mut s = first;
-    let mut samples = [Sample::default(); PIECE];
-    // run after run of steps in one stretch, taken in pieces: the phasors sampled at each step
-    // of the piece, then each motion's segment evaluated on the samples
-    loop {
-        let run = Run {
-            motion: lead,
-            i,
-            stretch,
-            end: steps.end,
-            dt,
+}
+
+/// The phasor samples of one timing (see [`PlateMotion::timing`]) over a block of steps, taken
+/// once and read by every motion of that timing: the stints of the block (runs of steps within
+/// one stretch of one item, in order) and each step's [`Sample`].
+pub(crate) struct Phases {
+    stints: Vec<Stint>,
+    /// The samples of the block's steps, from its first.
+    samples: Vec<Sample>,
+    /// The block's steps.
+    steps: Range<usize>,
+}
+
+/// A run of steps within one stretch of one item: where it lies, and how many steps it has.
+struct Stint {
+    item: usize,
+    stretch: Stretch,
+    at: At,
+    len: usize,
+}
+
+impl Phases {
+    /// The samples of `lead`'s timing at every step of `steps`, `dt` [s] apart.
+    pub(crate) fn of(lead: &PlateMotion, steps: Range<usize>, dt: f64) -> Self {
+        let mut out = Phases {
+            stints: Vec::new(),
+            samples: Vec::with_capacity(steps.len()),
+            steps: steps.clone(),
         };
-        let stop = run.stop(s);
-        let (item, start) = (&lead.items[i], lead.starts[i]);
-        while s < stop {
-            let piece = &mut samples[..(stop - s).min(PIECE)];
-            for (k, sample) in piece.iter_mut().enumerate() {
-                *sample = ph.sample(stretch);
-                let next = s + k + 1;
+        let Some(first) = steps.clone().next() else {
+            return out;
+        };
+        let (mut i, mut stretch) = lead.place(first, dt);
+        // the anchor of the first step, found by walking back through its stretch
+        let mut anchor = first;
+        while !anchor.is_multiple_of(RESEED) && lead.place(anchor - 1, dt) == (i, stretch) {
+            anchor -= 1;
+        }
+        let mut ph = Phasors::new(&lead.items[i], stretch, dt);
+        ph.seed(
+            &lead.items[i],
+            stretch,
+            sample_time(anchor, dt) - lead.starts[i],
+        );
+        for _ in anchor..first {
+            ph.advance();
+        }
+        let mut s = first;
+        // run after run of steps in one stretch, sampled step by step
+        loop {
+            let run = Run {
+                motion: lead,
+                i,
+                stretch,
+                end: steps.end,
+                dt,
+            };
+            let stop = run.stop(s);
+            let (item, start) = (&lead.items[i], lead.starts[i]);
+            for k in s..stop {
+                out.samples.push(ph.sample(stretch));
+                let next = k + 1;
                 if next < stop {
                     if next.is_multiple_of(RESEED) {
                         ph.seed(item, stretch, sample_time(next, dt) - start);
@@ -400,26 +403,78 @@ fn fill_many_with(
                     }
                 }
             }
-            for (motion, out) in motions.iter().zip(outs.iter_mut()) {
-                let at = At {
+            out.stints.push(Stint {
+                item: i,
+                stretch,
+                at: At {
                     first: s,
                     start,
                     dt,
-                };
-                at.extend(&motion.items[i].segment, stretch, piece, out);
+                },
+                len: stop - s,
+            });
+            s = stop;
+            if stop >= steps.end {
+                return out;
             }
-            s += piece.len();
+            (i, stretch) = lead.place(stop, dt);
+            ph = Phasors::new(&lead.items[i], stretch, dt);
+            ph.seed(&lead.items[i], stretch, sample_time(s, dt) - lead.starts[i]);
         }
-        if stop >= steps.end {
-            return;
+    }
+
+    /// Appends the velocity of `motion` (of the timing these samples were taken for) at every
+    /// step of the block to `out`.
+    pub(crate) fn extend(&self, motion: &PlateMotion, out: &mut Vec<[f64; 3]>) {
+        self.extend_steps(motion, self.steps.clone(), out);
+    }
+
+    /// [`Phases::extend`] for the steps `steps` of the block only.
+    pub(crate) fn extend_steps(
+        &self,
+        motion: &PlateMotion,
+        steps: Range<usize>,
+        out: &mut Vec<[f64; 3]>,
+    ) {
+        assert!(
+            self.steps.start <= steps.start && steps.end <= self.steps.end,
+            "steps {steps:?} outside the block {:?}",
+            self.steps
+        );
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            /// The same loops with 8-wide vectors: the same operations in the same order, so
+            /// the same bits.
+            #[target_feature(enable = "avx512f")]
+            unsafe fn wide(p: &Phases, m: &PlateMotion, s: Range<usize>, o: &mut Vec<[f64; 3]>) {
+                p.extend_with(m, s, o);
+            }
+            // SAFETY: the CPU has AVX-512F (checked just above).
+            return unsafe { wide(self, motion, steps, out) };
         }
-        (i, stretch) = lead.place(stop, dt);
-        ph = Phasors::new(&lead.items[i], stretch, dt);
-        ph.seed(&lead.items[i], stretch, sample_time(s, dt) - lead.starts[i]);
+        self.extend_with(motion, steps, out);
+    }
+
+    #[inline(always)]
+    fn extend_with(&self, motion: &PlateMotion, steps: Range<usize>, out: &mut Vec<[f64; 3]>) {
+        out.reserve(steps.len());
+        let base = self.steps.start;
+        for st in &self.stints {
+            let (lo, hi) = (
+                st.at.first.max(steps.start),
+                (st.at.first + st.len).min(steps.end),
+            );
+            if lo < hi {
+                let at = At { first: lo, ..st.at };
+                let piece = &self.samples[lo - base..hi - base];
+                at.extend(&motion.items[st.item].segment, st.stretch, piece, out);
+            }
+        }
     }
 }
 
 /// Where a piece of samples lies: its first step, its item's start time [s], the step [s].
+#[derive(Clone, Copy)]
 struct At {
     first: usize,
     start: f64,

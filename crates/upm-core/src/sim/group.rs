@@ -8,11 +8,14 @@
 
 use std::collections::HashMap;
 use std::ops::Range;
+use std::sync::Mutex;
+
+use rayon::prelude::*;
 
 use super::kernel::{self, Plate};
 use super::points::{write, zeroed, Base, Points, ARRAYS};
 use super::{half_side, Config, World};
-use crate::motion::PlateMotion;
+use crate::motion::{Phases, PlateMotion};
 
 /// Lanes of a group: one full register tile of the widest build.
 const LANES: usize = 64;
@@ -36,61 +39,166 @@ pub(super) fn worlds_per_group(m: usize) -> usize {
 /// into its own place, so the order is free).
 pub(super) fn by_timing(motions: &[PlateMotion]) -> Vec<(usize, usize)> {
     let mut classes: HashMap<Vec<u64>, usize> = HashMap::new();
+    // (a motion of the previous one's timing skips the hash: a batch's rollouts mostly are)
+    let mut last: Option<(Vec<u64>, usize)> = None;
     let mut order: Vec<(usize, usize)> = motions
         .iter()
         .enumerate()
         .map(|(b, m)| {
-            let next = classes.len();
-            (*classes.entry(m.timing()).or_insert(next), b)
+            let key = m.timing();
+            let class = match &last {
+                Some((k, class)) if *k == key => *class,
+                _ => {
+                    let next = classes.len();
+                    *classes.entry(key.clone()).or_insert(next)
+                }
+            };
+            last = Some((key, class));
+            (class, b)
         })
         .collect();
     order.sort_unstable(); // by timing, then index
     order
 }
 
-/// The state of one group's points, kept from block to block.
-pub(super) struct Group(Box<[[f64; LANES]; ARRAYS]>);
+/// The phasor samples of the block `steps` for every timing whose worlds fill more than one
+/// group, taken once here instead of once per group (indexed by timing; `None` for the other
+/// timings, whose one group takes its own). `worlds` are in the order of [`by_timing`].
+pub(super) fn shared_phases(
+    worlds: &[World],
+    per_group: usize,
+    steps: Range<usize>,
+    dt: f64,
+) -> Vec<Option<Phases>> {
+    let classes = worlds.last().map_or(0, |w| w.timing + 1);
+    let mut leads: Vec<(Option<&PlateMotion>, usize)> = vec![(None, 0); classes];
+    for w in worlds {
+        let (lead, count) = &mut leads[w.timing];
+        lead.get_or_insert(w.motion);
+        *count += 1;
+    }
+    leads
+        .into_par_iter()
+        .map(|(lead, count)| {
+            lead.filter(|_| count > per_group)
+                .map(|m| Phases::of(m, steps.clone(), dt))
+        })
+        .collect()
+}
 
-impl Default for Group {
-    fn default() -> Self {
-        // Zero lanes between worlds: no part, never recorded, and (inactive) frozen on a plate
-        // with an edge.
-        Group(zeroed())
+/// Steps whose plate velocities a group tabulates at a time: 8 worlds' tables of 128 steps take
+/// 24 KiB, within the L1 cache.
+const PIECE: usize = 128;
+
+/// The plate velocity of each of `worlds` (into the same place of `tables`, emptied first) at
+/// each step of `steps`, sampled a hair before each step's end (see `velocities_into`). Worlds
+/// of one timing are neighbours (sorted so by [`by_timing`]) and share the work of turning the
+/// phasors: the samples in `shared` where the timing spans groups, else their own.
+fn tabulate(
+    worlds: &[World],
+    shared: &[Option<Phases>],
+    tables: &mut [Vec<[f64; 3]>],
+    steps: Range<usize>,
+    dt: f64,
+) {
+    tables.iter_mut().for_each(Vec::clear);
+    let mut from = 0;
+    while from < worlds.len() {
+        let timing = worlds[from].timing;
+        let to = from
+            + worlds[from..]
+                .iter()
+                .take_while(|w| w.timing == timing)
+                .count();
+        if let Some(phases) = &shared[timing] {
+            for (w, table) in worlds[from..to].iter().zip(&mut tables[from..to]) {
+                phases.extend_steps(w.motion, steps.clone(), table);
+            }
+        } else {
+            let motions: Vec<&PlateMotion> = worlds[from..to].iter().map(|w| w.motion).collect();
+            PlateMotion::velocities_of_all(&motions, steps.clone(), dt, &mut tables[from..to]);
+        }
+        from = to;
     }
 }
 
+/// The state of one group's points, kept from block to block.
+pub(super) struct Group(Box<[[f64; LANES]; ARRAYS]>);
+
+/// Memory kept from run to run: group states and sets of tables given back by finished runs.
+/// Fresh memory costs a page fault per 4 KiB on every call once the allocator has returned it
+/// to the system: that was a fifth of a 2-step call of 500 worlds of 8 points.
+#[derive(Default)]
+struct Spare {
+    states: Vec<Group>,
+    tables: Vec<Vec<Vec<[f64; 3]>>>,
+}
+
+/// At most this many group states (6 KB each) and sets of tables (up to 8 x 4096 rows, 786 KB)
+/// are kept.
+const SPARE_STATES: usize = 1024;
+const SPARE_TABLES: usize = 8;
+
+fn spare() -> std::sync::MutexGuard<'static, Spare> {
+    static SPARE: Mutex<Spare> = Mutex::new(Spare {
+        states: Vec::new(),
+        tables: Vec::new(),
+    });
+    SPARE.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 impl Group {
+    /// `n` groups, in memory given back by earlier runs ([`Group::give_back`]) where there is
+    /// some. Their state is cleared as their first block starts ([`Group::run`]).
+    pub(super) fn take(n: usize) -> Vec<Group> {
+        let mut out = {
+            let mut spare = spare();
+            let keep = spare.states.len().saturating_sub(n);
+            spare.states.split_off(keep)
+        };
+        out.resize_with(n, || Group(zeroed()));
+        out
+    }
+
+    /// Keeps `groups` for the next run (within [`SPARE_STATES`]).
+    pub(super) fn give_back(groups: Vec<Group>) {
+        let mut spare = spare();
+        let room = SPARE_STATES.saturating_sub(spare.states.len());
+        spare.states.extend(groups.into_iter().take(room));
+    }
+
+    /// Room for `n` tables of plate velocity, empty: a set given back by an earlier group when
+    /// one is kept.
+    fn tables(n: usize) -> Vec<Vec<[f64; 3]>> {
+        let mut t = spare().tables.pop().unwrap_or_default();
+        t.resize_with(n, Vec::new);
+        t.iter_mut().for_each(Vec::clear);
+        t
+    }
+
     /// Advances the point parts of `worlds` through the block of `steps`, recording as
-    /// [`Points::run`] does; `tables` is room for the worlds' plate velocities (the caller's,
-    /// reused from group to group).
+    /// [`Points::run`] does; `shared` holds the samples of the timings that span groups
+    /// ([`shared_phases`]).
     pub(super) fn run(
         &mut self,
         worlds: &mut [World],
-        tables: &mut Vec<Vec<[f64; 3]>>,
+        shared: &[Option<Phases>],
         steps: Range<usize>,
         cfg: &Config,
     ) {
         let first = steps.start;
-        tables.resize_with(worlds.len(), Vec::new);
-        tables.iter_mut().for_each(Vec::clear);
-        // Sampled a hair before each step's end (see `velocities_into`); neighbours with the
-        // same timing (sorted so by `by_timing`) share the work of turning the phasors.
-        let mut from = 0;
-        while from < worlds.len() {
-            let timing = worlds[from].timing;
-            let to = from
-                + worlds[from..]
-                    .iter()
-                    .take_while(|w| w.timing == timing)
-                    .count();
-            let motions: Vec<&PlateMotion> = worlds[from..to].iter().map(|w| w.motion).collect();
-            PlateMotion::velocities_of_all(&motions, steps.clone(), cfg.dt, &mut tables[from..to]);
-            from = to;
-        }
+        let mut tables = Group::tables(worlds.len());
         let m = worlds[0].points.len();
         let stride = stride(m);
         let lanes = stride * worlds.len();
         assert!(lanes <= LANES, "a group of {lanes} lanes");
+        if first == 0 {
+            // Zero lanes between worlds: no part, never recorded, and (inactive) frozen on a
+            // plate with an edge. The state may be an earlier run's: lanes are independent, so
+            // what it left there changes no result, but it could be NaN or subnormal (slow).
+            // SAFETY: every byte zero is every f64 0.0.
+            unsafe { std::ptr::write_bytes(&mut *self.0, 0, 1) };
+        }
         let base = Base::local(&mut self.0);
         for (w, world) in worlds.iter_mut().enumerate() {
             if let Some(src) = world.points.take_source() {
@@ -102,40 +210,50 @@ impl Group {
                 write(&l, 0, 0, &world.rec, None);
             }
         }
-        let steps = steps.len();
         let rec = worlds[0].rec;
-        let mut done = 0;
-        while done < steps {
-            let end = (rec.next_after(first + done) - first).min(steps);
-            let rows: Vec<&[[f64; 3]]> = tables[..worlds.len()]
-                .iter()
-                .map(|t| &t[done..end])
-                .collect();
-            // SAFETY: every world's lanes are written (above, or by an earlier block), and the
-            // padding is zero; nothing else addresses the buffer while `all` lives.
-            let (mut all, _) = unsafe { base.chunk(0, lanes, false) };
-            kernel::run(
-                Plate::worlds(&rows, stride),
-                first + done,
-                cfg.dt,
-                half_side(cfg),
-                &mut all,
-            );
-            done = end;
-            if let Some(row) = rec.row(first + done) {
-                for (w, world) in worlds.iter().enumerate() {
-                    // SAFETY: as above (`all` is gone).
-                    let (l, _) = unsafe { base.chunk(w * stride, m, false) };
-                    write(&l, 0, row, &world.rec, None);
+        // Through the block a piece at a time: the piece's tables stay in the core's L1 cache
+        // while the kernel reads them.
+        for piece in (first..steps.end).step_by(PIECE) {
+            let piece = piece..(piece + PIECE).min(steps.end);
+            tabulate(worlds, shared, &mut tables, piece.clone(), cfg.dt);
+            let mut done = piece.start;
+            while done < piece.end {
+                let end = rec.next_after(done).min(piece.end);
+                let rows: Vec<&[[f64; 3]]> = tables[..worlds.len()]
+                    .iter()
+                    .map(|t| &t[done - piece.start..end - piece.start])
+                    .collect();
+                // SAFETY: every world's lanes are written (above, or by an earlier block), and
+                // the padding is zero; nothing else addresses the buffer while `all` lives.
+                let (mut all, _) = unsafe { base.chunk(0, lanes, false) };
+                kernel::run(
+                    Plate::worlds(&rows, stride),
+                    done,
+                    cfg.dt,
+                    half_side(cfg),
+                    &mut all,
+                );
+                done = end;
+                if let Some(row) = rec.row(done) {
+                    for (w, world) in worlds.iter().enumerate() {
+                        // SAFETY: as above (`all` is gone).
+                        let (l, _) = unsafe { base.chunk(w * stride, m, false) };
+                        write(&l, 0, row, &world.rec, None);
+                    }
                 }
             }
         }
+        let steps = steps.len();
         if rec.last(first, steps) {
             for (w, world) in worlds.iter().enumerate() {
                 // SAFETY: as above.
                 let (l, _) = unsafe { base.chunk(w * stride, m, false) };
                 Points::ended(&l, None, 0, None, &world.rec, cfg.dt);
             }
+        }
+        let mut spare = spare();
+        if spare.tables.len() < SPARE_TABLES {
+            spare.tables.push(tables);
         }
     }
 }

@@ -469,20 +469,20 @@ where
         }
     });
     let per_group = group::worlds_per_group(m);
-    let mut groups: Vec<group::Group> = Vec::new();
-    if grouped {
-        groups.resize_with(motions.len().div_ceil(per_group), Default::default);
-    }
+    let mut groups = if grouped {
+        group::Group::take(motions.len().div_ceil(per_group))
+    } else {
+        Vec::new()
+    };
     let mut first = 0;
     while first < steps {
         let end = (first + block).min(steps);
         if grouped {
+            let shared = group::shared_phases(&worlds, per_group, first..end, cfg.dt);
             worlds
                 .par_chunks_mut(per_group)
                 .zip(groups.par_iter_mut())
-                .for_each_init(Vec::new, |tables, (ws, g)| {
-                    g.run(ws, tables, first..end, cfg)
-                });
+                .for_each(|(ws, g)| g.run(ws, &shared, first..end, cfg));
         } else {
             worlds.par_iter_mut().try_for_each(|w| {
                 w.table.clear();
@@ -518,6 +518,7 @@ where
         between(end)?;
         first = end;
     }
+    group::Group::give_back(groups);
     // The points recorded their times of leaving the plate and of flight as their last block
     // ended; the disks and polygons record theirs now.
     for w in &worlds {

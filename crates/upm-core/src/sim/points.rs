@@ -408,7 +408,9 @@ impl Source<'_> {
 
 impl Drop for Points<'_> {
     fn drop(&mut self) {
-        for v in &mut self.arrays {
+        // (a run of one block keeps no array: nothing to give back, for each of a batch's many
+        // small worlds)
+        for v in self.arrays.iter_mut().filter(|v| v.capacity() > 0) {
             recycle(std::mem::take(v));
         }
     }
