@@ -76,6 +76,16 @@ from upm import _core, actuation, theory
             ),
             "mu is too large for a float",
         ),
+        (
+            lambda: upm.simulate("spin", [[0.0, 0.0]], duration=0.01, dt=0.001, mu=0.3),
+            "motion must be a upm.PlateMotion; got str",
+        ),
+        (
+            lambda: upm.simulate_batch(
+                [upm.PlateMotion.rest(1.0), 3.0], [[0.0, 0.0]], duration=0.01, dt=0.001, mu=0.3
+            ),
+            r"motions\[1\] must be a upm.PlateMotion; got float",
+        ),
     ],
 )
 def test_bad_input_names_the_parameter(call, match):

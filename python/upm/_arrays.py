@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import operator
 from collections.abc import Sequence
+from itertools import repeat
 from typing import Any, TypeVar
 
 import numpy as np
@@ -98,9 +99,10 @@ def items(name: str, value: Any, kind: type[T], what: str, *, min_len: int = 0) 
     if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray, tuple)):
         raise ParameterError(f"{name} must be a sequence of {what}; got {show(value)}")
     out = list(value)
-    for k, item in enumerate(out):
-        if not isinstance(item, kind):
-            raise ParameterError(f"{name}[{k}] must be {what}; got {type(item).__name__}")
+    if not all(map(isinstance, out, repeat(kind))):  # (no Python loop when all are right)
+        for k, item in enumerate(out):
+            if not isinstance(item, kind):
+                raise ParameterError(f"{name}[{k}] must be {what}; got {type(item).__name__}")
     if len(out) < min_len:
         raise ParameterError(f"{name} must hold at least {min_len} item(s) ({what}); got {len(out)}")
     return out

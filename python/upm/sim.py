@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, fields
+from operator import attrgetter
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -297,6 +298,9 @@ def _check_memory(worlds: int, parts: int, duration: float, dt: float, every: in
         )
 
 
+_inner = attrgetter("_inner")
+
+
 def _run(
     motions: list[PlateMotion],
     parts: Any,
@@ -312,8 +316,6 @@ def _run(
     progress: Callable[[float], object] | None = None,
     worlds: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> tuple[Any, ...]:
-    if not all(isinstance(m, PlateMotion) for m in motions):
-        raise ParameterError("motion must be a upm.PlateMotion")
     step = real("dt", dt, low=0.0, low_open=True)
     span = real("duration", duration, low=0.0, low_open=True)
     if span < step * (1 - 1e-9):
@@ -343,7 +345,7 @@ def _run(
             progress(min(1.0, done / steps))
 
     return _core.simulate(
-        [mo._inner for mo in motions],
+        list(map(_inner, motions)),
         pos,
         vel,
         mu_a,
@@ -474,6 +476,8 @@ def simulate(
     -------
     SimResult
     """
+    if not isinstance(motion, PlateMotion):
+        raise ParameterError(f"motion must be a upm.PlateMotion; got {type(motion).__name__}")
     contact = _contact(parts, plate_size, contacts, restitution, part_friction, walls, walls_move_with_plate,
                        contact_iterations)  # fmt: skip
     t, pos, vel, stuck, angles, spins, left, flight = _run(
