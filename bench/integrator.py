@@ -242,7 +242,8 @@ def disk_times(dt: float, quick: bool) -> None:
 
 def polygon_times(dt: float, quick: bool) -> None:
     """Hexagons (issue 27's shape for its cost target, 150 ns) on a rotating and a translating
-    plate, one thread, spinning at the start, beside disks of the same size on the same motion."""
+    plate, one thread, spinning at the start, beside disks of the same size on the same motion;
+    then on two of the PPOD's fields, whose rocking loads each part unevenly."""
     rot = upm.PlateMotion.rotation((0.03, -0.02), upm.Harmonics([0.5, -0.25], frequency=F))
     tra = upm.PlateMotion.translation(
         (0.6, 0.8), upm.TwoHarmonic(0.5, np.pi / 2, amplitude=0.03, frequency=F)
@@ -265,6 +266,12 @@ def polygon_times(dt: float, quick: bool) -> None:
         gon = best_of(lambda m=motion: upm.simulate(m, hexagons, **kw)) * ns
         disk = best_of(lambda m=motion: upm.simulate(m, disks, **kw)) * ns
         print(f"  {name} plate: hexagons {gon:.0f} (stuck {run.stuck.mean():.0%} of steps), disks {disk:.0f}")
+    # the PPOD's fields rock the plate: the pressure varies across each part (docs/ppod.md)
+    kw = dict(kw, duration=steps * 0.05 / 400, dt=0.05 / 400)
+    for name in ("Sink", "Source"):
+        field = upm.PlateMotion.ppod(name)
+        gon = best_of(lambda m=field: upm.simulate(m, hexagons, **kw)) * ns
+        print(f"  PPOD {name} (the pressure varies across each part): hexagons {gon:.0f}")
 
 
 def spatial_times(quick: bool) -> None:

@@ -201,7 +201,9 @@ unsafe fn sums_avx2<const HESSIAN: bool>(
             _mm256_mul_pd(k1, y),
         );
         let area = _mm256_mul_pd(w, weight);
-        let wgt = _mm256_div_pd(area, norm);
+        // one division a point: 1/|u| serves the wrench and the Hessian
+        let inv = _mm256_div_pd(one, norm);
+        let wgt = _mm256_mul_pd(area, inv);
         acc[0] = _mm256_sub_pd(acc[0], _mm256_mul_pd(wgt, ux));
         acc[1] = _mm256_sub_pd(acc[1], _mm256_mul_pd(wgt, uy));
         let cr = _mm256_sub_pd(_mm256_mul_pd(x, uy), _mm256_mul_pd(y, ux));
@@ -209,7 +211,7 @@ unsafe fn sums_avx2<const HESSIAN: bool>(
         acc[3] = _mm256_add_pd(acc[3], _mm256_mul_pd(area, norm));
         if HESSIAN {
             let q2 = _mm256_add_pd(_mm256_mul_pd(x, ux), _mm256_mul_pd(y, uy));
-            let g = _mm256_div_pd(wgt, _mm256_mul_pd(norm, norm));
+            let g = _mm256_mul_pd(_mm256_mul_pd(wgt, inv), inv);
             let gy = _mm256_mul_pd(g, uy);
             let gx = _mm256_mul_pd(g, ux);
             acc[4] = _mm256_add_pd(acc[4], _mm256_mul_pd(gy, uy));
@@ -254,7 +256,9 @@ fn sums<const HESSIAN: bool>(nodes: &Nodes, v: [f64; 2], omega: f64, load: [f64;
         // (the pressure's weight, 1 under uniform pressure)
         let area: [f64; LANES] =
             std::array::from_fn(|l| w[l] * (1.0 + load[0] * x[l] + load[1] * y[l]));
-        let wgt: [f64; LANES] = std::array::from_fn(|l| area[l] / norm[l]);
+        // one division a point: 1/|u| serves the wrench and the Hessian
+        let inv: [f64; LANES] = std::array::from_fn(|l| 1.0 / norm[l]);
+        let wgt: [f64; LANES] = std::array::from_fn(|l| area[l] * inv[l]);
         for l in 0..LANES {
             acc[0][l] -= wgt[l] * ux[l];
             acc[1][l] -= wgt[l] * uy[l];
@@ -265,7 +269,7 @@ fn sums<const HESSIAN: bool>(nodes: &Nodes, v: [f64; 2], omega: f64, load: [f64;
             // J^T (I - û û^T) J / |u| = J^T p p^T J / |u|, p = z x û: wgt q q^T / |u|² with
             // q = (-u_y, u_x, r x (z x u))
             let q2: [f64; LANES] = std::array::from_fn(|l| x[l] * ux[l] + y[l] * uy[l]);
-            let g: [f64; LANES] = std::array::from_fn(|l| wgt[l] / (norm[l] * norm[l]));
+            let g: [f64; LANES] = std::array::from_fn(|l| (wgt[l] * inv[l]) * inv[l]);
             for l in 0..LANES {
                 let (gy, gx) = (g[l] * uy[l], g[l] * ux[l]);
                 acc[4][l] += gy * uy[l];

@@ -82,6 +82,38 @@ fn pick(c: bool, a: f64, b: f64) -> f64 {
     f64::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
 }
 
+/// The difference `asinh(tb/|h|) - asinh(ta/|h|)` along an edge of length `len` (`tb = ta +
+/// len`, `ra` and `rb` the distances of its ends, `drho = rb - ra`) as `ln(1 + a1) + ln(1 + a2)`,
+/// both arguments `>= 0`, returned as `(a1, a2)`: with `asinh(t/|h|) = ln((t + rho)/|h|)`, on one
+/// side of the foot of `h` the difference is one `ln_1p` of a ratio of positive sums, across it a
+/// sum of two. Both zero where `skip` (no area).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(super) fn asinh_args(
+    h: f64,
+    ta: f64,
+    tb: f64,
+    ra: f64,
+    rb: f64,
+    len: f64,
+    drho: f64,
+    skip: bool,
+) -> (f64, f64) {
+    let hh = h.abs();
+    let (after, before) = (ta >= 0.0, tb <= 0.0);
+    let num = pick(
+        after,
+        len + drho,
+        pick(before, len - drho, tb * (hh + rb + tb)),
+    );
+    let den = pick(after, ta + ra, pick(before, rb - tb, hh * (hh + rb)));
+    let across = !after && !before && !skip;
+    (
+        pick(skip, 0.0, num / den),
+        pick(across, -ta * (hh + ra - ta) / (hh * (hh + ra)), 0.0),
+    )
+}
+
 /// The portable build of [`fan`]: each lane's arithmetic in plain Rust.
 #[inline(always)]
 pub(super) fn fan_with<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fan {
@@ -106,19 +138,7 @@ pub(super) fn fan_with<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fan 
             let tb = ta + len;
             // rb - ra without cancellation
             let drho = len * (ta + tb) / (ra + rb);
-            // asinh(t/|h|) = ln((t + rho)/|h|): on one side of the foot of h the difference is
-            // one ln_1p of a ratio of positive sums, across it a sum of two (module Polygon::fan)
-            let hh = h.abs();
-            let (after, before) = (ta >= 0.0, tb <= 0.0);
-            let num = pick(
-                after,
-                len + drho,
-                pick(before, len - drho, tb * (hh + rb + tb)),
-            );
-            let den = pick(after, ta + ra, pick(before, rb - tb, hh * (hh + rb)));
-            let across = !after && !before && !skip;
-            arg1[l] = pick(skip, 0.0, num / den);
-            arg2[l] = pick(across, -ta * (hh + ra - ta) / (hh * (hh + ra)), 0.0);
+            (arg1[l], arg2[l]) = asinh_args(h, ta, tb, ra, rb, len, drho, skip);
             geo[0][l] = pick(skip, 0.0, h);
             geo[1][l] = ta;
             (geo[2][l], geo[3][l], geo[4][l]) = (ra, rb, drho);
