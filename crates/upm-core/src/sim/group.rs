@@ -128,16 +128,15 @@ pub(super) struct Group(Box<[[f64; LANES]; ARRAYS]>);
 /// Memory kept from run to run: group states and sets of tables given back by finished runs.
 /// Fresh memory costs a page fault per 4 KiB on every call once the allocator has returned it
 /// to the system: that was a fifth of a 2-step call of 500 worlds of 8 points.
-#[derive(Default)]
 struct Spare {
     states: Vec<Group>,
     tables: Vec<Vec<Vec<[f64; 3]>>>,
 }
 
-/// At most this many group states (6 KB each) and sets of tables (up to 8 x 4096 rows, 786 KB)
-/// are kept.
+/// At most this many group states (6 KiB each) and sets of tables (one a thread at work: up to 8
+/// tables of [`PIECE`] rows, 24 KiB) are kept.
 const SPARE_STATES: usize = 1024;
-const SPARE_TABLES: usize = 8;
+const SPARE_TABLES: usize = 64;
 
 fn spare() -> std::sync::MutexGuard<'static, Spare> {
     static SPARE: Mutex<Spare> = Mutex::new(Spare {
