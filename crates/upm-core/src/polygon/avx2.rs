@@ -5,18 +5,23 @@
 
 use std::arch::x86_64::*;
 
-use super::lanes::{Edges, LG, LN2_HI, LN2_LO};
+use super::lanes::{Edges, LG, LN2_HI, LN2_LO, THIRD};
+use super::load::Linear;
 use super::{Fan, Polygon};
 
-/// [`super::lanes::fan`] on AVX2.
+/// [`super::lanes::fan_loaded`] on AVX2.
 ///
 /// # Safety
 /// The CPU must have AVX2.
 #[target_feature(enable = "avx2")]
-pub(super) unsafe fn fan<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fan {
+pub(super) unsafe fn fan<const CURVATURE: bool, const LOADED: bool>(
+    p: &Polygon,
+    r0: [f64; 2],
+    k: [f64; 2],
+) -> (Fan, Linear) {
     let zero = _mm256_setzero_pd();
     // lanes 0..4 and 4..8 of each sum
-    let (mut lo, mut hi) = ([zero; 6], [zero; 6]);
+    let (mut lo, mut hi) = ([zero; 12], [zero; 12]);
     // only the last group can leave its upper half out (the loops are kept free of a branch
     // between the halves: with one, the compiler no longer interleaves them)
     let (full, last) = match p.lanes.split_last() {
@@ -24,11 +29,11 @@ pub(super) unsafe fn fan<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fa
         _ => (&p.lanes[..], None),
     };
     for e in full {
-        half::<CURVATURE>(e, 0, r0, &mut lo);
-        half::<CURVATURE>(e, 4, r0, &mut hi);
+        half::<CURVATURE, LOADED>(e, 0, r0, k, &mut lo);
+        half::<CURVATURE, LOADED>(e, 4, r0, k, &mut hi);
     }
     if let Some(e) = last {
-        half::<CURVATURE>(e, 0, r0, &mut lo);
+        half::<CURVATURE, LOADED>(e, 0, r0, k, &mut lo);
     }
     let sum = |l: __m256d, h: __m256d| {
         // the portable lanes' pairwise order: (a0 + a4) ... first
@@ -36,16 +41,31 @@ pub(super) unsafe fn fan<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fa
         _mm256_storeu_pd(q.as_mut_ptr(), _mm256_add_pd(l, h));
         (q[0] + q[2]) + (q[1] + q[3])
     };
-    Fan {
-        dist: sum(lo[0], hi[0]),
-        unit: [sum(lo[1], hi[1]), sum(lo[2], hi[2])],
-        curvature: [sum(lo[3], hi[3]), sum(lo[4], hi[4]), sum(lo[5], hi[5])],
-    }
+    let [dist, ux, uy, xx, xy, yy, lx, ly, ld, lxx, lxy, lyy] =
+        std::array::from_fn(|i| sum(lo[i], hi[i]));
+    (
+        Fan {
+            dist,
+            unit: [ux, uy],
+            curvature: [xx, xy, yy],
+        },
+        Linear {
+            unit: [lx, ly],
+            dist: ld,
+            curvature: [lxx, lxy, lyy],
+        },
+    )
 }
 
-/// The lanes `at..at + 4` of the group `e` added to `acc`.
+/// The lanes `at..at + 4` of the group `e` added to `acc` (the fan's sums, then the load's).
 #[inline(always)]
-unsafe fn half<const CURVATURE: bool>(e: &Edges, at: usize, r0: [f64; 2], acc: &mut [__m256d; 6]) {
+unsafe fn half<const CURVATURE: bool, const LOADED: bool>(
+    e: &Edges,
+    at: usize,
+    r0: [f64; 2],
+    k: [f64; 2],
+    acc: &mut [__m256d; 12],
+) {
     let load = |a: &[f64; 8]| _mm256_loadu_pd(a[at..].as_ptr());
     let (m, a, sub, div) = (_mm256_mul_pd, _mm256_add_pd, _mm256_sub_pd, _mm256_div_pd);
     let set = _mm256_set1_pd;
@@ -94,9 +114,10 @@ unsafe fn half<const CURVATURE: bool>(e: &Edges, at: usize, r0: [f64; 2], acc: &
     let half = m(set(0.5), h);
     acc[1] = a(acc[1], m(half, a(m(m(h, nx), d), m(ex, drho))));
     acc[2] = a(acc[2], m(half, a(m(m(h, ny), d), m(ey, drho))));
+    let (mut ia, mut ib, mut s) = (zero, zero, zero);
     if CURVATURE {
-        let (ia, ib) = (div(set(1.0), ra), div(set(1.0), rb));
-        let s = m(m(sub(m(len, ra), m(ta, drho)), ia), ib);
+        (ia, ib) = (div(set(1.0), ra), div(set(1.0), rb));
+        s = m(m(sub(m(len, ra), m(ta, drho)), ia), ib);
         let c = sub(ia, ib);
         let (nn, ne, ee) = (m(h, s), m(h2, c), m(h, sub(d, s)));
         let two_ne = m(set(2.0), ne);
@@ -110,6 +131,52 @@ unsafe fn half<const CURVATURE: bool>(e: &Edges, at: usize, r0: [f64; 2], acc: &
         acc[3] = a(acc[3], _mm256_and_pd(area, gxx));
         acc[4] = a(acc[4], _mm256_and_pd(area, gxy));
         acc[5] = a(acc[5], _mm256_and_pd(area, gyy));
+    }
+    if LOADED {
+        // the portable lanes' load terms, operation for operation
+        let third = set(THIRD);
+        let (kn, kt) = (
+            a(m(set(k[0]), nx), m(set(k[1]), ny)),
+            a(m(set(k[0]), ex), m(set(k[1]), ey)),
+        );
+        let dtr = a(m(len, rb), m(ta, drho));
+        let i2 = m(set(0.5), sub(dtr, m(h2, d)));
+        let snn = m(m(m(h, h2), d), third);
+        let snt = m(m(h2, drho), third);
+        let stt = m(m(h, i2), third);
+        let cn = a(m(snn, kn), m(snt, kt));
+        let ct = a(m(snt, kn), m(stt, kt));
+        acc[6] = a(acc[6], a(m(cn, nx), m(ct, ex)));
+        acc[7] = a(acc[7], a(m(cn, ny), m(ct, ey)));
+        let j0 = m(set(0.5), a(dtr, m(h2, d)));
+        let j1 = m(m(drho, a(a(m(ra, ra), m(ra, rb)), m(rb, rb))), third);
+        acc[8] = a(acc[8], m(m(set(0.25), h), a(m(m(h, kn), j0), m(kt, j1))));
+        if CURVATURE {
+            let k0 = div(s, h2);
+            let k1 = m(m(drho, ia), ib);
+            let k2 = sub(d, s);
+            let k3 = sub(drho, m(h2, k1));
+            let hh2 = m(set(0.5), h);
+            let cnn = m(hh2, a(m(m(m(h2, h), kn), k0), m(m(h2, kt), k1)));
+            let cnt = m(hh2, a(m(m(h2, kn), k1), m(m(h, kt), k2)));
+            let ctt = m(hh2, a(m(m(h, kn), k2), m(kt, k3)));
+            let two_cnt = m(set(2.0), cnt);
+            let lxx = a(
+                a(m(m(cnn, nx), nx), m(m(two_cnt, nx), ex)),
+                m(m(ctt, ex), ex),
+            );
+            let lxy = a(
+                a(m(m(cnn, nx), ny), m(cnt, a(m(nx, ey), m(ex, ny)))),
+                m(m(ctt, ex), ey),
+            );
+            let lyy = a(
+                a(m(m(cnn, ny), ny), m(m(two_cnt, ny), ey)),
+                m(m(ctt, ey), ey),
+            );
+            acc[9] = a(acc[9], _mm256_and_pd(area, lxx));
+            acc[10] = a(acc[10], _mm256_and_pd(area, lxy));
+            acc[11] = a(acc[11], _mm256_and_pd(area, lyy));
+        }
     }
 }
 

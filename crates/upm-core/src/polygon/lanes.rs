@@ -3,6 +3,7 @@
 //! arithmetic so that the AVX2 build ([`super::avx2`], also on AVX-512 machines) and the
 //! portable one compute the same bits (no fused multiply–adds, the lanes summed in one order).
 
+use super::load::Linear;
 use super::{Fan, Polygon};
 #[cfg(target_arch = "x86_64")]
 use crate::sim::kernel::{simd, Simd};
@@ -67,12 +68,23 @@ pub(super) fn edges(vertices: &[[f64; 2]]) -> Vec<Edges> {
 /// The fan integrals about `r0`, the curvature only if `CURVATURE`, on the build the
 /// simulations take (`sim::simd`).
 pub(super) fn fan<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fan {
+    fan_loaded::<CURVATURE, false>(p, r0, [0.0; 2]).0
+}
+
+/// [`fan`] and, if `LOADED`, the terms a pressure gradient `k` adds to it ([`super::load`]), from the
+/// same pass over the edges (the load's terms reuse each edge's distances, differences and
+/// logarithm).
+pub(super) fn fan_loaded<const CURVATURE: bool, const LOADED: bool>(
+    p: &Polygon,
+    r0: [f64; 2],
+    k: [f64; 2],
+) -> (Fan, Linear) {
     #[cfg(target_arch = "x86_64")]
     if matches!(simd(), Simd::Avx2 | Simd::Avx512) {
         // SAFETY: simd() chooses these builds only on a CPU that has AVX2 (AVX-512 has it).
-        return unsafe { super::avx2::fan::<CURVATURE>(p, r0) };
+        return unsafe { super::avx2::fan::<CURVATURE, LOADED>(p, r0, k) };
     }
-    fan_with::<CURVATURE>(p, r0)
+    fan_with::<CURVATURE, LOADED>(p, r0, k)
 }
 
 /// Picks `a` where `c`, else `b` (a blend in the vector builds).
@@ -89,7 +101,7 @@ fn pick(c: bool, a: f64, b: f64) -> f64 {
 /// sum of two. Both zero where `skip` (no area).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub(super) fn asinh_args(
+fn asinh_args(
     h: f64,
     ta: f64,
     tb: f64,
@@ -114,10 +126,14 @@ pub(super) fn asinh_args(
     )
 }
 
-/// The portable build of [`fan`]: each lane's arithmetic in plain Rust.
+/// The portable build of [`fan_loaded`]: each lane's arithmetic in plain Rust.
 #[inline(always)]
-pub(super) fn fan_with<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fan {
-    let mut acc = [[0.0; LANES]; 6];
+pub(super) fn fan_with<const CURVATURE: bool, const LOADED: bool>(
+    p: &Polygon,
+    r0: [f64; 2],
+    k: [f64; 2],
+) -> (Fan, Linear) {
+    let mut acc = [[0.0; LANES]; 12];
     for e in &p.lanes {
         // (a half with no live lane adds nothing: left out, as the vector builds do)
         let width = if e.upper { LANES } else { LANES / 2 };
@@ -160,12 +176,15 @@ pub(super) fn fan_with<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fan 
             let (nx, ny) = (ey, -ex);
             acc[1][l] += 0.5 * h * (h * nx * d + ex * drho);
             acc[2][l] += 0.5 * h * (h * ny * d + ey * drho);
+            // a lane of no area may hold infinities (r0 at a vertex): it adds nothing
+            let live = skip == 0.0;
+            let (mut ia, mut ib, mut s) = (0.0, 0.0, 0.0);
             if CURVATURE {
                 // ∫ p p^T/|p|³ dA = h ∫ (h n + t e)(h n + t e)^T / rho³ dt
                 //   = h [s n n^T + h c (n e^T + e n^T) + (asinh(t/|h|) - s) e e^T]
                 // between the ends, s = t/rho and c = -1/rho (their differences below)
-                let (ia, ib) = (1.0 / ra, 1.0 / rb);
-                let s = (len * ra - ta * drho) * ia * ib; // tb/rb - ta/ra
+                (ia, ib) = (1.0 / ra, 1.0 / rb);
+                s = (len * ra - ta * drho) * ia * ib; // tb/rb - ta/ra
                 let c = ia - ib;
                 let (nn, ne, ee) = (h * s, h * h * c, h * (d - s));
                 let (gxx, gxy, gyy) = (
@@ -173,11 +192,43 @@ pub(super) fn fan_with<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fan 
                     nn * nx * ny + ne * (nx * ey + ex * ny) + ee * ex * ey,
                     nn * ny * ny + 2.0 * ne * ny * ey + ee * ey * ey,
                 );
-                // a lane of no area may hold infinities (r0 at a vertex): it adds nothing
-                let live = skip == 0.0;
                 acc[3][l] += pick(live, gxx, 0.0);
                 acc[4][l] += pick(live, gxy, 0.0);
                 acc[5][l] += pick(live, gyy, 0.0);
+            }
+            if LOADED {
+                // the load's terms (module `load`), the triangle's edge with n = (e_y, -e_x)
+                let h2 = h * h;
+                let (kn, kt) = (k[0] * nx + k[1] * ny, k[0] * ex + k[1] * ey);
+                let dtr = len * rb + ta * drho; // tb rb - ta ra
+                                                // ∫ d d^T / rho dA: h/3 ∫ (h² n n^T + h t (n e^T + e n^T) + t² e e^T) / rho
+                let i2 = 0.5 * (dtr - h2 * d);
+                let (snn, snt, stt) = (h * h2 * d * THIRD, h2 * drho * THIRD, h * i2 * THIRD);
+                let (cn, ct) = (snn * kn + snt * kt, snt * kn + stt * kt);
+                acc[6][l] += cn * nx + ct * ex;
+                acc[7][l] += cn * ny + ct * ey;
+                // ∫ d rho dA: h/4 ∫ (h n + t e) rho dt
+                let j0 = 0.5 * (dtr + h2 * d);
+                let j1 = drho * (ra * ra + ra * rb + rb * rb) * THIRD;
+                acc[8][l] += 0.25 * h * (h * kn * j0 + kt * j1);
+                if CURVATURE {
+                    // ∫ (k . d) d d^T / rho³ dA: h/2 ∫ (h kn + t kt) p p^T / rho³ dt
+                    let k0 = s / h2;
+                    let k1 = drho * ia * ib; // 1/ra - 1/rb
+                    let k2 = d - s;
+                    let k3 = drho - h2 * k1;
+                    let cnn = 0.5 * h * (h2 * h * kn * k0 + h2 * kt * k1);
+                    let cnt = 0.5 * h * (h2 * kn * k1 + h * kt * k2);
+                    let ctt = 0.5 * h * (h * kn * k2 + kt * k3);
+                    let (lxx, lxy, lyy) = (
+                        cnn * nx * nx + 2.0 * cnt * nx * ex + ctt * ex * ex,
+                        cnn * nx * ny + cnt * (nx * ey + ex * ny) + ctt * ex * ey,
+                        cnn * ny * ny + 2.0 * cnt * ny * ey + ctt * ey * ey,
+                    );
+                    acc[9][l] += pick(live, lxx, 0.0);
+                    acc[10][l] += pick(live, lxy, 0.0);
+                    acc[11][l] += pick(live, lyy, 0.0);
+                }
             }
         }
     }
@@ -186,12 +237,23 @@ pub(super) fn fan_with<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fan 
         let q = [a[0] + a[4], a[1] + a[5], a[2] + a[6], a[3] + a[7]];
         (q[0] + q[2]) + (q[1] + q[3])
     };
-    Fan {
-        dist: sum(&acc[0]),
-        unit: [sum(&acc[1]), sum(&acc[2])],
-        curvature: [sum(&acc[3]), sum(&acc[4]), sum(&acc[5])],
-    }
+    let [dist, ux, uy, xx, xy, yy, lx, ly, ld, lxx, lxy, lyy] = acc.map(|a| sum(&a));
+    (
+        Fan {
+            dist,
+            unit: [ux, uy],
+            curvature: [xx, xy, yy],
+        },
+        Linear {
+            unit: [lx, ly],
+            dist: ld,
+            curvature: [lxx, lxy, lyy],
+        },
+    )
 }
+
+/// One third (a product with it costs less than a division by 3).
+pub(super) const THIRD: f64 = 1.0 / 3.0;
 
 pub(super) const LN2_HI: f64 = 0.6931471803691238;
 pub(super) const LN2_LO: f64 = 1.9082149292705877e-10;
@@ -343,21 +405,39 @@ mod tests {
                 [0.5 * (v[0][0] + v[1][0]), 0.5 * (v[0][1] + v[1][1]) - 1e-3],
             ];
             for (i, r0) in centres.into_iter().enumerate() {
-                let want = fan_with::<true>(&p, r0);
+                let want = fan_with::<true, false>(&p, r0, [0.0; 2]).0;
                 assert!(want.dist.is_finite() && want.unit.iter().all(|x| x.is_finite()));
                 #[cfg(target_arch = "x86_64")]
                 if is_x86_feature_detected!("avx2") {
                     // SAFETY: the CPU has AVX2.
-                    let got = unsafe { super::super::avx2::fan::<true>(&p, r0) };
+                    let got = unsafe { super::super::avx2::fan::<true, false>(&p, r0, [0.0; 2]).0 };
                     assert_eq!(got, want, "avx2, centre {i}");
                     checked += 1;
                 }
                 assert_eq!(fan::<true>(&p, r0), want, "the chosen build, centre {i}");
+                // with a pressure gradient: the load's terms too, and the fan's unchanged
+                let k = [0.9 / p.radius, -0.3 / p.radius];
+                let loaded = fan_with::<true, true>(&p, r0, k);
+                assert_eq!(loaded.0, want, "centre {i}");
+                assert!(loaded.1.unit.iter().all(|x| x.is_finite()) && loaded.1.dist.is_finite());
+                assert!(loaded.1.curvature.iter().all(|x| x.is_finite()));
+                #[cfg(target_arch = "x86_64")]
+                if is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU has AVX2.
+                    let got = unsafe { super::super::avx2::fan::<true, true>(&p, r0, k) };
+                    assert_eq!(got, loaded, "avx2 loaded, centre {i}");
+                    checked += 1;
+                }
+                assert_eq!(
+                    fan_loaded::<true, true>(&p, r0, k),
+                    loaded,
+                    "the chosen build"
+                );
             }
         }
         #[cfg(target_arch = "x86_64")]
         if is_x86_feature_detected!("avx2") {
-            assert_eq!(checked, 14);
+            assert_eq!(checked, 28);
         }
     }
 }

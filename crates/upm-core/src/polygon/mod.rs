@@ -378,15 +378,19 @@ impl Polygon {
             return far::quadrature::<HESSIAN, 8>(self, v, omega);
         }
         let r0 = [-v[1] / omega, v[0] / omega];
-        let mut fan = self.fan_of::<HESSIAN>(r0);
-        if loaded {
+        let fan = if loaded {
+            // the load's terms from the fan's own pass over the edges
             let k = self.load;
             let w0 = 1.0 + k[0] * r0[0] + k[1] * r0[1];
-            let l = load::linear::<HESSIAN>(self, r0, k);
-            fan.dist = w0 * fan.dist + l.dist;
-            fan.unit = [w0 * fan.unit[0] + l.unit[0], w0 * fan.unit[1] + l.unit[1]];
-            fan.curvature = std::array::from_fn(|i| w0 * fan.curvature[i] + l.curvature[i]);
-        }
+            let (fan, l) = lanes::fan_loaded::<HESSIAN, true>(self, r0, k);
+            Fan {
+                dist: w0 * fan.dist + l.dist,
+                unit: [w0 * fan.unit[0] + l.unit[0], w0 * fan.unit[1] + l.unit[1]],
+                curvature: std::array::from_fn(|i| w0 * fan.curvature[i] + l.curvature[i]),
+            }
+        } else {
+            self.fan_of::<HESSIAN>(r0)
+        };
         let (dist, [ux, uy]) = (fan.dist, fan.unit);
         // u/|u| = sign(omega) z x (r - r0)/|r - r0|; r x (z x d) = (r . d) z
         let s = omega.signum() / self.area;
