@@ -241,3 +241,30 @@ fn the_loaded_step_is_the_minimiser_and_sticks_only_where_zero_is() {
         "no twist changed between uniform and loaded pressure"
     );
 }
+
+#[test]
+fn between_20_and_100_radii_the_six_point_rule_is_the_eight_point_one_to_rounding() {
+    // the simulation takes 6 x 6 points a triangle there; `wrench_quadrature` is 8 x 8
+    let mut p = pentagon();
+    for far in [20.1, 30.0, 50.0, 99.9] {
+        for k in loads(&p) {
+            p.set_load(k).unwrap();
+            for t in 0..32 {
+                let a = t as f64 * 0.2;
+                let omega = 2.0;
+                let v = [
+                    a.cos() * omega * far * p.radius,
+                    a.sin() * omega * far * p.radius,
+                ];
+                let (x, y) = (p.wrench(v, omega), p.wrench_quadrature(v, omega));
+                for i in 0..3 {
+                    let scale = if i == 2 { p.radius } else { 1.0 };
+                    assert!(
+                        (x[i] - y[i]).abs() <= 2e-15 * scale,
+                        "far {far}, direction {t}: {x:?} vs {y:?}"
+                    );
+                }
+            }
+        }
+    }
+}

@@ -104,13 +104,14 @@ pub(super) fn nodes<const K: usize>(vertices: &[[f64; 2]]) -> Nodes {
 fn rule<const K: usize>() -> (&'static [f64], &'static [f64]) {
     match K {
         4 => (&GAUSS4_X, &GAUSS4_W),
+        6 => (&GAUSS6_X, &GAUSS6_W),
         8 => (&GAUSS8_X, &GAUSS8_W),
-        _ => unreachable!("4 or 8 points"),
+        _ => unreachable!("4, 6 or 8 points"),
     }
 }
 
 /// The friction by `K x K`-point Gauss–Legendre quadrature on each triangle fanning from the
-/// centroid (`K` = 4 or 8), the points' sums in lanes (AVX2 where the simulations take it; the
+/// centroid (`K` = 4, 6 or 8), the points' sums in lanes (AVX2 where the simulations take it; the
 /// same bits on every build).
 pub(super) fn quadrature<const HESSIAN: bool, const K: usize>(
     p: &Polygon,
@@ -126,6 +127,7 @@ pub(super) fn quadrature<const HESSIAN: bool, const K: usize>(
     let (v, omega) = ([v[0] / scale, v[1] / scale], omega / scale);
     let nodes = match K {
         4 => &p.nodes[0],
+        6 => &p.nodes[2],
         _ => &p.nodes[1],
     };
     #[cfg(target_arch = "x86_64")]
@@ -300,6 +302,26 @@ const GAUSS4_W: [f64; 4] = [
     0.173_927_422_568_726_93,
 ];
 
+/// Gauss–Legendre nodes on [0, 1], 6 points.
+const GAUSS6_X: [f64; 6] = [
+    0.033_765_242_898_423_99,
+    0.169_395_306_766_867_73,
+    0.380_690_406_958_401_56,
+    0.619_309_593_041_598_5,
+    0.830_604_693_233_132_2,
+    0.966_234_757_101_576,
+];
+
+/// Gauss–Legendre weights on [0, 1], 6 points.
+const GAUSS6_W: [f64; 6] = [
+    0.085_662_246_189_585_18,
+    0.180_380_786_524_069_3,
+    0.233_956_967_286_345_52,
+    0.233_956_967_286_345_52,
+    0.180_380_786_524_069_3,
+    0.085_662_246_189_585_18,
+];
+
 /// Gauss–Legendre nodes on [0, 1], 8 points.
 const GAUSS8_X: [f64; 8] = [
     0.019_855_071_751_231_856,
@@ -369,6 +391,8 @@ mod tests {
                 let got = quadrature::<true, 8>(&p, v, omega);
                 let got4 = quadrature::<false, 4>(&p, v, omega);
                 let want4 = reference::<4>(&p, v, omega);
+                let got6 = quadrature::<false, 6>(&p, v, omega);
+                let want6 = reference::<6>(&p, v, omega);
                 let speed = v[0].hypot(v[1]) + omega.abs() * p.radius;
                 for k in 0..3 {
                     let tol = if k == 2 { 1e-15 * p.radius } else { 1e-15 };
@@ -377,6 +401,7 @@ mod tests {
                         "{i} {k}: {got:?} {want:?}"
                     );
                     assert!((got4.wrench[k] - want4[k]).abs() <= tol, "{i} {k} (4)");
+                    assert!((got6.wrench[k] - want6[k]).abs() <= tol, "{i} {k} (6)");
                 }
                 assert!((got.work - want[3]).abs() <= 1e-15 * speed);
                 // the AVX2 build and the portable one give the same bits

@@ -37,7 +37,7 @@ pub use tripod::Tripod;
 /// Beyond this many part radii the instantaneous centre is "far" (quadrature, see the module).
 pub const FAR: f64 = 1e3;
 /// Beyond this many part radii the friction under a linearly varying pressure is integrated by
-/// quadrature, 8 x 8 points and beyond 5 times as far 4 x 4 ([`load`]'s closed forms lose
+/// quadrature, 6 x 6 points and beyond 5 times as far 4 x 4 ([`load`]'s closed forms lose
 /// digits to cancellation there).
 pub const LOADED_FAR: f64 = 20.0;
 
@@ -68,9 +68,9 @@ pub struct Polygon {
     load: [f64; 2],
     /// Three feet the part rests on instead of its footprint ([`tripod`]), if it does.
     tripod: Option<Box<Tripod>>,
-    /// The far field's quadrature points, 4 x 4 and 8 x 8 a triangle ([`far`]), shared by
-    /// the clones.
-    nodes: std::sync::Arc<[far::Nodes; 2]>,
+    /// The far field's quadrature points, 4 x 4, 8 x 8 and 6 x 6 a triangle ([`far`]), shared
+    /// by the clones.
+    nodes: std::sync::Arc<[far::Nodes; 3]>,
 }
 
 /// The friction of a relative twist ([`Polygon::friction_hessian`]).
@@ -191,7 +191,11 @@ impl Polygon {
             .map(|v| v[0].hypot(v[1]))
             .fold(0.0, f64::max);
         let lanes = lanes::edges(&vertices);
-        let nodes = std::sync::Arc::new([far::nodes::<4>(&vertices), far::nodes::<8>(&vertices)]);
+        let nodes = std::sync::Arc::new([
+            far::nodes::<4>(&vertices),
+            far::nodes::<8>(&vertices),
+            far::nodes::<6>(&vertices),
+        ]);
         let mut second = [0.0; 3];
         for k in 0..n {
             let (a, b) = (vertices[k], vertices[(k + 1) % n]);
@@ -369,13 +373,13 @@ impl Polygon {
         let loaded_near = LOADED_FAR * self.radius * omega;
         if loaded && speed2 > loaded_near * loaded_near {
             // the load's terms cancel `|k| |r0|` times more than the fan's own: quadrature
-            // instead, its error the first term of the series in R / |r0| it leaves out: 8 x 8
-            // points (degree 16: below 1e-20 here), 4 x 4 beyond 5 LOADED_FAR (degree 8: 1e-16)
+            // instead, its error the first term of the series in R / |r0| it leaves out: 6 x 6
+            // points (degree 12: 2e-16 here), 4 x 4 beyond 5 LOADED_FAR (degree 8: 1e-16)
             let nearer = 5.0 * loaded_near;
             if speed2 > nearer * nearer {
                 return far::quadrature::<HESSIAN, 4>(self, v, omega);
             }
-            return far::quadrature::<HESSIAN, 8>(self, v, omega);
+            return far::quadrature::<HESSIAN, 6>(self, v, omega);
         }
         let r0 = [-v[1] / omega, v[0] / omega];
         let fan = if loaded {
