@@ -5,7 +5,7 @@
 
 use std::arch::x86_64::*;
 
-use super::lanes::{Edges, LG, LN2_HI, LN2_LO, THIRD};
+use super::lanes::{from_sums, Edges, LG, LN2_HI, LN2_LO, THIRD};
 use super::load::Linear;
 use super::{Fan, Polygon};
 
@@ -41,20 +41,7 @@ pub(super) unsafe fn fan<const CURVATURE: bool, const LOADED: bool>(
         _mm256_storeu_pd(q.as_mut_ptr(), _mm256_add_pd(l, h));
         (q[0] + q[2]) + (q[1] + q[3])
     };
-    let [dist, ux, uy, xx, xy, yy, lx, ly, ld, lxx, lxy, lyy] =
-        std::array::from_fn(|i| sum(lo[i], hi[i]));
-    (
-        Fan {
-            dist,
-            unit: [ux, uy],
-            curvature: [xx, xy, yy],
-        },
-        Linear {
-            unit: [lx, ly],
-            dist: ld,
-            curvature: [lxx, lxy, lyy],
-        },
-    )
+    from_sums(std::array::from_fn(|i| sum(lo[i], hi[i])))
 }
 
 /// The lanes `at..at + 4` of the group `e` added to `acc` (the fan's sums, then the load's).

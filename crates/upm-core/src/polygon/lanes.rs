@@ -187,11 +187,7 @@ pub(super) fn fan_with<const CURVATURE: bool, const LOADED: bool>(
                 s = (len * ra - ta * drho) * ia * ib; // tb/rb - ta/ra
                 let c = ia - ib;
                 let (nn, ne, ee) = (h * s, h * h * c, h * (d - s));
-                let (gxx, gxy, gyy) = (
-                    nn * nx * nx + 2.0 * ne * nx * ex + ee * ex * ex,
-                    nn * nx * ny + ne * (nx * ey + ex * ny) + ee * ex * ey,
-                    nn * ny * ny + 2.0 * ne * ny * ey + ee * ey * ey,
-                );
+                let (gxx, gxy, gyy) = in_plane(nn, ne, ee, [nx, ny], [ex, ey]);
                 acc[3][l] += pick(live, gxx, 0.0);
                 acc[4][l] += pick(live, gxy, 0.0);
                 acc[5][l] += pick(live, gyy, 0.0);
@@ -200,8 +196,9 @@ pub(super) fn fan_with<const CURVATURE: bool, const LOADED: bool>(
                 // the load's terms (module `load`), the triangle's edge with n = (e_y, -e_x)
                 let h2 = h * h;
                 let (kn, kt) = (k[0] * nx + k[1] * ny, k[0] * ex + k[1] * ey);
-                let dtr = len * rb + ta * drho; // tb rb - ta ra
-                                                // ∫ d d^T / rho dA: h/3 ∫ (h² n n^T + h t (n e^T + e n^T) + t² e e^T) / rho
+                // tb rb - ta ra
+                let dtr = len * rb + ta * drho;
+                // ∫ d d^T / rho dA: h/3 ∫ (h² n n^T + h t (n e^T + e n^T) + t² e e^T) / rho
                 let i2 = 0.5 * (dtr - h2 * d);
                 let (snn, snt, stt) = (h * h2 * d * THIRD, h2 * drho * THIRD, h * i2 * THIRD);
                 let (cn, ct) = (snn * kn + snt * kt, snt * kn + stt * kt);
@@ -220,11 +217,7 @@ pub(super) fn fan_with<const CURVATURE: bool, const LOADED: bool>(
                     let cnn = 0.5 * h * (h2 * h * kn * k0 + h2 * kt * k1);
                     let cnt = 0.5 * h * (h2 * kn * k1 + h * kt * k2);
                     let ctt = 0.5 * h * (h * kn * k2 + kt * k3);
-                    let (lxx, lxy, lyy) = (
-                        cnn * nx * nx + 2.0 * cnt * nx * ex + ctt * ex * ex,
-                        cnn * nx * ny + cnt * (nx * ey + ex * ny) + ctt * ex * ey,
-                        cnn * ny * ny + 2.0 * cnt * ny * ey + ctt * ey * ey,
-                    );
+                    let (lxx, lxy, lyy) = in_plane(cnn, cnt, ctt, [nx, ny], [ex, ey]);
                     acc[9][l] += pick(live, lxx, 0.0);
                     acc[10][l] += pick(live, lxy, 0.0);
                     acc[11][l] += pick(live, lyy, 0.0);
@@ -237,7 +230,12 @@ pub(super) fn fan_with<const CURVATURE: bool, const LOADED: bool>(
         let q = [a[0] + a[4], a[1] + a[5], a[2] + a[6], a[3] + a[7]];
         (q[0] + q[2]) + (q[1] + q[3])
     };
-    let [dist, ux, uy, xx, xy, yy, lx, ly, ld, lxx, lxy, lyy] = acc.map(|a| sum(&a));
+    from_sums(acc.map(|a| sum(&a)))
+}
+
+/// The fan's sums and the load's, in the order the lanes accumulate them.
+pub(super) fn from_sums(sums: [f64; 12]) -> (Fan, Linear) {
+    let [dist, ux, uy, xx, xy, yy, lx, ly, ld, lxx, lxy, lyy] = sums;
     (
         Fan {
             dist,
@@ -249,6 +247,16 @@ pub(super) fn fan_with<const CURVATURE: bool, const LOADED: bool>(
             dist: ld,
             curvature: [lxx, lxy, lyy],
         },
+    )
+}
+
+/// `(xx, xy, yy)` of `nn n n^T + ne (n e^T + e n^T) + ee e e^T`.
+#[inline(always)]
+fn in_plane(nn: f64, ne: f64, ee: f64, n: [f64; 2], e: [f64; 2]) -> (f64, f64, f64) {
+    (
+        nn * n[0] * n[0] + 2.0 * ne * n[0] * e[0] + ee * e[0] * e[0],
+        nn * n[0] * n[1] + ne * (n[0] * e[1] + e[0] * n[1]) + ee * e[0] * e[1],
+        nn * n[1] * n[1] + 2.0 * ne * n[1] * e[1] + ee * e[1] * e[1],
     )
 }
 
