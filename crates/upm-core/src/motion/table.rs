@@ -329,11 +329,21 @@ pub(crate) fn fill_many(
         return;
     };
     debug_assert!(motions.iter().all(|m| m.timing() == lead.timing()));
-    let phases = Phases::of(lead, steps, dt);
-    for (motion, out) in motions.iter().zip(outs.iter_mut()) {
-        phases.extend(motion, out);
+    for out in outs.iter_mut() {
+        out.reserve(steps.len());
+    }
+    // (a long table a span at a time: the samples stay a few hundred KB, whatever its length)
+    for from in steps.clone().step_by(SPAN) {
+        let phases = Phases::of(lead, from..(from + SPAN).min(steps.end), dt);
+        for (motion, out) in motions.iter().zip(outs.iter_mut()) {
+            phases.extend(motion, out);
+        }
     }
 }
+
+/// Steps whose samples [`fill_many`] takes at a time (the table is the same to the bit however
+/// its steps are split).
+const SPAN: usize = 4096;
 
 /// The phasor samples of one timing (see [`PlateMotion::timing`]) over a block of steps, taken
 /// once and read by every motion of that timing: the stints of the block (runs of steps within
