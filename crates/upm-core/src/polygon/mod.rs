@@ -68,9 +68,9 @@ pub struct Polygon {
     load: [f64; 2],
     /// Three feet the part rests on instead of its footprint ([`tripod`]), if it does.
     tripod: Option<Box<Tripod>>,
-    /// The far field's quadrature points, 4 x 4, 8 x 8 and 6 x 6 a triangle ([`far`]), shared
+    /// The far field's quadrature points, 4 x 4, 8 x 8, 6 x 6 and 3 x 3 a triangle ([`far`]), shared
     /// by the clones.
-    nodes: std::sync::Arc<[far::Nodes; 3]>,
+    nodes: std::sync::Arc<[far::Nodes; 4]>,
 }
 
 /// The friction of a relative twist ([`Polygon::friction_hessian`]).
@@ -195,6 +195,7 @@ impl Polygon {
             far::nodes::<4>(&vertices),
             far::nodes::<8>(&vertices),
             far::nodes::<6>(&vertices),
+            far::nodes::<3>(&vertices),
         ]);
         let mut second = [0.0; 3];
         for k in 0..n {
