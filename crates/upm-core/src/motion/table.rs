@@ -268,17 +268,6 @@ impl PlateMotion {
         fill(self, steps, dt, out);
     }
 
-    /// [`PlateMotion::velocities_into`] for each of `motions` (into the same place of `outs`),
-    /// which share their `timing` (the items' times, envelopes and phases): their phasors are turned once for all.
-    pub(crate) fn velocities_of_all(
-        motions: &[&PlateMotion],
-        steps: Range<usize>,
-        dt: f64,
-        outs: &mut [Vec<[f64; 3]>],
-    ) {
-        fill_many(motions, steps, dt, outs);
-    }
-
     /// What the table's phasors and stretches depend on: the items' start times, durations and
     /// envelopes, and the phases their segments turn (a harmonic drive's fundamental, a jet's).
     /// Motions with equal keys have the same phasors at every step, so [`fill_many`] turns them

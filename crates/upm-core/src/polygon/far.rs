@@ -73,9 +73,18 @@ pub(super) struct Nodes {
 /// so that every build gives the same bits.
 const LANES: usize = 4;
 
-/// The `K x K`-point nodes of the polygon with `vertices` (about the centroid).
-pub(super) fn nodes<const K: usize>(vertices: &[[f64; 2]]) -> Nodes {
-    let (x, w) = rule::<K>();
+/// The Gauss–Legendre rules the quadrature takes, by points per direction (the order of
+/// [`rules`]' nodes).
+const RULES: [usize; 4] = [3, 4, 6, 8];
+
+/// The polygon's nodes for each of [`RULES`] (`vertices` about the centroid).
+pub(super) fn rules(vertices: &[[f64; 2]]) -> [Nodes; 4] {
+    RULES.map(|k| nodes(vertices, k))
+}
+
+/// The `k x k`-point nodes of the polygon with `vertices` (about the centroid).
+fn nodes(vertices: &[[f64; 2]], k: usize) -> Nodes {
+    let (x, w) = rule(k);
     let n = vertices.len();
     let (mut px, mut py, mut pw) = (vec![], vec![], vec![]);
     for k in 0..n {
@@ -102,8 +111,8 @@ pub(super) fn nodes<const K: usize>(vertices: &[[f64; 2]]) -> Nodes {
     }
 }
 
-fn rule<const K: usize>() -> (&'static [f64], &'static [f64]) {
-    match K {
+fn rule(k: usize) -> (&'static [f64], &'static [f64]) {
+    match k {
         3 => (&GAUSS3_X, &GAUSS3_W),
         4 => (&GAUSS4_X, &GAUSS4_W),
         6 => (&GAUSS6_X, &GAUSS6_W),
@@ -113,7 +122,7 @@ fn rule<const K: usize>() -> (&'static [f64], &'static [f64]) {
 }
 
 /// The friction by `K x K`-point Gauss–Legendre quadrature on each triangle fanning from the
-/// centroid (`K` = 4, 6 or 8), the points' sums in lanes (AVX2 where the simulations take it; the
+/// centroid (`K` one of [`RULES`]), the points' sums in lanes (AVX2 where the simulations take it; the
 /// same bits on every build).
 pub(super) fn quadrature<const HESSIAN: bool, const K: usize>(
     p: &Polygon,
@@ -127,12 +136,8 @@ pub(super) fn quadrature<const HESSIAN: bool, const K: usize>(
         return Friction::default();
     }
     let (v, omega) = ([v[0] / scale, v[1] / scale], omega / scale);
-    let nodes = match K {
-        3 => &p.nodes[3],
-        4 => &p.nodes[0],
-        6 => &p.nodes[2],
-        _ => &p.nodes[1],
-    };
+    let slot = RULES.iter().position(|&k| k == K).expect("one of RULES");
+    let nodes = &p.nodes[slot];
     #[cfg(target_arch = "x86_64")]
     let sums = if matches!(
         crate::sim::kernel::simd(),
@@ -366,7 +371,7 @@ mod tests {
     /// The quadrature point by point, summed in order (the form before the lanes): the
     /// reference the lanes' sums must match to rounding.
     fn reference<const K: usize>(p: &Polygon, v: [f64; 2], omega: f64) -> [f64; 4] {
-        let (x, w) = rule::<K>();
+        let (x, w) = rule(K);
         let n = p.vertices.len();
         let mut out = [0.0; 4];
         for k in 0..n {
@@ -425,8 +430,8 @@ mod tests {
                 if is_x86_feature_detected!("avx2") {
                     let scale = v[0].abs() + v[1].abs() + omega.abs() * p.radius;
                     let (vs, ws) = ([v[0] / scale, v[1] / scale], omega / scale);
-                    let fast = unsafe { sums_avx2::<true>(&p.nodes[1], vs, ws, p.load) };
-                    assert_eq!(fast, sums::<true>(&p.nodes[1], vs, ws, p.load));
+                    let fast = unsafe { sums_avx2::<true>(&p.nodes[3], vs, ws, p.load) };
+                    assert_eq!(fast, sums::<true>(&p.nodes[3], vs, ws, p.load));
                 }
             }
         }
@@ -495,7 +500,7 @@ mod tests {
     fn the_second_moments_are_the_quadrature_s() {
         let p = part();
         let mut want = [0.0; 3];
-        let (x, w) = rule::<8>();
+        let (x, w) = rule(8);
         let n = p.vertices.len();
         for k in 0..n {
             let (a, b) = (p.vertices[k], p.vertices[(k + 1) % n]);

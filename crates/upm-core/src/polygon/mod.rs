@@ -68,8 +68,8 @@ pub struct Polygon {
     load: [f64; 2],
     /// Three feet the part rests on instead of its footprint ([`tripod`]), if it does.
     tripod: Option<Box<Tripod>>,
-    /// The far field's quadrature points, 4 x 4, 8 x 8, 6 x 6 and 3 x 3 a triangle ([`far`]), shared
-    /// by the clones.
+    /// The far field's quadrature points, 3 x 3, 4 x 4, 6 x 6 and 8 x 8 a triangle
+    /// ([`far::rules`]), shared by the clones.
     nodes: std::sync::Arc<[far::Nodes; 4]>,
 }
 
@@ -191,12 +191,7 @@ impl Polygon {
             .map(|v| v[0].hypot(v[1]))
             .fold(0.0, f64::max);
         let lanes = lanes::edges(&vertices);
-        let nodes = std::sync::Arc::new([
-            far::nodes::<4>(&vertices),
-            far::nodes::<8>(&vertices),
-            far::nodes::<6>(&vertices),
-            far::nodes::<3>(&vertices),
-        ]);
+        let nodes = std::sync::Arc::new(far::rules(&vertices));
         let mut second = [0.0; 3];
         for k in 0..n {
             let (a, b) = (vertices[k], vertices[(k + 1) % n]);

@@ -153,8 +153,9 @@ impl Stepper {
                 iterations: 0,
             });
         }
-        let moment = (k * k * free[2]).abs() / (c * self.mean_distance);
-        if force + moment * self.mean_distance / self.pure_moment <= 1.0 {
+        // the moment that keeps it, per mu N [m], over the largest pure moment
+        let moment = (k * k * free[2]).abs() / c;
+        if force + moment / self.pure_moment <= 1.0 {
             return Ok(stuck); // inside the double cone, inside the limit set
         }
         // outside the cylinder that holds the limit set a part sliding on needs no direction to

@@ -90,18 +90,16 @@ pub(super) fn shared_phases(
 /// 24 KiB, within the L1 cache.
 const PIECE: usize = 128;
 
-/// The plate velocity of each of `worlds` (into the same place of `tables`, emptied first) at
-/// each step of `steps`, sampled a hair before each step's end (see `velocities_into`). Worlds
-/// of one timing are neighbours (sorted so by [`by_timing`]) and share the work of turning the
-/// phasors: the samples in `shared` where the timing spans groups, else their own.
-fn tabulate(
+/// The runs of one timing among `worlds` (neighbours, sorted so by [`by_timing`]), each with the
+/// samples of the block `steps`: the batch's in `shared` where the timing spans groups (`None`
+/// here), else the run's own, taken now.
+fn runs(
     worlds: &[World],
     shared: &[Option<Phases>],
-    tables: &mut [Vec<[f64; 3]>],
     steps: Range<usize>,
     dt: f64,
-) {
-    tables.iter_mut().for_each(Vec::clear);
+) -> Vec<(Range<usize>, Option<Phases>)> {
+    let mut out = Vec::new();
     let mut from = 0;
     while from < worlds.len() {
         let timing = worlds[from].timing;
@@ -110,15 +108,33 @@ fn tabulate(
                 .iter()
                 .take_while(|w| w.timing == timing)
                 .count();
-        if let Some(phases) = &shared[timing] {
-            for (w, table) in worlds[from..to].iter().zip(&mut tables[from..to]) {
-                phases.extend_steps(w.motion, steps.clone(), table);
-            }
-        } else {
-            let motions: Vec<&PlateMotion> = worlds[from..to].iter().map(|w| w.motion).collect();
-            PlateMotion::velocities_of_all(&motions, steps.clone(), dt, &mut tables[from..to]);
-        }
+        let own = shared[timing]
+            .is_none()
+            .then(|| Phases::of(worlds[from].motion, steps.clone(), dt));
+        out.push((from..to, own));
         from = to;
+    }
+    out
+}
+
+/// The plate velocity of each of `worlds` (into the same place of `tables`, emptied first) at
+/// each step of `steps` (within the block), from the samples of its timing ([`runs`]).
+fn tabulate(
+    worlds: &[World],
+    shared: &[Option<Phases>],
+    runs: &[(Range<usize>, Option<Phases>)],
+    tables: &mut [Vec<[f64; 3]>],
+    steps: Range<usize>,
+) {
+    tables.iter_mut().for_each(Vec::clear);
+    for (run, own) in runs {
+        let phases = own
+            .as_ref()
+            .or(shared[worlds[run.start].timing].as_ref())
+            .expect("a timing's samples, shared or its own");
+        for (w, table) in worlds[run.clone()].iter().zip(&mut tables[run.clone()]) {
+            phases.extend_steps(w.motion, steps.clone(), table);
+        }
     }
 }
 
@@ -187,6 +203,7 @@ impl Group {
     ) {
         let first = steps.start;
         let mut tables = Group::tables(worlds.len());
+        let runs = runs(worlds, shared, steps.clone(), cfg.dt);
         let m = worlds[0].points.len();
         let stride = stride(m);
         let lanes = stride * worlds.len();
@@ -214,7 +231,7 @@ impl Group {
         // while the kernel reads them.
         for piece in (first..steps.end).step_by(PIECE) {
             let piece = piece..(piece + PIECE).min(steps.end);
-            tabulate(worlds, shared, &mut tables, piece.clone(), cfg.dt);
+            tabulate(worlds, shared, &runs, &mut tables, piece.clone());
             let mut done = piece.start;
             while done < piece.end {
                 let end = rec.next_after(done).min(piece.end);
