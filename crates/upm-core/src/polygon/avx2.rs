@@ -4,10 +4,13 @@
 //! so the same bits.
 
 use std::arch::x86_64::*;
+use std::mem::MaybeUninit;
 
+use super::four::{Asked, Quad, FOUR, SIXTH};
 use super::lanes::{from_sums, Edges, LG, LN2_HI, LN2_LO, THIRD};
 use super::load::Linear;
-use super::{Fan, Polygon};
+use super::newton::Evals;
+use super::{Fan, Friction, Polygon};
 
 /// [`super::lanes::fan_loaded`] on AVX2.
 ///
@@ -165,6 +168,279 @@ unsafe fn half<const CURVATURE: bool, const LOADED: bool>(
             acc[11] = a(acc[11], _mm256_and_pd(area, lyy));
         }
     }
+}
+
+/// [`super::four::friction_four`] on AVX2.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn friction_four(q: &Quad, twists: [[f64; 3]; FOUR]) -> [Friction; FOUR] {
+    let f = friction_lanes(q, twists);
+    let mut out = [[0.0; FOUR]; 10];
+    for (o, v) in out.iter_mut().zip(f) {
+        _mm256_storeu_pd(o.as_mut_ptr(), v);
+    }
+    std::array::from_fn(|l| {
+        let o = |i: usize| out[i][l];
+        Friction {
+            wrench: [o(0), o(1), o(2)],
+            work: o(9),
+            hessian: [[o(3), o(4), o(5)], [o(4), o(6), o(7)], [o(5), o(7), o(8)]],
+        }
+    })
+}
+
+/// [`super::Quad::evaluate`] on AVX2: [`super::newton::Eval::of`] in lanes, operation for
+/// operation.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn evals_four(q: &Quad, asks: &[Asked; FOUR], out: &mut Evals) {
+    let (m, a, sub) = (_mm256_mul_pd, _mm256_add_pd, _mm256_sub_pd);
+    let set = _mm256_set1_pd;
+    let lanes = |f: &dyn Fn(&Asked) -> f64| {
+        _mm256_setr_pd(f(&asks[0]), f(&asks[1]), f(&asks[2]), f(&asks[3]))
+    };
+    let f = friction_lanes(q, std::array::from_fn(|l| asks[l].twist));
+    let y = [0, 1, 2].map(|i| lanes(&|r| r.y[i]));
+    let target = [0, 1, 2].map(|i| lanes(&|r| r.target[i]));
+    let (c, kinv) = (lanes(&|r| r.c), lanes(&|r| r.kinv));
+    let one = set(1.0);
+    let zero = _mm256_setzero_pd();
+    let scale = [one, one, kinv];
+    let r = [0, 1, 2].map(|i| sub(y[i], target[i]));
+    let grad = [0, 1, 2].map(|i| sub(r[i], m(m(c, f[i]), scale[i])));
+    // the Hessian's upper triangle, xx xy x3 yy y3 33 (f[3..9])
+    let at = |i: usize, j: usize| m(m(m(c, f[3 + i]), scale[j / 3]), scale[j % 3]);
+    let h00 = a(one, at(0, 0));
+    // (the off-diagonal terms plus zero, as Eval::of adds its identity's)
+    let h01 = a(zero, at(1, 1));
+    let h02 = a(zero, at(2, 2));
+    let h11 = a(one, at(3, 4));
+    let h12 = a(zero, at(4, 5));
+    let h22 = a(one, at(5, 8));
+    let dot = |p: [__m256d; 3], q: [__m256d; 3]| a(a(m(p[0], q[0]), m(p[1], q[1])), m(p[2], q[2]));
+    let value = a(m(set(0.5), dot(r, r)), m(c, f[9]));
+    // solve3: the adjugate, one division, the descent direction checked
+    let c00 = sub(m(h11, h22), m(h12, h12));
+    let c01 = sub(m(h02, h12), m(h01, h22));
+    let c02 = sub(m(h01, h12), m(h02, h11));
+    let c11 = sub(m(h00, h22), m(h02, h02));
+    let c12 = sub(m(h01, h02), m(h00, h12));
+    let c22 = sub(m(h00, h11), m(h01, h01));
+    let d = a(a(m(h00, c00), m(h01, c01)), m(h02, c02));
+    let inv = _mm256_div_pd(one, d);
+    let b = grad.map(|g| _mm256_xor_pd(g, set(-0.0)));
+    let x = [
+        m(a(a(m(c00, b[0]), m(c01, b[1])), m(c02, b[2])), inv),
+        m(a(a(m(c01, b[0]), m(c11, b[1])), m(c12, b[2])), inv),
+        m(a(a(m(c02, b[0]), m(c12, b[1])), m(c22, b[2])), inv),
+    ];
+    let finite = |v: __m256d| {
+        _mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_andnot_pd(set(-0.0), v), set(f64::INFINITY))
+    };
+    let good = _mm256_and_pd(
+        _mm256_and_pd(
+            finite(d),
+            _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_andnot_pd(set(-0.0), d), zero),
+        ),
+        _mm256_and_pd(_mm256_and_pd(finite(x[0]), finite(x[1])), finite(x[2])),
+    );
+    let good = _mm256_and_pd(good, _mm256_cmp_pd::<_CMP_LT_OQ>(dot(x, grad), zero));
+    let step = [0, 1, 2].map(|i| _mm256_blendv_pd(b[i], x[i], good));
+    let lanes = [
+        value,
+        _mm256_sqrt_pd(dot(grad, grad)),
+        step[0],
+        step[1],
+        step[2],
+        _mm256_sqrt_pd(dot(step, step)),
+        dot(step, grad),
+        _mm256_sqrt_pd(dot(y, y)),
+    ];
+    for (o, v) in out.0.iter_mut().zip(lanes) {
+        _mm256_storeu_pd(o.as_mut_ptr(), v);
+    }
+}
+
+/// The friction of [`friction_four`] in registers: the wrench (3), the Hessian's upper
+/// triangle (xx xy x3 yy y3 33) and the rate of work.
+///
+/// [`super::four::friction_four`] on AVX2: a twist in each lane, the edges one after another, in
+/// blocks of [`BLOCK`] taken in passes (the vertices' square roots and reciprocals, the edges'
+/// divisions, their logarithms, then the sums), so that many edges' chains of square roots,
+/// divisions and logarithms are in flight at once.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[inline(always)]
+// (one index runs through the ends, the edges' geometry and their logarithms together)
+#[allow(clippy::needless_range_loop)]
+unsafe fn friction_lanes(q: &Quad, twists: [[f64; 3]; FOUR]) -> [__m256d; 10] {
+    let (m, a) = (_mm256_mul_pd, _mm256_add_pd);
+    let (neg, abs) = (
+        |x| _mm256_xor_pd(x, _mm256_set1_pd(-0.0)),
+        |x| _mm256_andnot_pd(_mm256_set1_pd(-0.0), x),
+    );
+    let zero = _mm256_setzero_pd();
+    let lanes = |i: usize| _mm256_setr_pd(twists[0][i], twists[1][i], twists[2][i], twists[3][i]);
+    let (vx, vy, omega) = (lanes(0), lanes(1), lanes(2));
+    // the centres of rotation
+    let inv = _mm256_div_pd(_mm256_set1_pd(1.0), omega);
+    let (x0, y0) = (m(neg(vy), inv), m(vx, inv));
+    let n = q.edges();
+    let first = about(q, 0, x0, y0);
+    let mut acc = [zero; 6];
+    // (left uninitialised: each is written before it is read, and zeroing them cost more than
+    // a hexagon's edges)
+    let mut ends = [const { MaybeUninit::<[__m256d; 4]>::uninit() }; BLOCK + 1];
+    let mut geo = [const { MaybeUninit::<[__m256d; 6]>::uninit() }; BLOCK];
+    let mut logs = [const { MaybeUninit::<__m256d>::uninit() }; BLOCK];
+    ends[0].write(first);
+    let mut k0 = 0;
+    while k0 < n {
+        let count = BLOCK.min(n - k0);
+        for j in 1..=count {
+            ends[j].write(about(q, k0 + j, x0, y0));
+        }
+        // SAFETY (the reads below): ends[0..=count] and geo and logs [0..count] were written
+        // just before they are read.
+        for j in 0..count {
+            let (at, next) = (ends[j].assume_init(), ends[j + 1].assume_init());
+            geo[j].write(geometry(q, k0 + j, at, next));
+        }
+        for j in 0..count {
+            logs[j].write(ln_1p(geo[j].assume_init()[5]));
+        }
+        for j in 0..count {
+            let (at, next) = (ends[j].assume_init(), ends[j + 1].assume_init());
+            let (g, d) = (geo[j].assume_init(), logs[j].assume_init());
+            let terms = sums(q, k0 + j, at, next, g, d);
+            // (a lane of no area keeps its sums as they are, to the bit)
+            for (acc, t) in acc.iter_mut().zip(terms) {
+                *acc = _mm256_blendv_pd(*acc, _mm256_add_pd(*acc, t), g[3]);
+            }
+        }
+        ends[0] = ends[count];
+        k0 += count;
+    }
+    // the friction from the fan (`Polygon::friction_about`, with the reciprocals of omega and of
+    // the area)
+    let [dist, ux, uy, gxx, gxy, gyy] = acc;
+    let area = _mm256_loadu_pd(q.inv_area.as_ptr());
+    let s = _mm256_or_pd(_mm256_and_pd(omega, _mm256_set1_pd(-0.0)), area);
+    let w = [
+        m(s, uy),
+        neg(m(s, ux)),
+        neg(m(s, a(a(dist, m(x0, ux)), m(y0, uy)))),
+    ];
+    let scale = m(abs(inv), area);
+    let (px, py) = (neg(y0), x0);
+    let (g3x, g3y) = (a(m(px, gxx), m(py, gxy)), a(m(px, gxy), m(py, gyy)));
+    let h = [gxx, gxy, g3x, gyy, g3y, a(m(px, g3x), m(py, g3y))].map(|g| m(scale, g));
+    let work = m(m(abs(omega), dist), area);
+    [w[0], w[1], w[2], h[0], h[1], h[2], h[3], h[4], h[5], work]
+}
+
+/// Edges per block of [`friction_four`].
+const BLOCK: usize = 16;
+
+/// Vertex `k` about the centres `(x0, y0)`: `(dx, dy, r, 1 / r)`.
+#[inline(always)]
+unsafe fn about(q: &Quad, k: usize, x0: __m256d, y0: __m256d) -> [__m256d; 4] {
+    let (m, a, sub) = (_mm256_mul_pd, _mm256_add_pd, _mm256_sub_pd);
+    let (vx, vy) = (
+        _mm256_loadu_pd(q.x[k].as_ptr()),
+        _mm256_loadu_pd(q.y[k].as_ptr()),
+    );
+    let (dx, dy) = (sub(vx, x0), sub(vy, y0));
+    let r = _mm256_sqrt_pd(a(m(dx, dx), m(dy, dy)));
+    [dx, dy, r, _mm256_div_pd(_mm256_set1_pd(1.0), r)]
+}
+
+/// Edge `k` from its ends `at` and `next` ([`about`]): `h` (zero where it spans no area), `ta`,
+/// `drho`, the mask of the lanes that span area (edges of their polygons, `h != 0`), and the
+/// logarithm's argument.
+#[inline(always)]
+unsafe fn geometry(q: &Quad, k: usize, at: [__m256d; 4], next: [__m256d; 4]) -> [__m256d; 6] {
+    let (m, a, sub, div) = (_mm256_mul_pd, _mm256_add_pd, _mm256_sub_pd, _mm256_div_pd);
+    let set = _mm256_set1_pd;
+    let zero = _mm256_setzero_pd();
+    let (ex, ey, len) = edge(q, k);
+    let [ax, ay, ra, _] = at;
+    let [_, _, rb, _] = next;
+    let h = sub(m(ax, ey), m(ay, ex));
+    // the lanes that span area: live, and h != 0 (unordered counts, as !(h == 0) does)
+    let live = _mm256_castsi256_pd(_mm256_loadu_si256(q.live[k].as_ptr().cast()));
+    let area = _mm256_and_pd(live, _mm256_cmp_pd::<_CMP_NEQ_UQ>(h, zero));
+    let ta = a(m(ax, ex), m(ay, ey));
+    let tb = a(ta, len);
+    let drho = div(m(len, a(ta, tb)), a(ra, rb));
+    let hh = _mm256_andnot_pd(set(-0.0), h);
+    let after = _mm256_cmp_pd::<_CMP_GE_OQ>(ta, zero);
+    let before = _mm256_cmp_pd::<_CMP_LE_OQ>(tb, zero);
+    let mid_num = m(tb, a(a(hh, rb), tb));
+    let mid_den = m(hh, a(hh, rb));
+    let num = _mm256_blendv_pd(
+        _mm256_blendv_pd(mid_num, sub(len, drho), before),
+        a(len, drho),
+        after,
+    );
+    let den = _mm256_blendv_pd(
+        _mm256_blendv_pd(mid_den, sub(rb, tb), before),
+        a(ta, ra),
+        after,
+    );
+    let across = _mm256_andnot_pd(after, _mm256_andnot_pd(before, area));
+    let arg1 = _mm256_and_pd(area, div(num, den));
+    let neg_ta = _mm256_xor_pd(ta, set(-0.0));
+    let arg2 = _mm256_and_pd(across, div(m(neg_ta, sub(a(hh, ra), ta)), m(hh, a(hh, ra))));
+    let h = _mm256_and_pd(area, h);
+    [h, ta, drho, area, zero, a(a(arg1, arg2), m(arg1, arg2))]
+}
+
+/// Edge `k`'s terms of the fan's six sums from its ends, [`geometry`] and the logarithm `d`.
+#[inline(always)]
+unsafe fn sums(
+    q: &Quad,
+    k: usize,
+    at: [__m256d; 4],
+    next: [__m256d; 4],
+    geo: [__m256d; 6],
+    d: __m256d,
+) -> [__m256d; 6] {
+    let (m, a, sub) = (_mm256_mul_pd, _mm256_add_pd, _mm256_sub_pd);
+    let set = _mm256_set1_pd;
+    let (ex, ey, len) = edge(q, k);
+    let [_, _, ra, ia] = at;
+    let [_, _, rb, ib] = next;
+    let [h, ta, drho, _, _, _] = geo;
+    let (nx, ny) = (ey, _mm256_xor_pd(ex, set(-0.0)));
+    let h2 = m(h, h);
+    let dist = m(m(h, set(SIXTH)), a(a(m(len, rb), m(ta, drho)), m(h2, d)));
+    let half = m(set(0.5), h);
+    let ux = m(half, a(m(m(h, nx), d), m(ex, drho)));
+    let uy = m(half, a(m(m(h, ny), d), m(ey, drho)));
+    let s = m(m(sub(m(len, ra), m(ta, drho)), ia), ib);
+    let c = sub(ia, ib);
+    let (nn, ne, ee) = (m(h, s), m(h2, c), m(h, sub(d, s)));
+    let two_ne = m(set(2.0), ne);
+    let gxx = a(a(m(m(nn, nx), nx), m(m(two_ne, nx), ex)), m(m(ee, ex), ex));
+    let gxy = a(
+        a(m(m(nn, nx), ny), m(ne, a(m(nx, ey), m(ex, ny)))),
+        m(m(ee, ex), ey),
+    );
+    let gyy = a(a(m(m(nn, ny), ny), m(m(two_ne, ny), ey)), m(m(ee, ey), ey));
+    [dist, ux, uy, gxx, gxy, gyy]
+}
+
+/// Edge `k`'s `(ex, ey, len)` in lanes.
+#[inline(always)]
+unsafe fn edge(q: &Quad, k: usize) -> (__m256d, __m256d, __m256d) {
+    let load = |a: &[f64; FOUR]| _mm256_loadu_pd(a.as_ptr());
+    (load(&q.ex[k]), load(&q.ey[k]), load(&q.len[k]))
 }
 
 /// [`ln_1p`] of four values (for the tests).

@@ -101,7 +101,7 @@ fn pick(c: bool, a: f64, b: f64) -> f64 {
 /// sum of two. Both zero where `skip` (no area).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn asinh_args(
+pub(super) fn asinh_args(
     h: f64,
     ta: f64,
     tb: f64,

@@ -25,12 +25,17 @@ use crate::error::{Error, Result};
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 mod far;
+mod four;
 mod lanes;
 mod limit;
 mod load;
+mod newton;
 mod step;
 mod tripod;
+pub use four::{Quad, FOUR};
 pub use limit::Gauge;
+pub(crate) use newton::Evals;
+pub(crate) use step::{Begun, Request, Solve};
 pub use step::{Step, Stepper};
 pub use tripod::Tripod;
 
@@ -392,25 +397,29 @@ impl Polygon {
         } else {
             self.fan_of::<HESSIAN>(r0)
         };
+        self.friction_about(fan, r0, omega)
+    }
+
+    /// The friction of a rotation at `omega` about `r0` (from the centroid, within [`FAR`]
+    /// radii) from the fan's integrals about `r0` (the curvature zero when no Hessian is asked
+    /// for: it then gives a zero Hessian).
+    fn friction_about(&self, fan: Fan, r0: [f64; 2], omega: f64) -> Friction {
         let (dist, [ux, uy]) = (fan.dist, fan.unit);
         // u/|u| = sign(omega) z x (r - r0)/|r - r0|; r x (z x d) = (r . d) z
         let s = omega.signum() / self.area;
         let wrench = [s * uy, -s * ux, -s * (dist + r0[0] * ux + r0[1] * uy)];
-        let mut hessian = [[0.0; 3]; 3];
-        if HESSIAN {
-            // the Hessian of |u| is J^T (I - û û^T) J / |u|, J = d u / d(v, omega) = [I, z x r];
-            // here I - û û^T = d d^T / rho², |u| = |omega| rho and J^T d = (d, r0 x d), so it
-            // is T G T^T / (|omega| A), G = ∫ d d^T / rho³ dA, T = [I; (-r0_y, r0_x)]
-            let [gxx, gxy, gyy] = fan.curvature;
-            let q = 1.0 / (omega.abs() * self.area);
-            let (px, py) = (-r0[1], r0[0]);
-            let (g3x, g3y) = (px * gxx + py * gxy, px * gxy + py * gyy);
-            hessian = [
-                [q * gxx, q * gxy, q * g3x],
-                [q * gxy, q * gyy, q * g3y],
-                [q * g3x, q * g3y, q * (px * g3x + py * g3y)],
-            ];
-        }
+        // the Hessian of |u| is J^T (I - û û^T) J / |u|, J = d u / d(v, omega) = [I, z x r];
+        // here I - û û^T = d d^T / rho², |u| = |omega| rho and J^T d = (d, r0 x d), so it
+        // is T G T^T / (|omega| A), G = ∫ d d^T / rho³ dA, T = [I; (-r0_y, r0_x)]
+        let [gxx, gxy, gyy] = fan.curvature;
+        let q = 1.0 / (omega.abs() * self.area);
+        let (px, py) = (-r0[1], r0[0]);
+        let (g3x, g3y) = (px * gxx + py * gxy, px * gxy + py * gyy);
+        let hessian = [
+            [q * gxx, q * gxy, q * g3x],
+            [q * gxy, q * gyy, q * g3y],
+            [q * g3x, q * g3y, q * (px * g3x + py * g3y)],
+        ];
         Friction {
             wrench,
             work: omega.abs() * dist / self.area,

@@ -25,8 +25,16 @@
 //! does (uniform pressure gives a translating part no moment about its centroid), in closed
 //! form.
 //!
+//! Newton's method is a machine that asks for `Phi` at one point at a time (`newton`): a part
+//! sliding on from its last twist takes its solve's friction in lanes ([`super::Quad`]), four
+//! parts side by side in the integrator ([`Stepper::begin`], [`Solve`]), one in a lane of its
+//! own here; the bits are the same either way.
+//!
 //! [gauge]: Polygon::gauge
 
+use super::four::Asked;
+use super::four::Quad;
+use super::newton::{dot, Ask, Eval, Evals, Newton};
 use super::Polygon;
 use crate::error::{Error, Result};
 
@@ -41,11 +49,84 @@ pub struct Step {
     pub iterations: usize,
 }
 
-/// `Phi` at a point of the sliding solve, with its gradient and Hessian.
-struct Point {
-    value: f64,
-    grad: [f64; 3],
-    hess: [[f64; 3]; 3],
+/// Where [`Stepper::step`] goes: done, or on to its sliding solve, started from the last twist
+/// (`guess`) if there is one, else toward `toward` (the way the part starts to slide, if known).
+#[derive(Debug, Clone, Copy)]
+enum Plan {
+    Done(Step),
+    Slide {
+        toward: Option<[f64; 3]>,
+        guess: Option<[f64; 3]>,
+    },
+}
+
+/// One part's arguments of [`Stepper::step`], for [`Stepper::begin`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Request {
+    /// The free relative twist, in the part's frame.
+    pub free: [f64; 3],
+    /// `mu g dt`.
+    pub slide: f64,
+    /// `mu_s g dt`.
+    pub hold: f64,
+    /// Whether the part moved with the plate after the last step.
+    pub was_stuck: bool,
+    /// A relative twist near the answer, if one is known.
+    pub guess: Option<[f64; 3]>,
+}
+
+/// How [`Stepper::begin`] goes on.
+#[derive(Debug, Clone, Copy)]
+// (the solve is most steps' answer: boxed, it would cost an allocation a step)
+#[allow(clippy::large_enum_variant)]
+pub(crate) enum Begun {
+    /// The step, taken whole.
+    Done(Step),
+    /// A sliding solve that asks about a twist ([`Solve::asked`]).
+    Solve(Solve),
+}
+
+/// A sliding solve from a guess ([`Stepper::begin`]): Newton's method in the scaled twist `y`
+/// ([`Newton`]), asking for the friction at one twist after another.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Solve {
+    newton: Newton,
+    target: [f64; 3],
+    free: [f64; 3],
+    c: f64,
+    toward: Option<[f64; 3]>,
+    /// The scaled twist it asks about.
+    at: [f64; 3],
+}
+
+impl Solve {
+    /// What it asks about, of `stepper` (the one that began it): the relative twist whose
+    /// friction it needs and what `Phi` there takes ([`Eval::of`]).
+    pub(crate) fn asked(&self, stepper: &Stepper) -> Asked {
+        let (y, k) = (self.at, stepper.gyration);
+        Asked {
+            twist: [y[0], y[1], y[2] / k],
+            y,
+            target: self.target,
+            c: self.c,
+            kinv: stepper.kinv,
+        }
+    }
+
+    /// Takes `Phi` at what it asked about ([`Solve::asked`]): the step when the solve is done,
+    /// else None and it asks about another twist. A solve that ends off the minimiser goes on
+    /// as [`Stepper::step`] would, whole.
+    #[inline(always)]
+    pub(crate) fn feed(&mut self, stepper: &Stepper, at: &Eval) -> Result<Option<Step>> {
+        match self.newton.feed(at)? {
+            Ask::Eval(y) => {
+                self.at = y;
+                Ok(None)
+            }
+            Ask::Done(Some(step)) => Ok(Some(step)),
+            Ask::Done(None) => stepper.slide_from(self.free, self.c, self.toward).map(Some),
+        }
+    }
 }
 
 /// A polygon's constants for stepping it: the shape and its gyration and mean distance.
@@ -67,21 +148,15 @@ pub struct Stepper {
     /// bound of a wrench's gauge and a start for the exact one (`samples[j][i]`: component `j`
     /// of direction `i`).
     samples: Box<[[f64; SAMPLES]; 3]>,
+    /// The shape's outline in the first lane of four, for its sliding solves from a guess
+    /// ([`Quad::evaluate`]).
+    quad: Quad,
+    /// `1 / gyration`.
+    kinv: f64,
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// Relative size of a Newton step under which the solve has converged.
-const TOLERANCE: f64 = 1e-14;
 /// Sampled twist directions of [`Stepper`].
 const SAMPLES: usize = 48;
-/// Whole Newton steps taken once `Phi` no longer resolves its fall, at most (the gradient then
-/// sits at its rounding floor).
-const FINE_STEPS: usize = 4;
-/// Newton iterations allowed before the solve reports that it did not converge.
-const MAX_ITERATIONS: usize = 100;
 
 impl Stepper {
     /// The constants of `shape`.
@@ -107,6 +182,8 @@ impl Stepper {
             }
         }
         Stepper {
+            quad: Quad::of([Some(&shape), None, None, None]),
+            kinv: 1.0 / gyration,
             shape,
             gyration,
             mean_distance,
@@ -126,6 +203,89 @@ impl Stepper {
         was_stuck: bool,
         guess: Option<[f64; 3]>,
     ) -> Result<Step> {
+        match self.plan(free, slide, hold, was_stuck, guess)? {
+            Plan::Done(st) => Ok(st),
+            Plan::Slide { toward, guess } => self.slide(free, slide, toward, guess),
+        }
+    }
+
+    /// [`Stepper::step`] with `r`'s arguments, up to a sliding solve that goes on from a guess:
+    /// then that solve, which asks for the friction at one twist after another
+    /// ([`Solve::feed`]), so that many parts' solves can take their friction together (in
+    /// lanes, [`super::Quad::friction_hessian`]). Every other step is taken whole.
+    #[inline(always)]
+    pub(crate) fn begin(&self, r: &Request) -> Result<Begun> {
+        match self.sliding_on(r) {
+            Some(solve) => Ok(Begun::Solve(solve)),
+            None => self.begin_planned(r),
+        }
+    }
+
+    /// The most common step, decided as [`Stepper::plan`] decides it, inline: a part that slid
+    /// on (its twist a guess) under uniform pressure on its footprint, with a free spin and a
+    /// wrench outside the cylinder that holds the limit set, slides on from its guess.
+    #[inline(always)]
+    fn sliding_on(&self, r: &Request) -> Option<Solve> {
+        let g = r.guess.filter(|g| g.iter().any(|&x| x != 0.0))?;
+        let free = r.free;
+        if r.was_stuck
+            || free[2] == 0.0
+            || self.shape.load() != [0.0; 2]
+            || self.shape.tripod().is_some()
+        {
+            return None;
+        }
+        let (k, c) = (self.gyration, r.slide);
+        let force = (free[0] * free[0] + free[1] * free[1]).sqrt() / c;
+        let moment = (k * k * free[2]).abs() / c;
+        if force + moment / self.pure_moment <= 1.0 || !(force > 1.0 || moment > 1.0) {
+            return None;
+        }
+        Some(self.solve_from(r, g, None))
+    }
+
+    /// The sliding solve of `r` from the guess `g` (nonzero).
+    #[inline(always)]
+    fn solve_from(&self, r: &Request, g: [f64; 3], toward: Option<[f64; 3]>) -> Solve {
+        let k = self.gyration;
+        let target = [r.free[0], r.free[1], k * r.free[2]];
+        let y = [g[0], g[1], k * g[2]];
+        let scale = dot(target, target).sqrt() + r.slide;
+        let (newton, _) = Newton::new(y, scale, k);
+        Solve {
+            newton,
+            target,
+            free: r.free,
+            c: r.slide,
+            toward,
+            at: y,
+        }
+    }
+
+    /// [`Stepper::begin`] through [`Stepper::plan`].
+    #[inline(never)]
+    fn begin_planned(&self, r: &Request) -> Result<Begun> {
+        match self.plan(r.free, r.slide, r.hold, r.was_stuck, r.guess)? {
+            Plan::Done(step) => Ok(Begun::Done(step)),
+            Plan::Slide { toward, guess } => match guess.filter(|g| g.iter().any(|&x| x != 0.0)) {
+                Some(g) if self.shape.tripod().is_none() => {
+                    Ok(Begun::Solve(self.solve_from(r, g, toward)))
+                }
+                _ => self.slide(r.free, r.slide, toward, guess).map(Begun::Done),
+            },
+        }
+    }
+
+    /// [`Stepper::step`] up to its sliding solve: the step if it takes none, else where the
+    /// solve starts.
+    fn plan(
+        &self,
+        free: [f64; 3],
+        slide: f64,
+        hold: f64,
+        was_stuck: bool,
+        guess: Option<[f64; 3]>,
+    ) -> Result<Plan> {
         let k = self.gyration;
         let c = if was_stuck { hold } else { slide };
         // the wrench per mu N that keeps the part with the plate, force and moment / mean distance
@@ -138,31 +298,36 @@ impl Stepper {
         };
         let load = self.shape.load();
         if load != [0.0; 2] {
-            return self.step_loaded(free, [slide, c, force], guess, load);
+            return self
+                .step_loaded(free, [slide, c, force], guess, load)
+                .map(Plan::Done);
         }
         if free[2] == 0.0 {
             // no spin: a point's stick or slide (a translating part feels no moment)
             if force <= 1.0 {
-                return Ok(stuck);
+                return Ok(Plan::Done(stuck));
             }
             // |free| > hold >= slide: it slides on
             let f = 1.0 - slide / speed;
-            return Ok(Step {
+            return Ok(Plan::Done(Step {
                 w: [free[0] * f, free[1] * f, 0.0],
                 stuck: false,
                 iterations: 0,
-            });
+            }));
         }
         // the moment that keeps it, per mu N [m], over the largest pure moment
         let moment = (k * k * free[2]).abs() / c;
         if force + moment / self.pure_moment <= 1.0 {
-            return Ok(stuck); // inside the double cone, inside the limit set
+            return Ok(Plan::Done(stuck)); // inside the double cone, inside the limit set
         }
         // outside the cylinder that holds the limit set a part sliding on needs no direction to
         // start from: it slides, from its last twist
         let guess = guess.filter(|g| g.iter().any(|&x| x != 0.0));
         if (force > 1.0 || moment > 1.0) && guess.is_some() {
-            return self.slide(free, slide, None, guess);
+            return Ok(Plan::Slide {
+                toward: None,
+                guess,
+            });
         }
         // The gauge's lower bound over the sampled directions (exact supporting planes of the
         // limit set): over 1, the part slides; else the exact gauge, started at the best one.
@@ -178,14 +343,17 @@ impl Stepper {
         if lower <= 1.0 {
             let g = self.shape.gauge_from(z[0], z[1], z[2], Some(best))?;
             if g.value <= 1.0 && force <= 1.0 && moment <= 1.0 {
-                return Ok(stuck);
+                return Ok(Plan::Done(stuck));
             }
             toward = [g.twist[0], g.twist[1], k * g.twist[2]];
         }
         // Static friction let go (or the part was sliding): it slides under sliding friction. A
         // wrench outside the static limit set (scaled by mu / mu_s <= 1) lies outside the sliding
         // one too, which contains 0 and is convex, so the minimiser is not 0.
-        self.slide(free, slide, Some(toward), guess)
+        Ok(Plan::Slide {
+            toward: Some(toward),
+            guess,
+        })
     }
 
     /// [`Stepper::step`] under a pressure that varies across the footprint (`load`, `k` of
@@ -275,30 +443,19 @@ impl Stepper {
         let k = self.gyration;
         // scaled coordinates y = (vx, vy, k omega): Phi = |y - y*|²/2 + c D
         let target = [free[0], free[1], k * free[2]];
-        let scale = [1.0, 1.0, 1.0 / k];
-        // Phi, its gradient and its Hessian I + c S H S (H the Hessian of D, S = diag(1, 1, 1/k))
-        let phi = |y: [f64; 3]| -> Point {
-            let f = self.shape.friction_hessian([y[0], y[1]], y[2] / k);
-            let r = [y[0] - target[0], y[1] - target[1], y[2] - target[2]];
-            let grad = std::array::from_fn(|i| r[i] - c * f.wrench[i] * scale[i]);
-            let hess = std::array::from_fn(|i| {
-                std::array::from_fn(|j| {
-                    let eye = if i == j { 1.0 } else { 0.0 };
-                    eye + c * f.hessian[i][j] * scale[i] * scale[j]
-                })
-            });
-            Point {
-                value: 0.5 * dot(r, r) + c * f.work,
-                grad,
-                hess,
-            }
-        };
+        let phi = self.phi(target, c);
         let size = dot(target, target).sqrt();
         if let Some(t) = self.shape.tripod() {
             // on three feet it may turn about one of them: a kink of Phi, in closed form; if
             // it nearly does, Newton starts beside that pivot, off its kink
             match t.pivot(target, c, k) {
-                Ok(y) => return Ok(self.done(y, 0)),
+                Ok(y) => {
+                    return Ok(Step {
+                        w: [y[0], y[1], y[2] / k],
+                        stuck: false,
+                        iterations: 0,
+                    })
+                }
                 Err(Some(y)) => {
                     if let Some(st) = self.newton(y, phi(y), size + c, &phi)? {
                         return Ok(st);
@@ -308,11 +465,53 @@ impl Stepper {
             }
         }
         if let Some(g) = guess.filter(|g| g.iter().any(|&x| x != 0.0)) {
+            if self.shape.tripod().is_none() {
+                // the solve parts in lanes take (Stepper::begin), in a lane of its own: the same
+                // bits whichever way the part is stepped
+                let r = Request {
+                    free,
+                    slide: c,
+                    hold: c,
+                    was_stuck: false,
+                    guess: Some(g),
+                };
+                let mut solve = self.solve_from(&r, g, toward);
+                let mut evals = Evals::default();
+                let shapes = [Some(&self.shape), None, None, None];
+                loop {
+                    let asks = [Some(solve.asked(self)), None, None, None];
+                    self.quad.evaluate(shapes, &asks, &mut evals);
+                    if let Some(st) = solve.feed(self, &evals.get(0))? {
+                        return Ok(st);
+                    }
+                }
+            }
             let y = [g[0], g[1], k * g[2]];
             if let Some(st) = self.newton(y, phi(y), size + c, &phi)? {
                 return Ok(st);
             }
         }
+        self.slide_from(free, c, toward)
+    }
+
+    /// `Phi` of the sliding solve toward the free twist `target` (scaled, module docs) with
+    /// `c = mu g dt` ([`Eval::of`]).
+    fn phi(&self, target: [f64; 3], c: f64) -> impl Fn([f64; 3]) -> Eval + '_ {
+        let k = self.gyration;
+        move |y: [f64; 3]| {
+            let f = self.shape.friction_hessian([y[0], y[1]], y[2] / k);
+            Eval::of(&f, y, target, c, self.kinv)
+        }
+    }
+
+    /// The sliding solve with no twist to go on (or the one gone on from ended off the
+    /// minimiser): from the best start on the rays ([`Stepper::start`]), and at last from the
+    /// exact gauge's direction.
+    fn slide_from(&self, free: [f64; 3], c: f64, toward: Option<[f64; 3]>) -> Result<Step> {
+        let k = self.gyration;
+        let target = [free[0], free[1], k * free[2]];
+        let phi = self.phi(target, c);
+        let size = dot(target, target).sqrt();
         let toward = match toward {
             Some(t) => t,
             None => {
@@ -345,75 +544,24 @@ impl Stepper {
         }
     }
 
-    /// Newton's method from `y` (where `Phi` is `at`): the step, or None when it ends where the
-    /// gradient is not zero to `1e-9` of `scale` (`|y*| + c`, the gradient's terms).
+    /// Newton's method ([`Newton`]) from `y` (where `Phi` is `at`): the step, or None when it
+    /// ends where the gradient is not zero to `1e-9` of `scale` (`|y*| + c`, the gradient's
+    /// terms).
     fn newton(
         &self,
-        mut y: [f64; 3],
-        mut at: Point,
+        y: [f64; 3],
+        at: Eval,
         scale: f64,
-        phi: &impl Fn([f64; 3]) -> Point,
+        phi: &impl Fn([f64; 3]) -> Eval,
     ) -> Result<Option<Step>> {
-        let settled = |y: [f64; 3], at: &Point, it: usize| {
-            (dot(at.grad, at.grad).sqrt() <= 1e-9 * scale).then(|| self.done(y, it))
-        };
-        let mut fine = 0;
-        let mut last = f64::INFINITY;
-        // the last whole Newton step's length (infinite when none)
-        let mut previous = f64::INFINITY;
-        for it in 0..MAX_ITERATIONS {
-            let norm = dot(y, y).sqrt();
-            let grad = at.grad;
-            let mut step = solve3(at.hess, [-grad[0], -grad[1], -grad[2]])
-                .filter(|s| dot(*s, grad) < 0.0)
-                .unwrap_or([-grad[0], -grad[1], -grad[2]]);
-            let length = dot(step, step).sqrt();
-            if length <= TOLERANCE * norm + 1e-15 * scale {
-                return Ok(settled(y, &at, it));
+        let (mut solve, _) = Newton::new(y, scale, self.gyration);
+        let mut ask = solve.feed(&at)?;
+        loop {
+            match ask {
+                Ask::Eval(y) => ask = solve.feed(&phi(y))?,
+                Ask::Done(step) => return Ok(step),
             }
-            // converging quadratically, |next| ~ |step|² |step| / |previous|²: when that is
-            // below the tolerance this step is the last, taken without evaluating Phi after it
-            if previous.is_finite()
-                && length <= 1e-7 * norm
-                && length * length * length <= TOLERANCE * norm * previous * previous
-            {
-                let y = [y[0] + step[0], y[1] + step[1], y[2] + step[2]];
-                return Ok(Some(self.done(y, it + 1)));
-            }
-            if -dot(step, grad) <= 1e-14 * at.value {
-                // Phi's fall is below its rounding: Newton's region, where its steps are taken
-                // whole while they shrink, the gradient (exact to rounding) falling to its floor
-                fine += 1;
-                if fine > FINE_STEPS || length >= 0.5 * last {
-                    return Ok(settled(y, &at, it));
-                }
-                last = length;
-                y = [y[0] + step[0], y[1] + step[1], y[2] + step[2]];
-                at = phi(y);
-                continue;
-            }
-            // halve the step until Phi falls (Armijo); a convex Phi always falls for a small one
-            let (mut moved, mut full) = (false, true);
-            for _ in 0..60 {
-                let cand = [y[0] + step[0], y[1] + step[1], y[2] + step[2]];
-                let next = phi(cand);
-                if next.value < at.value && next.value <= at.value + 1e-4 * dot(step, grad) {
-                    (y, at, moved) = (cand, next, true);
-                    break;
-                }
-                full = false;
-                step = [0.5 * step[0], 0.5 * step[1], 0.5 * step[2]];
-            }
-            if !moved {
-                // no step within rounding lowers Phi: the minimum to rounding
-                return Ok(settled(y, &at, it + 1));
-            }
-            previous = if full { length } else { f64::INFINITY };
         }
-        Err(Error::Convergence(format!(
-            "the sliding step of a polygon part did not converge in {MAX_ITERATIONS} Newton \
-             iterations (last iterate {y:?})"
-        )))
     }
 
     /// A start for the sliding solve of a part with no twist to go on: the lowest of the free
@@ -423,8 +571,8 @@ impl Stepper {
         target: [f64; 3],
         toward: [f64; 3],
         c: f64,
-        phi: &impl Fn([f64; 3]) -> Point,
-    ) -> ([f64; 3], Point) {
+        phi: &impl Fn([f64; 3]) -> Eval,
+    ) -> ([f64; 3], Eval) {
         let k = self.gyration;
         let mut best = (target, phi(target));
         let rays = [target, toward, [-toward[0], -toward[1], -toward[2]]];
@@ -441,35 +589,4 @@ impl Stepper {
         }
         best
     }
-
-    fn done(&self, y: [f64; 3], iterations: usize) -> Step {
-        Step {
-            w: [y[0], y[1], y[2] / self.gyration],
-            stuck: false,
-            iterations,
-        }
-    }
-}
-
-/// `a x = b` for a symmetric 3x3 `a` by its adjugate (six cofactors, one division), None when
-/// `a` is singular.
-fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
-    let [[a00, a01, a02], [_, a11, a12], [_, _, a22]] = a;
-    let c00 = a11 * a22 - a12 * a12;
-    let c01 = a02 * a12 - a01 * a22;
-    let c02 = a01 * a12 - a02 * a11;
-    let c11 = a00 * a22 - a02 * a02;
-    let c12 = a01 * a02 - a00 * a12;
-    let c22 = a00 * a11 - a01 * a01;
-    let d = a00 * c00 + a01 * c01 + a02 * c02;
-    if !(d.is_finite() && d.abs() > 0.0) {
-        return None;
-    }
-    let inv = 1.0 / d;
-    let x = [
-        (c00 * b[0] + c01 * b[1] + c02 * b[2]) * inv,
-        (c01 * b[0] + c11 * b[1] + c12 * b[2]) * inv,
-        (c02 * b[0] + c12 * b[1] + c22 * b[2]) * inv,
-    ];
-    x.iter().all(|v| v.is_finite()).then_some(x)
 }

@@ -62,7 +62,7 @@ const BLOCK_POINT_STEPS: usize = 160_000_000;
 const BLOCK_DISK_STEPS: usize = 200_000;
 
 /// A polygon's step costs about this many disks' (its sliding solve is a Newton iteration).
-const POLYGON_DISKS: usize = 40;
+const POLYGON_DISKS: usize = 10;
 
 /// Steps per block for `worlds` worlds of `points` points and `disks` disks (1..=BLOCK_STEPS).
 /// The block length changes only when the caller checks for signals, never the results.

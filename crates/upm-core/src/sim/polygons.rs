@@ -13,7 +13,7 @@
 use rayon::prelude::*;
 
 use crate::error::Result;
-use crate::polygon::{Polygon, Stepper};
+use crate::polygon::{Begun, Evals, Polygon, Quad, Request, Solve, Step, Stepper, FOUR};
 
 use super::lift::fly;
 use super::record::Rec;
@@ -207,22 +207,38 @@ impl PolygonState {
     /// The centroid's velocity, the spin, the stuck flag and the relative twist in the part's
     /// frame after the friction step under the plate velocity `u`, the friction limits scaled by
     /// `load` (the normal force over `m g`); the state is not changed.
-    pub(super) fn friction(&self, [u1, u2, u3]: [f64; 3], load: f64) -> Result<Next> {
+    pub(super) fn friction(&self, u: [f64; 3], load: f64) -> Result<Next> {
+        let (r, turned) = self.request(u, load);
+        let st = self
+            .stepper
+            .step(r.free, r.slide, r.hold, r.was_stuck, r.guess);
+        self.finish(u, turned, st)
+    }
+
+    /// The arguments of [`PolygonState::friction`]'s step ([`Stepper::step`]), and the cosine
+    /// and sine of the part's angle.
+    fn request(&self, [u1, u2, u3]: [f64; 3], load: f64) -> (Request, [f64; 2]) {
         let [x, y] = self.c;
         let surface = [u1 - u3 * y, u2 + u3 * x];
         let free = [self.v[0] - surface[0], self.v[1] - surface[1]];
         let cs = self.turned();
         let local = turn([cs[0], -cs[1]], free);
-        let st = self
-            .stepper
-            .step(
-                [local[0], local[1], self.spin - u3],
-                self.slide * load,
-                self.hold * load,
-                self.stuck,
-                (!self.stuck).then(|| self.guess()),
-            )
-            .map_err(|e| e.with_context(&format!("part {}", self.index)))?;
+        let r = Request {
+            free: [local[0], local[1], self.spin - u3],
+            slide: self.slide * load,
+            hold: self.hold * load,
+            was_stuck: self.stuck,
+            guess: (!self.stuck).then(|| self.guess()),
+        };
+        (r, cs)
+    }
+
+    /// The state after the step `st` taken for [`PolygonState::request`] under the plate
+    /// velocity `u` (`cs` the angle's cosine and sine).
+    fn finish(&self, [u1, u2, u3]: [f64; 3], cs: [f64; 2], st: Result<Step>) -> Result<Next> {
+        let st = st.map_err(|e| e.with_context(&format!("part {}", self.index)))?;
+        let [x, y] = self.c;
+        let surface = [u1 - u3 * y, u2 + u3 * x];
         let w = turn(cs, [st.w[0], st.w[1]]);
         Ok(Next {
             v: [surface[0] + w[0], surface[1] + w[1]],
@@ -230,6 +246,22 @@ impl PolygonState {
             stuck: st.stuck,
             relative: st.w,
         })
+    }
+
+    /// Moves on by the step `st` taken for [`PolygonState::request`] under the plate velocity
+    /// `u` in step `s` (0-based; `cs` the angle's cosine and sine).
+    fn take(
+        &mut self,
+        u: [f64; 3],
+        cs: [f64; 2],
+        st: Result<Step>,
+        s: usize,
+        cfg: &Config,
+    ) -> Result<()> {
+        let next = self.finish(u, cs, st)?;
+        self.advance(next, cfg.dt);
+        self.leaves(s, cfg);
+        Ok(())
     }
 
     /// The next sliding solve's start: the last step's relative twist, moved on by its change
@@ -281,9 +313,11 @@ impl PolygonState {
 }
 
 /// Advances `polygons` through one block (`table[k]`: the plate velocity at the end of step
-/// `first + k`; `normals[k]` its out-of-plane accelerations, empty for a planar plate), one
-/// part per rayon task, recording as it goes; the first error (a sliding solve that did not
-/// converge) stops the run.
+/// `first + k`; `normals[k]` its out-of-plane accelerations, empty for a planar plate),
+/// recording as it goes; the first error (a sliding solve that did not converge) stops the run.
+/// On a planar plate slices of parts run four at a time in lanes ([`run_lanes`]), a rayon task
+/// each; on a plate that moves out of its plane (each part's pressure its own), one part per
+/// task.
 pub(super) fn run(
     polygons: &mut [PolygonState],
     table: &[[f64; 3]],
@@ -292,14 +326,104 @@ pub(super) fn run(
     cfg: &Config,
     rec: &Rec,
 ) -> Result<()> {
+    if normals.is_empty() {
+        // a slice of parts a task, a few for each thread (the results do not depend on it)
+        let slice = polygons
+            .len()
+            .div_ceil(4 * rayon::current_num_threads())
+            .max(FOUR);
+        return polygons
+            .par_chunks_mut(slice)
+            .try_for_each(|parts| run_lanes(parts, table, first, cfg, rec));
+    }
     polygons.par_iter_mut().try_for_each(|p| {
-        for (k, &u) in table.iter().enumerate() {
-            match normals.get(k) {
-                Some(nz) => p.step_spatial(u, nz, first + k, cfg)?,
-                None => p.step(u, first + k, cfg)?,
-            }
+        for (k, (&u, nz)) in table.iter().zip(normals).enumerate() {
+            p.step_spatial(u, nz, first + k, cfg)?;
             p.record(first + k + 1, rec);
         }
         Ok(())
     })
+}
+
+/// [`run`] for `parts` on a planar plate, four at a time in lanes: each lane takes a part
+/// through the block's steps on its own until the part's sliding solve asks for the friction
+/// at a twist ([`Stepper::begin`]); then the four lanes' friction is taken together
+/// ([`Quad::evaluate`]), and each goes on. A lane whose part is done with the block takes the
+/// next part, so that lanes wait for each other only at the end of the slice.
+fn run_lanes(
+    parts: &mut [PolygonState],
+    table: &[[f64; 3]],
+    first: usize,
+    cfg: &Config,
+    rec: &Rec,
+) -> Result<()> {
+    let edges = parts.iter().map(|p| p.stepper.shape.vertices.len());
+    let mut quad = Quad::new(edges.max().unwrap_or(0));
+    // each lane's part, that part's next step in the block, and its solve (with its angle's
+    // cosine and sine) while it waits for friction
+    let mut part: [Option<usize>; FOUR] = [None; FOUR];
+    let mut next = [0; FOUR];
+    let mut solving: [Option<(Solve, [f64; 2])>; FOUR] = [None; FOUR];
+    let mut evals = Evals::default();
+    let mut waiting = 0;
+    loop {
+        for l in 0..FOUR {
+            while solving[l].is_none() {
+                let i = match part[l] {
+                    Some(i) if next[l] < table.len() => i,
+                    _ if waiting < parts.len() => {
+                        // done with its part (or none yet): the next one
+                        (part[l], next[l]) = (Some(waiting), 0);
+                        quad.set(l, Some(&parts[waiting].stepper.shape));
+                        waiting += 1;
+                        continue;
+                    }
+                    _ => {
+                        part[l] = None;
+                        break;
+                    }
+                };
+                let p = &mut parts[i];
+                let (k, u) = (next[l], table[next[l]]);
+                if p.active {
+                    let (r, cs) = p.request(u, 1.0);
+                    match p.stepper.begin(&r) {
+                        Ok(Begun::Solve(solve)) => {
+                            solving[l] = Some((solve, cs));
+                            break;
+                        }
+                        Ok(Begun::Done(st)) => p.take(u, cs, Ok(st), first + k, cfg)?,
+                        Err(e) => p.take(u, cs, Err(e), first + k, cfg)?,
+                    }
+                }
+                p.record(first + k + 1, rec);
+                next[l] += 1;
+            }
+        }
+        if solving.iter().all(Option::is_none) {
+            return Ok(());
+        }
+        let asks = std::array::from_fn(|l| match (&solving[l], part[l]) {
+            (Some((solve, _)), Some(i)) => Some(solve.asked(&parts[i].stepper)),
+            _ => None,
+        });
+        let shapes = part.map(|i| i.map(|i| &parts[i].stepper.shape));
+        quad.evaluate(shapes, &asks, &mut evals);
+        for l in 0..FOUR {
+            let (Some((solve, cs)), Some(i)) = (solving[l].as_mut(), part[l]) else {
+                continue;
+            };
+            let p = &mut parts[i];
+            let st = match solve.feed(&p.stepper, &evals.get(l)) {
+                Ok(None) => continue,
+                Ok(Some(st)) => Ok(st),
+                Err(e) => Err(e),
+            };
+            let (k, cs) = (next[l], *cs);
+            solving[l] = None;
+            p.take(table[k], cs, st, first + k, cfg)?;
+            p.record(first + k + 1, rec);
+            next[l] += 1;
+        }
+    }
 }

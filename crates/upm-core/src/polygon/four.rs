@@ -1,0 +1,489 @@
+//! The friction of four polygon parts at once, one in each lane ([`Quad`]): the fan integrals
+//! ([`super::Polygon::fan`]) about each lane's centre of rotation, the edges taken one after
+//! another, each vertex's distance and its reciprocal computed once for the two edges that meet
+//! there; then the wrench and Hessian, and for a sliding solve `Phi` and its Newton step
+//! ([`Quad::evaluate`], [`super::newton::Eval`]). The integrator steps four parts of a planar
+//! plate this way (their sliding solves side by side, `sim::polygons`), and
+//! [`super::Stepper::step`] takes its solve from a guess in a lane of its own.
+//!
+//! A lane's arithmetic does not depend on the other lanes (a lane with fewer edges adds nothing
+//! for the others': its sums are left as they are), and the AVX2 build
+//! ([`super::avx2::evals_four`]) and the portable one ([`fan_lane`], [`friction_lane`],
+//! [`Eval::of`]) compute the same bits (no fused multiply–adds, the edges summed in order): a
+//! part's step is the same whatever parts share its lanes, and whichever build takes it. The
+//! fan's terms are [`super::lanes`]'s, summed in another order: they agree with
+//! [`super::Polygon::friction_hessian`] to rounding, not to the bit.
+
+use super::lanes::{asinh_args, ln_1p};
+use super::newton::{Eval, Evals};
+use super::{Fan, Friction, Polygon, FAR};
+#[cfg(target_arch = "x86_64")]
+use crate::sim::kernel::{simd, Simd};
+
+/// Parts in lanes.
+pub const FOUR: usize = 4;
+
+/// What a sliding solve asks about ([`super::Solve::asked`]): the friction at `twist`, and
+/// `Phi` at the scaled twist `y` toward `target` with `c` and `1 / k` ([`Eval::of`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Asked {
+    pub(crate) twist: [f64; 3],
+    pub(crate) y: [f64; 3],
+    pub(crate) target: [f64; 3],
+    pub(crate) c: f64,
+    pub(crate) kinv: f64,
+}
+
+/// One sixth (a product with it costs less than a division by 6).
+pub(super) const SIXTH: f64 = 1.0 / 6.0;
+
+/// Up to four polygons' outlines in lanes: vertex `j` of lane `l` at `(x[j][l], y[j][l])` about
+/// its centroid, edge `k` from vertex `k` to vertex `k + 1` along `(ex, ey)[k][l]` for
+/// `len[k][l]`. A lane with fewer edges than the most (or no polygon) repeats its vertex 0 past
+/// its own and its edges there are not `live`.
+#[derive(Debug, Clone, Default)]
+pub struct Quad {
+    pub(super) x: Vec<[f64; FOUR]>,
+    pub(super) y: Vec<[f64; FOUR]>,
+    pub(super) ex: Vec<[f64; FOUR]>,
+    pub(super) ey: Vec<[f64; FOUR]>,
+    pub(super) len: Vec<[f64; FOUR]>,
+    /// Lane masks (all ones where edge `k` of lane `l` is one of its polygon's).
+    pub(super) live: Vec<[u64; FOUR]>,
+    /// The reciprocal of each lane's area (1 in a lane with no polygon).
+    pub(super) inv_area: [f64; FOUR],
+}
+
+impl Quad {
+    /// Room for polygons of up to `edges` edges, no lane holding one.
+    pub fn new(edges: usize) -> Self {
+        Quad {
+            x: vec![[1.0; FOUR]; edges + 1],
+            y: vec![[0.0; FOUR]; edges + 1],
+            ex: vec![[1.0; FOUR]; edges],
+            ey: vec![[0.0; FOUR]; edges],
+            len: vec![[0.0; FOUR]; edges],
+            live: vec![[0; FOUR]; edges],
+            inv_area: [1.0; FOUR],
+        }
+    }
+
+    /// The outlines of `shapes` (lane `l` holds `shapes[l]`, if any).
+    pub fn of(shapes: [Option<&Polygon>; FOUR]) -> Self {
+        let edges = shapes.iter().map(|s| s.map_or(0, |p| p.vertices.len()));
+        let mut q = Quad::new(edges.max().unwrap_or(0));
+        for (l, p) in shapes.into_iter().enumerate() {
+            q.set(l, p);
+        }
+        q
+    }
+
+    /// Puts `shape` (if any; of at most [`Quad::edges`] edges) in lane `l`.
+    pub fn set(&mut self, l: usize, shape: Option<&Polygon>) {
+        let edges = self.edges();
+        let Some(p) = shape else {
+            for j in 0..=edges {
+                (self.x[j][l], self.y[j][l]) = (1.0, 0.0);
+            }
+            for k in 0..edges {
+                (self.ex[k][l], self.ey[k][l], self.len[k][l]) = (1.0, 0.0, 0.0);
+                self.live[k][l] = 0;
+            }
+            self.inv_area[l] = 1.0;
+            return;
+        };
+        let v = &p.vertices;
+        let n = v.len();
+        assert!(n <= edges, "a quad of {edges} edges given a polygon of {n}");
+        self.inv_area[l] = 1.0 / p.area;
+        for j in 0..=edges {
+            let at = if j < n { v[j] } else { v[0] };
+            (self.x[j][l], self.y[j][l]) = (at[0], at[1]);
+        }
+        for k in 0..edges {
+            if k < n {
+                let (a, b) = (v[k], v[(k + 1) % n]);
+                let d = [b[0] - a[0], b[1] - a[1]];
+                let len = (d[0] * d[0] + d[1] * d[1]).sqrt();
+                (self.ex[k][l], self.ey[k][l], self.len[k][l]) = (d[0] / len, d[1] / len, len);
+                self.live[k][l] = u64::MAX;
+            } else {
+                (self.ex[k][l], self.ey[k][l], self.len[k][l]) = (1.0, 0.0, 0.0);
+                self.live[k][l] = 0;
+            }
+        }
+    }
+
+    /// Edges of the lane with the most.
+    pub(super) fn edges(&self) -> usize {
+        self.len.len()
+    }
+
+    /// [`Polygon::friction_hessian`] of `shapes[l]` (the polygons the quad holds, in their
+    /// lanes) at the relative twists `(v, omega)` of `twists[l]`, in the lanes that are `live`
+    /// (the others give the default): each lane's bits are those it would have with any other
+    /// lanes. The fan's regime (a rotation about a centre within [`FAR`] radii, uniform
+    /// pressure on the whole footprint) is taken in lanes, any other one by
+    /// [`Polygon::friction_hessian`].
+    pub fn friction_hessian(
+        &self,
+        shapes: [Option<&Polygon>; FOUR],
+        twists: [[f64; 3]; FOUR],
+        live: [bool; FOUR],
+    ) -> [Friction; FOUR] {
+        let fanned: [bool; FOUR] = std::array::from_fn(|l| match shapes[l] {
+            Some(p) if live[l] => fans(p, twists[l]),
+            _ => false,
+        });
+        // (a lane out of the fan's regime turns about its centroid, inside the part: finite)
+        let turning = std::array::from_fn(|l| {
+            if fanned[l] {
+                twists[l]
+            } else {
+                [0.0, 0.0, 1.0]
+            }
+        });
+        let mut out = friction_four(self, turning, fanned);
+        for l in 0..FOUR {
+            out[l] = match shapes[l] {
+                Some(p) if live[l] && !fanned[l] => {
+                    let [vx, vy, omega] = twists[l];
+                    p.friction_hessian([vx, vy], omega)
+                }
+                _ if fanned[l] => out[l],
+                _ => Friction::default(),
+            };
+        }
+        out
+    }
+}
+
+impl Quad {
+    /// `Phi` ([`Eval::of`]) at what the sliding solves of `shapes[l]` (the polygons the quad
+    /// holds, in their lanes) ask about, into `out` in the lanes that ask (the others are left
+    /// as they are): the friction and `Phi` in lanes
+    /// where the fan's regime allows ([`Quad::friction_hessian`]), each lane's bits those it
+    /// would have with any other lanes.
+    pub(crate) fn evaluate(
+        &self,
+        shapes: [Option<&Polygon>; FOUR],
+        asks: &[Option<Asked>; FOUR],
+        out: &mut Evals,
+    ) {
+        let fanned: [bool; FOUR] = std::array::from_fn(|l| match (shapes[l], asks[l]) {
+            (Some(p), Some(a)) => fans(p, a.twist),
+            _ => false,
+        });
+        #[cfg(target_arch = "x86_64")]
+        let lanes = fanned.iter().filter(|&&f| f).count() > 0
+            && matches!(simd(), Simd::Avx2 | Simd::Avx512);
+        #[cfg(not(target_arch = "x86_64"))]
+        let lanes = false;
+        #[cfg(target_arch = "x86_64")]
+        if lanes {
+            // (a lane out of the fan's regime turns about its centroid, inside the part)
+            let asked = std::array::from_fn(|l| match asks[l] {
+                Some(a) if fanned[l] => a,
+                _ => Asked {
+                    twist: [0.0, 0.0, 1.0],
+                    kinv: 1.0,
+                    ..Asked::default()
+                },
+            });
+            // SAFETY: simd() chooses these builds only on a CPU that has AVX2.
+            unsafe { super::avx2::evals_four(self, &asked, out) };
+        }
+        for l in 0..FOUR {
+            let (Some(p), Some(a)) = (shapes[l], asks[l]) else {
+                continue;
+            };
+            if fanned[l] && lanes {
+                continue;
+            }
+            let f = if fanned[l] {
+                friction_lane(self, l, a.twist)
+            } else {
+                p.friction_hessian([a.twist[0], a.twist[1]], a.twist[2])
+            };
+            out.set(l, &Eval::of(&f, a.y, a.target, a.c, a.kinv));
+        }
+    }
+}
+
+/// Whether the friction of `p` at `[vx, vy, omega]` is the fan's ([`Polygon::friction_hessian`]):
+/// a rotation about a centre within [`FAR`] radii, under uniform pressure on the whole
+/// footprint.
+fn fans(p: &Polygon, [vx, vy, omega]: [f64; 3]) -> bool {
+    let near = FAR * p.radius * omega;
+    p.tripod.is_none() && p.load == [0.0; 2] && omega != 0.0 && vx * vx + vy * vy <= near * near
+}
+
+/// The friction ([`Polygon::friction_hessian`], the fan's regime) of the polygons in the lanes
+/// that are `live` (the others: any) at the relative twists `(v, omega)` of `twists` (omega
+/// not zero), on the build the simulations take (`sim::simd`) when more than one lane is live,
+/// else lane by lane.
+pub(super) fn friction_four(
+    q: &Quad,
+    twists: [[f64; 3]; FOUR],
+    live: [bool; FOUR],
+) -> [Friction; FOUR] {
+    #[cfg(target_arch = "x86_64")]
+    if live.iter().filter(|&&l| l).count() > 1 && matches!(simd(), Simd::Avx2 | Simd::Avx512) {
+        // SAFETY: simd() chooses these builds only on a CPU that has AVX2 (AVX-512 has it).
+        return unsafe { super::avx2::friction_four(q, twists) };
+    }
+    std::array::from_fn(|l| {
+        if live[l] {
+            friction_lane(q, l, twists[l])
+        } else {
+            Friction::default()
+        }
+    })
+}
+
+/// Lane `l` of [`friction_four`], portable: [`Polygon::friction_about`] with the reciprocals
+/// of omega and of the area.
+pub(super) fn friction_lane(q: &Quad, l: usize, [vx, vy, omega]: [f64; 3]) -> Friction {
+    let inv = 1.0 / omega;
+    let r0 = [-vy * inv, vx * inv];
+    let fan = fan_lane(q, l, r0);
+    let (dist, [ux, uy], [gxx, gxy, gyy]) = (fan.dist, fan.unit, fan.curvature);
+    let area = q.inv_area[l];
+    let s = area.copysign(omega);
+    let wrench = [s * uy, -(s * ux), -(s * ((dist + r0[0] * ux) + r0[1] * uy))];
+    let scale = inv.abs() * area;
+    let (px, py) = (-r0[1], r0[0]);
+    let (g3x, g3y) = (px * gxx + py * gxy, px * gxy + py * gyy);
+    let [hxx, hxy, hx3, hyy, hy3, h33] =
+        [gxx, gxy, g3x, gyy, g3y, px * g3x + py * g3y].map(|g| scale * g);
+    Friction {
+        wrench,
+        work: omega.abs() * dist * area,
+        hessian: [[hxx, hxy, hx3], [hxy, hyy, hy3], [hx3, hy3, h33]],
+    }
+}
+
+/// The fan integrals (curvature included) of lane `l` about `r0`, portable.
+pub(super) fn fan_lane(q: &Quad, l: usize, r0: [f64; 2]) -> Fan {
+    // a vertex about r0, its distance and the distance's reciprocal
+    let about = |j: usize| {
+        let d = [q.x[j][l] - r0[0], q.y[j][l] - r0[1]];
+        let r = (d[0] * d[0] + d[1] * d[1]).sqrt();
+        (d, r, 1.0 / r)
+    };
+    let mut at = about(0);
+    let mut acc = [0.0; 6];
+    for k in 0..q.edges() {
+        let next = about(k + 1);
+        let (ex, ey, len) = (q.ex[k][l], q.ey[k][l], q.len[k][l]);
+        let ([ax, ay], ra, ia) = at;
+        let (_, rb, ib) = next;
+        let h = ax * ey - ay * ex;
+        let skip = q.live[k][l] == 0 || h == 0.0;
+        let ta = ax * ex + ay * ey;
+        let tb = ta + len;
+        let drho = len * (ta + tb) / (ra + rb);
+        let (arg1, arg2) = asinh_args(h, ta, tb, ra, rb, len, drho, skip);
+        let h = if skip { 0.0 } else { h };
+        let d = ln_1p((arg1 + arg2) + arg1 * arg2);
+        let (nx, ny) = (ey, -ex);
+        let h2 = h * h;
+        let dist = h * SIXTH * ((len * rb + ta * drho) + h2 * d);
+        let half = 0.5 * h;
+        let ux = half * (h * nx * d + ex * drho);
+        let uy = half * (h * ny * d + ey * drho);
+        let s = (len * ra - ta * drho) * ia * ib;
+        let c = ia - ib;
+        let (nn, ne, ee) = (h * s, h2 * c, h * (d - s));
+        let two_ne = 2.0 * ne;
+        let gxx = (nn * nx * nx + two_ne * nx * ex) + ee * ex * ex;
+        let gxy = (nn * nx * ny + ne * (nx * ey + ex * ny)) + ee * ex * ey;
+        let gyy = (nn * ny * ny + two_ne * ny * ey) + ee * ey * ey;
+        // a lane of no area (not the polygon's, or r0 on the edge's line) adds nothing: it may
+        // hold infinities (r0 at a vertex)
+        if !skip {
+            for (acc, t) in acc.iter_mut().zip([dist, ux, uy, gxx, gxy, gyy]) {
+                *acc += t;
+            }
+        }
+        at = next;
+    }
+    Fan {
+        dist: acc[0],
+        unit: [acc[1], acc[2]],
+        curvature: [acc[3], acc[4], acc[5]],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn relative(a: f64, b: f64, scale: f64) -> f64 {
+        (a - b).abs() / scale
+    }
+
+    fn shapes() -> Vec<Polygon> {
+        let nine = [
+            [0.0, 0.0],
+            [0.03, -0.004],
+            [0.041, 0.016],
+            [0.035, 0.027],
+            [0.022, 0.031],
+            [0.008, 0.029],
+            [-0.003, 0.022],
+            [-0.006, 0.019],
+            [-0.005, 0.008],
+        ];
+        let triangle = [[0.0, 0.0], [0.02, 0.0], [0.005, 0.01]];
+        let hexagon: Vec<[f64; 2]> = (0..6)
+            .map(|k| {
+                let a = std::f64::consts::PI * k as f64 / 3.0;
+                [0.008 * a.cos(), 0.008 * a.sin()]
+            })
+            .collect();
+        // 20 edges: more than a block of the AVX2 build
+        let many: Vec<[f64; 2]> = (0..20)
+            .map(|k| {
+                let a = std::f64::consts::PI * k as f64 / 10.0;
+                [0.01 * a.cos() + 0.002, 0.006 * a.sin()]
+            })
+            .collect();
+        [&nine[..], &triangle[..], &hexagon[..], &many[..]]
+            .iter()
+            .map(|o| Polygon::new("p", o).unwrap())
+            .collect()
+    }
+
+    /// Inside, outside, far, on a vertex, on an edge's line, before and across its foot.
+    fn centres(p: &Polygon) -> Vec<[f64; 2]> {
+        let v = &p.vertices;
+        vec![
+            [0.0, 0.0],
+            [0.013, -0.004],
+            [0.4, 0.1],
+            [-0.01, 0.05],
+            v[1],
+            [2.0 * v[1][0] - v[2][0], 2.0 * v[1][1] - v[2][1]],
+            [0.5 * (v[0][0] + v[1][0]), 0.5 * (v[0][1] + v[1][1]) - 1e-3],
+            [1e-9, -2e-9],
+        ]
+    }
+
+    #[test]
+    fn lanes_agree_with_the_fan_and_give_a_lane_s_bits_beside_any_others() {
+        let all = shapes();
+        for (s, p) in all.iter().enumerate() {
+            let alone = Quad::of([None, Some(p), None, None]);
+            for (i, r0) in centres(p).into_iter().enumerate() {
+                let want = p.fan(r0);
+                let one = fan_lane(&alone, 1, r0);
+                // (the terms' size: the area times the distances)
+                let far = p.radius + r0[0].hypot(r0[1]);
+                assert!(
+                    relative(one.dist, want.dist, p.area * far) < 1e-14,
+                    "shape {s}, centre {i}: {one:?} against {want:?}"
+                );
+                for j in 0..2 {
+                    assert!(relative(one.unit[j], want.unit[j], p.area) < 1e-14);
+                }
+                let g = want.curvature.iter().fold(0.0, |m: f64, x| m.max(x.abs()));
+                // (on a vertex an edge's line through it may miss it by a rounding, and its
+                // curvature is then not a number: the same in both)
+                for j in (0..3).filter(|_| !want.curvature.iter().any(|x| x.is_nan())) {
+                    assert!(
+                        relative(one.curvature[j], want.curvature[j], g) < 1e-13,
+                        "shape {s}, centre {i}: {:?} against {:?}",
+                        one.curvature,
+                        want.curvature
+                    );
+                }
+                // the friction of the rotation about r0: in every lane, beside other shapes
+                // at other centres (or none), either build, the same bits
+                let spin = |r: [f64; 2], omega: f64| [r[1] * omega, -r[0] * omega, omega];
+                let twist = spin(r0, -1.7);
+                let alone = friction_lane(&alone, 1, twist);
+                for lane in 0..FOUR {
+                    let mut lanes: [Option<&Polygon>; FOUR] =
+                        std::array::from_fn(|l| all.get((s + l + 1) % (all.len() + 1)));
+                    lanes[lane] = Some(p);
+                    let q = Quad::of(lanes);
+                    let mut t: [[f64; 3]; FOUR] = std::array::from_fn(|l| {
+                        lanes[l].map_or([0.0, 0.0, 1.0], |o| spin(centres(o)[(i + l) % 8], 0.3))
+                    });
+                    t[lane] = twist;
+                    let live = lanes.map(|o| o.is_some());
+                    let same = |f: Friction| {
+                        let bits = |f: Friction| {
+                            f.wrench
+                                .into_iter()
+                                .chain([f.work])
+                                .chain(f.hessian.into_iter().flatten())
+                                .map(|x| if x.is_nan() { u64::MAX } else { x.to_bits() })
+                                .collect::<Vec<_>>()
+                        };
+                        bits(f) == bits(alone)
+                    };
+                    assert!(
+                        same(friction_lane(&q, lane, twist)),
+                        "shape {s}, centre {i}"
+                    );
+                    assert!(
+                        same(friction_four(&q, t, live)[lane]),
+                        "shape {s}, centre {i}"
+                    );
+                    #[cfg(target_arch = "x86_64")]
+                    if is_x86_feature_detected!("avx2") {
+                        // SAFETY: the CPU has AVX2.
+                        let got = unsafe { super::super::avx2::friction_four(&q, t) };
+                        assert!(same(got[lane]), "avx2, shape {s}, centre {i}, lane {lane}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn friction_in_lanes_meets_the_one_at_a_time() {
+        let all = shapes();
+        let mut loaded = all[0].clone();
+        loaded.set_load([5.0, -3.0]).unwrap();
+        let lanes = [Some(&all[3]), Some(&loaded), Some(&all[1]), Some(&all[2])];
+        let q = Quad::of(lanes);
+        // near, near (loaded: one at a time), pure translation, pure spin; then far and still
+        let sets = [
+            [
+                [0.01, -0.02, 3.0],
+                [0.005, 0.002, 1.0],
+                [0.3, -0.1, 0.0],
+                [0.0, 0.0, -2.0],
+            ],
+            [[0.5, 0.2, 1e-3], [-0.004, 0.002, 0.7], [0.0; 3], [0.0; 3]],
+        ];
+        for (t, live) in sets.iter().zip([[true; 4], [true, true, true, false]]) {
+            let got = q.friction_hessian(lanes, *t, live);
+            for l in 0..FOUR {
+                let p = lanes[l].unwrap();
+                let [vx, vy, omega] = t[l];
+                let want = if live[l] {
+                    p.friction_hessian([vx, vy], omega)
+                } else {
+                    Friction::default()
+                };
+                let close = |a: f64, b: f64, scale: f64| (a - b).abs() <= 1e-13 * scale;
+                let h = want
+                    .hessian
+                    .iter()
+                    .flatten()
+                    .fold(0.0, |m: f64, x| m.max(x.abs()));
+                for j in 0..3 {
+                    assert!(close(got[l].wrench[j], want.wrench[j], p.radius), "{l} {j}");
+                    for k in 0..3 {
+                        assert!(close(got[l].hessian[j][k], want.hessian[j][k], h), "{l}");
+                    }
+                }
+                assert!(close(got[l].work, want.work, want.work), "{l}");
+            }
+        }
+    }
+}
