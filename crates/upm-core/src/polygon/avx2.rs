@@ -417,22 +417,18 @@ unsafe fn sums(
     let [_, _, ra, ia] = at;
     let [_, _, rb, ib] = next;
     let [h, ta, drho, _, _, _] = geo;
-    let (nx, ny) = (ey, _mm256_xor_pd(ex, set(-0.0)));
     let h2 = m(h, h);
     let dist = m(m(h, set(SIXTH)), a(a(m(len, rb), m(ta, drho)), m(h2, d)));
-    let half = m(set(0.5), h);
-    let ux = m(half, a(m(m(h, nx), d), m(ex, drho)));
-    let uy = m(half, a(m(m(h, ny), d), m(ey, drho)));
+    let (half, hd) = (m(set(0.5), h), m(h, d));
+    let ux = m(half, a(m(hd, ey), m(ex, drho)));
+    let uy = m(half, sub(m(ey, drho), m(hd, ex)));
     let s = m(m(sub(m(len, ra), m(ta, drho)), ia), ib);
     let c = sub(ia, ib);
     let (nn, ne, ee) = (m(h, s), m(h2, c), m(h, sub(d, s)));
-    let two_ne = m(set(2.0), ne);
-    let gxx = a(a(m(m(nn, nx), nx), m(m(two_ne, nx), ex)), m(m(ee, ex), ex));
-    let gxy = a(
-        a(m(m(nn, nx), ny), m(ne, a(m(nx, ey), m(ex, ny)))),
-        m(m(ee, ex), ey),
-    );
-    let gyy = a(a(m(m(nn, ny), ny), m(m(two_ne, ny), ey)), m(m(ee, ey), ey));
+    let [xx, yy, xy, twice, diff] = q.squares[k].map(|v| _mm256_loadu_pd(v.as_ptr()));
+    let gxx = a(a(m(nn, yy), m(ne, twice)), m(ee, xx));
+    let gxy = a(m(sub(ee, nn), xy), m(ne, diff));
+    let gyy = a(sub(m(nn, xx), m(ne, twice)), m(ee, yy));
     [dist, ux, uy, gxx, gxy, gyy]
 }
 

@@ -52,6 +52,9 @@ pub struct Quad {
     pub(super) live: Vec<[u64; FOUR]>,
     /// The reciprocal of each lane's area (1 in a lane with no polygon).
     pub(super) inv_area: [f64; FOUR],
+    /// Each edge's `ex², ey², ex ey, 2 ex ey, ey² - ex²` in lanes: the products of its direction
+    /// and its normal `(ey, -ex)` that the curvature takes.
+    pub(super) squares: Vec<[[f64; FOUR]; 5]>,
 }
 
 impl Quad {
@@ -65,6 +68,16 @@ impl Quad {
             len: vec![[0.0; FOUR]; edges],
             live: vec![[0; FOUR]; edges],
             inv_area: [1.0; FOUR],
+            squares: vec![
+                [
+                    [1.0; FOUR],
+                    [0.0; FOUR],
+                    [0.0; FOUR],
+                    [0.0; FOUR],
+                    [-1.0; FOUR]
+                ];
+                edges
+            ],
         }
     }
 
@@ -86,8 +99,7 @@ impl Quad {
                 (self.x[j][l], self.y[j][l]) = (1.0, 0.0);
             }
             for k in 0..edges {
-                (self.ex[k][l], self.ey[k][l], self.len[k][l]) = (1.0, 0.0, 0.0);
-                self.live[k][l] = 0;
+                self.edge(k, l, [1.0, 0.0, 0.0], false);
             }
             self.inv_area[l] = 1.0;
             return;
@@ -105,12 +117,21 @@ impl Quad {
                 let (a, b) = (v[k], v[(k + 1) % n]);
                 let d = [b[0] - a[0], b[1] - a[1]];
                 let len = (d[0] * d[0] + d[1] * d[1]).sqrt();
-                (self.ex[k][l], self.ey[k][l], self.len[k][l]) = (d[0] / len, d[1] / len, len);
-                self.live[k][l] = u64::MAX;
+                self.edge(k, l, [d[0] / len, d[1] / len, len], true);
             } else {
-                (self.ex[k][l], self.ey[k][l], self.len[k][l]) = (1.0, 0.0, 0.0);
-                self.live[k][l] = 0;
+                self.edge(k, l, [1.0, 0.0, 0.0], false);
             }
+        }
+    }
+
+    /// Sets edge `k` of lane `l`: its direction `(ex, ey)` and length, whether it is `live`.
+    fn edge(&mut self, k: usize, l: usize, [ex, ey, len]: [f64; 3], live: bool) {
+        (self.ex[k][l], self.ey[k][l], self.len[k][l]) = (ex, ey, len);
+        self.live[k][l] = if live { u64::MAX } else { 0 };
+        let xy = ex * ey;
+        let squares = [ex * ex, ey * ey, xy, 2.0 * xy, ey * ey - ex * ex];
+        for (s, v) in self.squares[k].iter_mut().zip(squares) {
+            s[l] = v;
         }
     }
 
@@ -286,19 +307,19 @@ pub(super) fn fan_lane(q: &Quad, l: usize, r0: [f64; 2]) -> Fan {
         let (arg1, arg2) = asinh_args(h, ta, tb, ra, rb, len, drho, skip);
         let h = if skip { 0.0 } else { h };
         let d = ln_1p((arg1 + arg2) + arg1 * arg2);
-        let (nx, ny) = (ey, -ex);
+        // (the edge's normal is n = (e_y, -e_x): its products with e are the quad's squares)
         let h2 = h * h;
         let dist = h * SIXTH * ((len * rb + ta * drho) + h2 * d);
-        let half = 0.5 * h;
-        let ux = half * (h * nx * d + ex * drho);
-        let uy = half * (h * ny * d + ey * drho);
+        let (half, hd) = (0.5 * h, h * d);
+        let ux = half * (hd * ey + ex * drho);
+        let uy = half * (ey * drho - hd * ex);
         let s = (len * ra - ta * drho) * ia * ib;
         let c = ia - ib;
         let (nn, ne, ee) = (h * s, h2 * c, h * (d - s));
-        let two_ne = 2.0 * ne;
-        let gxx = (nn * nx * nx + two_ne * nx * ex) + ee * ex * ex;
-        let gxy = (nn * nx * ny + ne * (nx * ey + ex * ny)) + ee * ex * ey;
-        let gyy = (nn * ny * ny + two_ne * ny * ey) + ee * ey * ey;
+        let [xx, yy, xy, twice, diff] = q.squares[k].map(|v| v[l]);
+        let gxx = (nn * yy + ne * twice) + ee * xx;
+        let gxy = (ee - nn) * xy + ne * diff;
+        let gyy = (nn * xx - ne * twice) + ee * yy;
         // a lane of no area (not the polygon's, or r0 on the edge's line) adds nothing: it may
         // hold infinities (r0 at a vertex)
         if !skip {

@@ -465,9 +465,10 @@ impl Stepper {
             }
         }
         if let Some(g) = guess.filter(|g| g.iter().any(|&x| x != 0.0)) {
-            if self.shape.tripod().is_none() {
-                // the solve parts in lanes take (Stepper::begin), in a lane of its own: the same
-                // bits whichever way the part is stepped
+            if self.shape.tripod().is_none() && self.shape.load() == [0.0; 2] {
+                // the solve parts in lanes take (Stepper::begin; a planar plate's, uniform
+                // pressure), in a lane of its own: the same bits whichever way the part is
+                // stepped
                 let r = Request {
                     free,
                     slide: c,
