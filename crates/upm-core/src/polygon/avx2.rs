@@ -67,34 +67,8 @@ unsafe fn half<const CURVATURE: bool, const LOADED: bool>(
     let live = _mm256_castsi256_pd(_mm256_loadu_si256(e.bits[at..].as_ptr().cast()));
     let ra = _mm256_sqrt_pd(a(m(ax, ax), m(ay, ay)));
     let rb = _mm256_sqrt_pd(a(m(bx, bx), m(by, by)));
-    let h = sub(m(ax, ey), m(ay, ex));
-    // the lanes that span area: live, and h != 0 (unordered counts, as !(h == 0) does)
-    let area = _mm256_and_pd(live, _mm256_cmp_pd::<_CMP_NEQ_UQ>(h, zero));
-    let ta = a(m(ax, ex), m(ay, ey));
-    let tb = a(ta, len);
-    let drho = div(m(len, a(ta, tb)), a(ra, rb));
-    let hh = _mm256_andnot_pd(set(-0.0), h);
-    let after = _mm256_cmp_pd::<_CMP_GE_OQ>(ta, zero);
-    let before = _mm256_cmp_pd::<_CMP_LE_OQ>(tb, zero);
-    let mid_num = m(tb, a(a(hh, rb), tb));
-    let mid_den = m(hh, a(hh, rb));
-    let num = _mm256_blendv_pd(
-        _mm256_blendv_pd(mid_num, sub(len, drho), before),
-        a(len, drho),
-        after,
-    );
-    let den = _mm256_blendv_pd(
-        _mm256_blendv_pd(mid_den, sub(rb, tb), before),
-        a(ta, ra),
-        after,
-    );
-    let across = _mm256_andnot_pd(after, _mm256_andnot_pd(before, area));
-    let arg1 = _mm256_and_pd(area, div(num, den));
-    let neg_ta = _mm256_xor_pd(ta, set(-0.0));
-    let arg2 = _mm256_and_pd(across, div(m(neg_ta, sub(a(hh, ra), ta)), m(hh, a(hh, ra))));
-    let h = _mm256_and_pd(area, h);
-    // ln(1 + arg1) + ln(1 + arg2), both arguments >= 0: one logarithm of the product
-    let d = ln_1p(a(a(arg1, arg2), m(arg1, arg2)));
+    let [h, area, ta, drho, arg] = edge_line(live, [ax, ay], [ex, ey, len], [ra, rb]);
+    let d = ln_1p(arg);
     let (nx, ny) = (ey, _mm256_xor_pd(ex, set(-0.0)));
     let h2 = m(h, h);
     // (h/6) (len rb + ta drho + h² d)
@@ -365,15 +339,31 @@ unsafe fn about(q: &Quad, k: usize, x0: __m256d, y0: __m256d) -> [__m256d; 4] {
 /// logarithm's argument.
 #[inline(always)]
 unsafe fn geometry(q: &Quad, k: usize, at: [__m256d; 4], next: [__m256d; 4]) -> [__m256d; 6] {
-    let (m, a, sub, div) = (_mm256_mul_pd, _mm256_add_pd, _mm256_sub_pd, _mm256_div_pd);
-    let set = _mm256_set1_pd;
-    let zero = _mm256_setzero_pd();
     let (ex, ey, len) = edge(q, k);
     let [ax, ay, ra, _] = at;
     let [_, _, rb, _] = next;
+    let live = _mm256_castsi256_pd(_mm256_loadu_si256(q.live[k].as_ptr().cast()));
+    let [h, area, ta, drho, arg] = edge_line(live, [ax, ay], [ex, ey, len], [ra, rb]);
+    [h, ta, drho, area, _mm256_setzero_pd(), arg]
+}
+
+/// An edge from `(ax, ay)` (about the centre, at distance `ra`; the other end at `rb`) along
+/// `(ex, ey)` for `len`, in the lanes that are `live`: its line's signed distance `h` (zero
+/// where it spans no area), the mask of the lanes that span area (live, `h != 0`), `ta`, `rb -
+/// ra` without cancellation, and the logarithm's argument of its `asinh` difference
+/// ([`super::lanes`]: `ln(1 + a1) + ln(1 + a2)`, both `>= 0`, as one logarithm of the product).
+#[inline(always)]
+unsafe fn edge_line(
+    live: __m256d,
+    [ax, ay]: [__m256d; 2],
+    [ex, ey, len]: [__m256d; 3],
+    [ra, rb]: [__m256d; 2],
+) -> [__m256d; 5] {
+    let (m, a, sub, div) = (_mm256_mul_pd, _mm256_add_pd, _mm256_sub_pd, _mm256_div_pd);
+    let set = _mm256_set1_pd;
+    let zero = _mm256_setzero_pd();
     let h = sub(m(ax, ey), m(ay, ex));
     // the lanes that span area: live, and h != 0 (unordered counts, as !(h == 0) does)
-    let live = _mm256_castsi256_pd(_mm256_loadu_si256(q.live[k].as_ptr().cast()));
     let area = _mm256_and_pd(live, _mm256_cmp_pd::<_CMP_NEQ_UQ>(h, zero));
     let ta = a(m(ax, ex), m(ay, ey));
     let tb = a(ta, len);
@@ -398,7 +388,7 @@ unsafe fn geometry(q: &Quad, k: usize, at: [__m256d; 4], next: [__m256d; 4]) -> 
     let neg_ta = _mm256_xor_pd(ta, set(-0.0));
     let arg2 = _mm256_and_pd(across, div(m(neg_ta, sub(a(hh, ra), ta)), m(hh, a(hh, ra))));
     let h = _mm256_and_pd(area, h);
-    [h, ta, drho, area, zero, a(a(arg1, arg2), m(arg1, arg2))]
+    [h, area, ta, drho, a(a(arg1, arg2), m(arg1, arg2))]
 }
 
 /// Edge `k`'s terms of the fan's six sums from its ends, [`geometry`] and the logarithm `d`.

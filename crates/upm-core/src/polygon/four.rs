@@ -338,6 +338,7 @@ pub(super) fn fan_lane(q: &Quad, l: usize, r0: [f64; 2]) -> Fan {
 
 #[cfg(test)]
 mod tests {
+    use super::super::lanes::tests::{centres, outlines};
     use super::*;
 
     fn relative(a: f64, b: f64, scale: f64) -> f64 {
@@ -345,18 +346,7 @@ mod tests {
     }
 
     fn shapes() -> Vec<Polygon> {
-        let nine = [
-            [0.0, 0.0],
-            [0.03, -0.004],
-            [0.041, 0.016],
-            [0.035, 0.027],
-            [0.022, 0.031],
-            [0.008, 0.029],
-            [-0.003, 0.022],
-            [-0.006, 0.019],
-            [-0.005, 0.008],
-        ];
-        let triangle = [[0.0, 0.0], [0.02, 0.0], [0.005, 0.01]];
+        let [nine, triangle] = outlines();
         let hexagon: Vec<[f64; 2]> = (0..6)
             .map(|k| {
                 let a = std::f64::consts::PI * k as f64 / 3.0;
@@ -374,21 +364,6 @@ mod tests {
             .iter()
             .map(|o| Polygon::new("p", o).unwrap())
             .collect()
-    }
-
-    /// Inside, outside, far, on a vertex, on an edge's line, before and across its foot.
-    fn centres(p: &Polygon) -> Vec<[f64; 2]> {
-        let v = &p.vertices;
-        vec![
-            [0.0, 0.0],
-            [0.013, -0.004],
-            [0.4, 0.1],
-            [-0.01, 0.05],
-            v[1],
-            [2.0 * v[1][0] - v[2][0], 2.0 * v[1][1] - v[2][1]],
-            [0.5 * (v[0][0] + v[1][0]), 0.5 * (v[0][1] + v[1][1]) - 1e-3],
-            [1e-9, -2e-9],
-        ]
     }
 
     #[test]

@@ -203,7 +203,14 @@ impl Stepper {
         was_stuck: bool,
         guess: Option<[f64; 3]>,
     ) -> Result<Step> {
-        match self.plan(free, slide, hold, was_stuck, guess)? {
+        let r = Request {
+            free,
+            slide,
+            hold,
+            was_stuck,
+            guess,
+        };
+        match self.plan(&r)? {
             Plan::Done(st) => Ok(st),
             Plan::Slide { toward, guess } => self.slide(free, slide, toward, guess),
         }
@@ -212,7 +219,7 @@ impl Stepper {
     /// [`Stepper::step`] with `r`'s arguments, up to a sliding solve that goes on from a guess:
     /// then that solve, which asks for the friction at one twist after another
     /// ([`Solve::feed`]), so that many parts' solves can take their friction together (in
-    /// lanes, [`super::Quad::friction_hessian`]). Every other step is taken whole.
+    /// lanes, [`super::Quad::evaluate`]). Every other step is taken whole.
     #[inline(always)]
     pub(crate) fn begin(&self, r: &Request) -> Result<Begun> {
         match self.sliding_on(r) {
@@ -265,7 +272,7 @@ impl Stepper {
     /// [`Stepper::begin`] through [`Stepper::plan`].
     #[inline(never)]
     fn begin_planned(&self, r: &Request) -> Result<Begun> {
-        match self.plan(r.free, r.slide, r.hold, r.was_stuck, r.guess)? {
+        match self.plan(r)? {
             Plan::Done(step) => Ok(Begun::Done(step)),
             Plan::Slide { toward, guess } => match guess.filter(|g| g.iter().any(|&x| x != 0.0)) {
                 Some(g) if self.shape.tripod().is_none() => {
@@ -278,16 +285,10 @@ impl Stepper {
 
     /// [`Stepper::step`] up to its sliding solve: the step if it takes none, else where the
     /// solve starts.
-    fn plan(
-        &self,
-        free: [f64; 3],
-        slide: f64,
-        hold: f64,
-        was_stuck: bool,
-        guess: Option<[f64; 3]>,
-    ) -> Result<Plan> {
+    fn plan(&self, r: &Request) -> Result<Plan> {
+        let (free, slide, hold, guess) = (r.free, r.slide, r.hold, r.guess);
         let k = self.gyration;
-        let c = if was_stuck { hold } else { slide };
+        let c = if r.was_stuck { hold } else { slide };
         // the wrench per mu N that keeps the part with the plate, force and moment / mean distance
         let speed = (free[0] * free[0] + free[1] * free[1]).sqrt();
         let force = speed / c;
