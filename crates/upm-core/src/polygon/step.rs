@@ -576,19 +576,26 @@ impl Stepper {
         phi: &impl Fn([f64; 3]) -> Eval,
     ) -> ([f64; 3], Eval) {
         let k = self.gyration;
-        let mut best = (target, phi(target));
+        // (the candidates compared by Phi alone, Eval::of's value, without the Hessian; the
+        // start taken evaluated whole)
+        let value = |y: [f64; 3]| {
+            let work = self.shape.friction([y[0], y[1]], y[2] / k).1;
+            let r = [y[0] - target[0], y[1] - target[1], y[2] - target[2]];
+            0.5 * dot(r, r) + c * work
+        };
+        let mut best = (target, value(target));
         let rays = [target, toward, [-toward[0], -toward[1], -toward[2]]];
         for d in rays.into_iter().filter(|d| dot(*d, *d) > 0.0) {
             let (_, dd) = self.shape.friction([d[0], d[1]], d[2] / k);
             let t = (dot(d, target) - c * dd) / dot(d, d);
             if t > 0.0 {
                 let cand = [t * d[0], t * d[1], t * d[2]];
-                let at = phi(cand);
-                if at.value < best.1.value {
+                let at = value(cand);
+                if at < best.1 {
                     best = (cand, at);
                 }
             }
         }
-        best
+        (best.0, phi(best.0))
     }
 }
