@@ -41,7 +41,7 @@ pub(super) const SIXTH: f64 = 1.0 / 6.0;
 /// its centroid, edge `k` from vertex `k` to vertex `k + 1` along `(ex, ey)[k][l]` for
 /// `len[k][l]`. A lane with fewer edges than the most (or no polygon) repeats its vertex 0 past
 /// its own and its edges there are not `live`.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct Quad {
     pub(super) x: Vec<[f64; FOUR]>,
     pub(super) y: Vec<[f64; FOUR]>,
@@ -91,8 +91,9 @@ impl Quad {
         q
     }
 
-    /// Puts `shape` (if any; of at most [`Quad::edges`] edges) in lane `l`.
+    /// Puts `shape` (if any) in lane `l`, making room for its edges.
     pub fn set(&mut self, l: usize, shape: Option<&Polygon>) {
+        self.grow(shape.map_or(0, |p| p.vertices.len()));
         let edges = self.edges();
         let Some(p) = shape else {
             for j in 0..=edges {
@@ -106,7 +107,6 @@ impl Quad {
         };
         let v = &p.vertices;
         let n = v.len();
-        assert!(n <= edges, "a quad of {edges} edges given a polygon of {n}");
         self.inv_area[l] = 1.0 / p.area;
         for j in 0..=edges {
             let at = if j < n { v[j] } else { v[0] };
@@ -122,6 +122,27 @@ impl Quad {
                 self.edge(k, l, [1.0, 0.0, 0.0], false);
             }
         }
+    }
+
+    /// Room for `edges` edges in every lane: the lanes' outlines go on past their own edges
+    /// with their vertex 0 and edges that are not live.
+    fn grow(&mut self, edges: usize) {
+        let had = self.edges();
+        if edges <= had {
+            return;
+        }
+        let (x0, y0) = (self.x[0], self.y[0]); // (a quad has vertex 0 in every lane)
+        self.x.resize(edges + 1, x0);
+        self.y.resize(edges + 1, y0);
+        let (ex, ey, len, live, squares) = {
+            let mut q = Quad::new(1);
+            (q.ex[0], q.ey[0], q.len[0], q.live[0], q.squares.remove(0))
+        };
+        self.ex.resize(edges, ex);
+        self.ey.resize(edges, ey);
+        self.len.resize(edges, len);
+        self.live.resize(edges, live);
+        self.squares.resize(edges, squares);
     }
 
     /// Sets edge `k` of lane `l`: its direction `(ex, ey)` and length, whether it is `live`.
@@ -435,6 +456,23 @@ mod tests {
                         assert!(same(got[lane]), "avx2, shape {s}, centre {i}, lane {lane}");
                     }
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn a_quad_makes_room_for_a_polygon_of_more_edges() {
+        let all = shapes();
+        let (triangle, many) = (&all[1], &all[3]);
+        let mut grown = Quad::of([Some(triangle), None, None, None]);
+        grown.set(2, Some(many));
+        let fresh = Quad::of([Some(triangle), None, Some(many), None]);
+        assert_eq!(grown.edges(), many.vertices.len());
+        for (l, p) in [(0, triangle), (2, many)] {
+            for r0 in centres(p) {
+                let (a, b) = (fan_lane(&grown, l, r0), fan_lane(&fresh, l, r0));
+                let bits = |f: Fan| [f.dist, f.unit[0], f.curvature[2]].map(f64::to_bits);
+                assert_eq!(bits(a), bits(b), "lane {l}");
             }
         }
     }
