@@ -24,6 +24,7 @@ use crate::error::{Error, Result};
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
+mod begin;
 mod far;
 mod four;
 mod lanes;
@@ -32,10 +33,10 @@ mod load;
 mod newton;
 mod step;
 mod tripod;
+pub(crate) use begin::{Begun, Request, Solve};
 pub use four::{Quad, FOUR};
 pub use limit::Gauge;
 pub(crate) use newton::Evals;
-pub(crate) use step::{Begun, Request, Solve};
 pub use step::{Step, Stepper};
 pub use tripod::Tripod;
 
