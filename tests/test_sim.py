@@ -424,3 +424,24 @@ def test_a_point_whose_position_is_not_finite_is_named(kind: str) -> None:
         else:
             upm.simulate_batch([motion] * 3, pos, **{**kw, "mu": np.full((3, n), 0.3)})
     assert isinstance(info.value, upm.UpmError)
+
+
+def test_leaving_recorded_alike_in_a_result_streamed_to_memory():
+    # 300 000 points: a result of more than 16 MB, written with non-temporal stores (times and
+    # flags of leaving in whole vectors), against the same parts run in small calls
+    rng = np.random.default_rng(11)
+    n = 300_001
+    pos = rng.uniform(-0.09, 0.09, (n, 2))
+    vel = rng.uniform(-12.0, 12.0, (n, 2))
+    kw = dict(duration=0.02, dt=1e-4, mu=0.3, plate_size=0.2, record_every=50)
+    motion = upm.PlateMotion.rest(1.0)
+    parts = [upm.Point(tuple(p), tuple(v)) for p, v in zip(pos.tolist(), vel.tolist())]
+    big = upm.simulate(motion, parts, **kw)
+    assert big.left_plate.dtype == np.bool_ and big.left_plate.shape == (n,)
+    assert np.array_equal(big.left_plate, ~np.isnan(big.left_time))
+    assert 0.2 * n < big.left_plate.sum() < 0.9 * n
+    for part in (slice(0, 37), slice(150_000, 150_013), slice(n - 29, n)):
+        small = upm.simulate(motion, parts[part], **kw)
+        assert np.array_equal(small.left_plate, big.left_plate[part])
+        assert np.array_equal(small.left_time, big.left_time[part], equal_nan=True)
+        assert np.array_equal(small.positions, big.positions[:, part])

@@ -480,11 +480,11 @@ def simulate(
         raise ParameterError(f"motion must be a upm.PlateMotion; got {type(motion).__name__}")
     contact = _contact(parts, plate_size, contacts, restitution, part_friction, walls, walls_move_with_plate,
                        contact_iterations)  # fmt: skip
-    t, pos, vel, stuck, angles, spins, left, flight = _run(
+    t, pos, vel, stuck, angles, spins, left, gone, flight = _run(
         [motion], parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact,
         _progress(progress),
     )  # fmt: skip
-    return SimResult(t, pos[0], vel[0], stuck[0], angles[0], spins[0], ~np.isnan(left[0]), left[0], flight[0])
+    return SimResult(t, pos[0], vel[0], stuck[0], angles[0], spins[0], gone[0], left[0], flight[0])
 
 
 def simulate_batch(
@@ -528,11 +528,11 @@ def simulate_batch(
     if friction is not None:  # every world in the same parallel run, each with its own rows
         mu, mu_s = friction[0][0], friction[1][0]
         worlds = (np.ascontiguousarray(friction[0]), np.ascontiguousarray(friction[1]))
-    t, pos, vel, stuck, angles, spins, left, flight = _run(
+    t, pos, vel, stuck, angles, spins, left, gone, flight = _run(
         ms, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact, _progress(progress),
         worlds=worlds,
     )  # fmt: skip
-    return SimResult(t, pos, vel, stuck, angles, spins, ~np.isnan(left), left, flight)
+    return SimResult(t, pos, vel, stuck, angles, spins, gone, left, flight)
 
 
 def _progress(progress: Any) -> Callable[[float], object] | None:

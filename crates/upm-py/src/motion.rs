@@ -240,7 +240,8 @@ fn or_zeros<'py>(py: Python<'py>, v: Vec<f64>, shape: &[usize]) -> PyResult<Boun
 }
 
 /// The stacked trajectory of `b` worlds as NumPy arrays: its buffers become the arrays as they
-/// are, no copy: `(t, positions, velocities, stuck, angles, spins, left_time, flight)`.
+/// are, no copy: `(t, positions, velocities, stuck, angles, spins, left_time, left_plate,
+/// flight)`.
 fn to_arrays<'py>(
     py: Python<'py>,
     run: Stacked,
@@ -255,6 +256,7 @@ fn to_arrays<'py>(
     let angles = or_zeros(py, run.angles, &[b, rows, m])?;
     let spins = or_zeros(py, run.spins, &[b, rows, m])?;
     let left = recycled(py, run.left)?.reshape([b, m])?;
+    let left_plate = PyArray1::from_vec(py, run.left_plate).reshape([b, m])?;
     let flight = or_zeros(py, run.flight, &[b, m])?;
     PyTuple::new(
         py,
@@ -266,6 +268,7 @@ fn to_arrays<'py>(
             angles.into_any(),
             spins.into_any(),
             left.into_any(),
+            left_plate.into_any(),
             flight.into_any(),
         ],
     )

@@ -42,6 +42,8 @@ pub struct Stacked {
     pub spins: Vec<f64>,
     /// Time each part's centre left the plate [s] (NaN: it did not).
     pub left: Vec<f64>,
+    /// Whether each part's centre left the plate (`left` is not NaN).
+    pub left_plate: Vec<bool>,
     /// Time each part spent in flight [s] (empty: all zero).
     pub flight: Vec<f64>,
 }
@@ -66,8 +68,10 @@ pub(super) struct Rec {
     stuck: *mut bool,
     angle: *mut f64,
     spin: *mut f64,
-    /// The world's `(parts,)` times of leaving the plate and of flight (null: none recorded).
+    /// The world's `(parts,)` times of leaving the plate, whether each left, and the times of
+    /// flight (null: none recorded).
     left: *mut f64,
+    gone: *mut bool,
     flight: *mut f64,
     m: usize,
     rows: usize,
@@ -114,6 +118,7 @@ impl Recorder {
             angles: buffer::zeroed(if turning { cells } else { 0 }, "the angles")?,
             spins: buffer::zeroed(if turning { cells } else { 0 }, "the spins")?,
             left: buffer::scratch(worlds * m),
+            left_plate: Vec::new(),
             flight: if flying {
                 buffer::scratch(worlds * m)
             } else {
@@ -122,6 +127,7 @@ impl Recorder {
         };
         buffer::reserve(&mut out.t, rows, "the recorded times")?;
         buffer::reserve(&mut out.stuck, cells, "the stuck flags")?;
+        buffer::reserve(&mut out.left_plate, worlds * m, "the flags of leaving")?;
         Ok(Recorder {
             out,
             flying,
@@ -151,6 +157,8 @@ impl Recorder {
             spin: at(self.out.spins.as_mut_ptr()),
             // SAFETY: as for `flight`.
             left: unsafe { self.out.left.as_mut_ptr().add(world * self.m) },
+            // SAFETY: as for `left`.
+            gone: unsafe { self.out.left_plate.as_mut_ptr().add(world * self.m) },
             flight,
             stream: cfg!(target_arch = "x86_64")
                 && self.worlds * self.rows * self.m * 32 > STREAM_BYTES
@@ -171,6 +179,7 @@ impl Recorder {
     pub(super) unsafe fn finish(mut self) -> Stacked {
         let cells = self.worlds * self.rows * self.m;
         self.out.left.set_len(self.worlds * self.m);
+        self.out.left_plate.set_len(self.worlds * self.m);
         if self.flying {
             self.out.flight.set_len(self.worlds * self.m);
         }
@@ -244,33 +253,79 @@ const FLAG_BYTES: [u64; 256] = {
     table
 };
 
-/// `out[q] = flags[q] > 0` for every `q`; whole aligned words of eight with non-temporal stores.
+/// `out[q] = values[q] OP against` for every `q`, `OP` the comparison `_mm256_cmp_pd` takes as
+/// `OP`; whole aligned words of eight with non-temporal stores.
 ///
 /// # Safety
-/// The build has AVX; `out` is valid for `flags.len()` writes, and nothing else addresses them
-/// meanwhile.
+/// The build has AVX2; `out` has room for `values.len()` flags.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
-unsafe fn flags_streamed(out: *mut bool, flags: &[f64]) {
+#[target_feature(enable = "avx2")]
+unsafe fn flags_streamed<const OP: i32>(out: *mut bool, values: &[f64], against: f64) {
     use std::arch::x86_64::*;
-    let k = flags.len();
+    let k = values.len();
+    let against = _mm256_set1_pd(against);
+    let test = |v: __m256d| _mm256_cmp_pd::<OP>(v, against);
+    let one = |q: usize| _mm256_movemask_pd(test(_mm256_set1_pd(values[q]))) & 1 == 1;
     let mut q = 0;
     while q < k && !(out.add(q) as usize).is_multiple_of(8) {
-        out.add(q).write(flags[q] > 0.0);
+        out.add(q).write(one(q));
         q += 1;
     }
-    let set = |at: usize| {
-        let v = _mm256_loadu_pd(flags.as_ptr().add(at));
-        _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GT_OQ>(v, _mm256_setzero_pd())) as usize
-    };
+    let set = |at: usize| _mm256_movemask_pd(test(_mm256_loadu_pd(values.as_ptr().add(at))));
     while q + 8 <= k {
-        let word = FLAG_BYTES[set(q) | set(q + 4) << 4];
+        let word = FLAG_BYTES[(set(q) | set(q + 4) << 4) as usize];
         // The word is aligned and within `out` (above).
         _mm_stream_si64(out.add(q).cast(), word as i64);
         q += 8;
     }
     while q < k {
-        out.add(q).write(flags[q] > 0.0);
+        out.add(q).write(one(q));
+        q += 1;
+    }
+}
+
+/// The time [s] of leaving the plate after `steps` steps of `dt` ([`super::kernel::NEVER`]:
+/// never, NaN).
+#[inline(always)]
+fn left_time(steps: f64, dt: f64) -> f64 {
+    if steps != super::kernel::NEVER {
+        steps * dt
+    } else {
+        f64::NAN
+    }
+}
+
+/// `out[q] = left_time(steps[q], dt)` for every `q`: 8-byte stores until `out` is 32-byte
+/// aligned, then four a non-temporal store (the same product, so the same bits).
+///
+/// # Safety
+/// The build has AVX2; `out` is 8-byte aligned with room for `steps.len()` times.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn times_streamed(out: *mut f64, steps: &[f64], dt: f64) {
+    use std::arch::x86_64::*;
+    let k = steps.len();
+    let mut q = 0;
+    while q < k && !(out.add(q) as usize).is_multiple_of(32) {
+        out.add(q).write(left_time(steps[q], dt));
+        q += 1;
+    }
+    let (never, nan, dtv) = (
+        _mm256_set1_pd(super::kernel::NEVER),
+        _mm256_set1_pd(f64::NAN),
+        _mm256_set1_pd(dt),
+    );
+    while q + 4 <= k {
+        let s = _mm256_loadu_pd(steps.as_ptr().add(q));
+        let left = _mm256_cmp_pd::<_CMP_NEQ_OQ>(s, never);
+        _mm256_stream_pd(
+            out.add(q),
+            _mm256_blendv_pd(nan, _mm256_mul_pd(s, dtv), left),
+        );
+        q += 4;
+    }
+    while q < k {
+        out.add(q).write(left_time(steps[q], dt));
         q += 1;
     }
 }
@@ -360,7 +415,7 @@ impl Rec {
             let i = row * self.m + part;
             pairs_streamed(self.pos.add(i), s.x, s.y);
             pairs_streamed(self.vel.add(i), s.vx, s.vy);
-            flags_streamed(self.stuck.add(i), s.stuck);
+            flags_streamed::<{ std::arch::x86_64::_CMP_GT_OQ }>(self.stuck.add(i), s.stuck, 0.0);
             return;
         }
         for q in 0..k {
@@ -395,6 +450,7 @@ impl Rec {
     pub(super) unsafe fn ended(&self, part: usize, left: Option<f64>, flight: f64) {
         debug_assert!(part < self.m);
         self.left.add(part).write(left.unwrap_or(f64::NAN));
+        self.gone.add(part).write(left.is_some());
         if !self.flight.is_null() {
             self.flight.add(part).write(flight);
         }
@@ -402,32 +458,24 @@ impl Rec {
 
     /// [`Rec::ended`] for the parts `part ..` of a chunk that never leaves the plate's plane:
     /// `steps[q]` is the step count when part `part + q` left the plate ([`super::kernel::NEVER`]:
-    /// it did not), written as a time (NaN: it did not), with non-temporal stores where the
-    /// result is streamed, then fenced.
+    /// it did not), written as a time (NaN: it did not) and a flag, with non-temporal stores of
+    /// whole vectors where the result is streamed and the build has AVX2, then fenced.
     ///
     /// # Safety
     /// `part + steps.len() <= m`, and no other thread writes these parts' times.
     pub(super) unsafe fn left_run(&self, part: usize, steps: &[f64], dt: f64) {
         debug_assert!(part + steps.len() <= self.m);
-        let time = |s: f64| {
-            if s != super::kernel::NEVER {
-                s * dt
-            } else {
-                f64::NAN
-            }
-        };
         #[cfg(target_arch = "x86_64")]
-        if self.stream {
-            for (q, &s) in steps.iter().enumerate() {
-                // SAFETY: SSE2 is part of x86-64; the cell is within the times (above).
-                let cell = self.left.add(part + q).cast::<i64>();
-                std::arch::x86_64::_mm_stream_si64(cell, time(s).to_bits() as i64);
-            }
+        if self.stream && crate::sim::simd() != crate::sim::Simd::Portable {
+            times_streamed(self.left.add(part), steps, dt);
+            let (gone, never) = (self.gone.add(part), super::kernel::NEVER);
+            flags_streamed::<{ std::arch::x86_64::_CMP_NEQ_OQ }>(gone, steps, never);
             self.fence();
             return;
         }
         for (q, &s) in steps.iter().enumerate() {
-            self.left.add(part + q).write(time(s));
+            self.left.add(part + q).write(left_time(s, dt));
+            self.gone.add(part + q).write(s != super::kernel::NEVER);
         }
     }
 
@@ -447,5 +495,67 @@ impl Rec {
         let i = row * self.m + part;
         self.angle.add(i).write(angle);
         self.spin.add(i).write(spin);
+    }
+}
+
+#[cfg(all(test, target_arch = "x86_64"))]
+mod tests {
+    use super::*;
+    use crate::sim::kernel::NEVER;
+
+    /// Step counts, some never leaving, at every offset into an aligned buffer and of every
+    /// length up to past four vectors.
+    fn cases() -> impl Iterator<Item = (usize, Vec<f64>)> {
+        (0..9).flat_map(|offset| {
+            (0..40).map(move |k| {
+                let steps = (0..k)
+                    .map(|q| {
+                        if (q * 7 + offset) % 3 == 0 {
+                            NEVER
+                        } else {
+                            (q * 13 + 1) as f64
+                        }
+                    })
+                    .collect();
+                (offset, steps)
+            })
+        })
+    }
+
+    #[test]
+    fn streamed_times_and_flags_are_the_scalar_ones() {
+        if !is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let dt = 1.0 / 2400.0;
+        for (offset, steps) in cases() {
+            let k = steps.len();
+            // (a buffer of 32-byte cells, so that `offset` walks the alignments)
+            let mut times = vec![[0.0f64; 4]; (offset + k).div_ceil(4) + 1];
+            let mut flags = vec![u64::from_ne_bytes([7; 8]); (offset + k).div_ceil(8) + 1];
+            let (t, f) = (
+                times.as_mut_ptr().cast::<f64>(),
+                flags.as_mut_ptr().cast::<bool>(),
+            );
+            // SAFETY: AVX2 (checked); both buffers have room for offset + k cells.
+            unsafe {
+                times_streamed(t.add(offset), &steps, dt);
+                flags_streamed::<{ std::arch::x86_64::_CMP_NEQ_OQ }>(f.add(offset), &steps, NEVER);
+                std::arch::x86_64::_mm_sfence();
+                for (q, &s) in steps.iter().enumerate() {
+                    let (time, flag) = (*t.add(offset + q), *f.add(offset + q).cast::<u8>());
+                    let want = if s == NEVER { f64::NAN } else { s * dt };
+                    assert_eq!(
+                        time.to_bits(),
+                        want.to_bits(),
+                        "offset {offset} k {k} q {q}"
+                    );
+                    assert_eq!(flag, u8::from(s != NEVER), "offset {offset} k {k} q {q}");
+                }
+                // nothing written past the last
+                assert_eq!(*f.add(offset + k).cast::<u8>(), 7, "offset {offset} k {k}");
+                assert_eq!(*t.add(offset + k), 0.0, "offset {offset} k {k}");
+            }
+        }
     }
 }
