@@ -435,7 +435,7 @@ def test_leaving_recorded_alike_in_a_result_streamed_to_memory():
     vel = rng.uniform(-12.0, 12.0, (n, 2))
     kw = dict(duration=0.02, dt=1e-4, mu=0.3, plate_size=0.2, record_every=50)
     motion = upm.PlateMotion.rest(1.0)
-    parts = [upm.Point(tuple(p), tuple(v)) for p, v in zip(pos.tolist(), vel.tolist())]
+    parts = [upm.Point(tuple(p), tuple(v)) for p, v in zip(pos.tolist(), vel.tolist(), strict=True)]
     big = upm.simulate(motion, parts, **kw)
     assert big.left_plate.dtype == np.bool_ and big.left_plate.shape == (n,)
     assert np.array_equal(big.left_plate, ~np.isnan(big.left_time))
