@@ -37,6 +37,8 @@ mod parts;
 mod points;
 mod polygons;
 mod record;
+#[cfg(target_arch = "x86_64")]
+mod short;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 

@@ -31,18 +31,18 @@ const PLANAR: usize = 9;
 /// Where the points' initial state comes from, until every chunk has read it.
 #[derive(Clone, Copy)]
 pub(super) struct Source<'p> {
-    parts: PartsView<'p>,
+    pub(super) parts: PartsView<'p>,
     /// The points' places among the parts (`None`: the same).
     index: Option<&'p [usize]>,
     /// The plate velocity at the start.
-    u0: [f64; 3],
+    pub(super) u0: [f64; 3],
     /// Half the plate's side.
-    half: f64,
+    pub(super) half: f64,
     /// `g dt`.
-    scale: f64,
+    pub(super) scale: f64,
     /// Set when a point's position or velocity is not finite (the run then stops after its
     /// first block with the full check's error).
-    not_finite: &'p AtomicBool,
+    pub(super) not_finite: &'p AtomicBool,
 }
 
 /// Every point part of a world.
@@ -242,7 +242,29 @@ impl<'p> Points<'p> {
             !once || (source.is_some() && first == 0),
             "a run of one block runs once"
         );
+        // A run of one block of points alone on the AVX2 build: each tile of the chunk reads,
+        // records and steps its points in one pass (`super::short`), but the last few.
+        #[cfg(target_arch = "x86_64")]
+        let short = once
+            && index.is_none()
+            && !spatial
+            && !table.is_empty()
+            && kernel::simd() == kernel::Simd::Avx2
+            && !super::short::OFF.load(Ordering::Relaxed);
         let task = |local: &mut Option<Box<Local>>, (start, k): (usize, usize)| {
+            #[cfg(target_arch = "x86_64")]
+            let (start, k) = match &source {
+                Some(src) if short => {
+                    // SAFETY: AVX2 and FMA (`short`); the chunk's points are the source's and
+                    // this task's alone.
+                    let done = unsafe { src.short(start, k, table, cfg.dt, rec) };
+                    if done == k {
+                        return;
+                    }
+                    (start + done, k - done)
+                }
+                _ => (start, k),
+            };
             // Where the chunk's state lives while it runs: its own buffer in a run of one block.
             let (at, state) = if once {
                 let l = local.get_or_insert_with(zeroed);

@@ -82,6 +82,9 @@ pub(super) struct Rec {
     stream: bool,
 }
 
+/// A row's position, velocity and stuck cells of a part ([`Rec::row_cells`]).
+pub(super) type RowCells = (*mut [f64; 2], *mut [f64; 2], *mut bool);
+
 /// Results of more bytes than this are written with non-temporal stores (see [`Rec::stream`]).
 const STREAM_BYTES: usize = 16 << 20;
 
@@ -422,6 +425,25 @@ impl Rec {
             let state = ([s.x[q], s.y[q]], [s.vx[q], s.vy[q]], s.stuck[q] > 0.0);
             self.point_streamed(row, part + q, state);
         }
+    }
+
+    /// The position, velocity and stuck cells of `part` in `row` (each part's after them).
+    ///
+    /// # Safety
+    /// `row < rows` and `part < m`.
+    pub(super) unsafe fn row_cells(&self, row: usize, part: usize) -> RowCells {
+        debug_assert!(row < self.rows && part < self.m);
+        let i = row * self.m + part;
+        (self.pos.add(i), self.vel.add(i), self.stuck.add(i))
+    }
+
+    /// The time of leaving the plate and its flag of `part` (each part's after them).
+    ///
+    /// # Safety
+    /// `part < m`.
+    pub(super) unsafe fn left_cells(&self, part: usize) -> (*mut f64, *mut bool) {
+        debug_assert!(part < self.m);
+        (self.left.add(part), self.gone.add(part))
     }
 
     /// Orders the non-temporal stores of [`Rec::point_streamed`] before whatever the thread does

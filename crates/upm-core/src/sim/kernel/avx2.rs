@@ -122,10 +122,6 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
 ) -> usize {
     let n = s.x.len();
     let zero = _mm256_setzero_pd();
-    let one = _mm256_set1_pd(1.0);
-    let hdt = _mm256_set1_pd(0.5 * dt);
-    let halfv = _mm256_set1_pd(half);
-    let abs = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
     let mut live = [_mm256_setzero_si256(); T];
     for (j, l) in live.iter_mut().enumerate() {
         let lo = start + 4 * j;
@@ -133,27 +129,28 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
         *l = _mm256_cmpgt_epi64(_mm256_set1_epi64x(k), _mm256_set_epi64x(3, 2, 1, 0));
     }
     let at = |j: usize| start + 4 * j;
-    let (mut x, mut y, mut vx, mut vy) = ([zero; T], [zero; T], [zero; T], [zero; T]);
-    let (mut slide, mut s2, mut h2) = ([zero; T], [zero; T], [zero; T]);
-    let (mut stuck, mut act) = ([zero; T], [zero; T]);
-    for j in 0..T {
+    let c = Consts::new(dt, half);
+    let mut v = [Four::zero(); T];
+    for (j, v) in v.iter_mut().enumerate() {
         let k = live[j];
-        x[j] = _mm256_maskload_pd(s.x.as_ptr().add(at(j)), k);
-        y[j] = _mm256_maskload_pd(s.y.as_ptr().add(at(j)), k);
-        vx[j] = _mm256_maskload_pd(s.vx.as_ptr().add(at(j)), k);
-        vy[j] = _mm256_maskload_pd(s.vy.as_ptr().add(at(j)), k);
-        let st = _mm256_maskload_pd(s.stuck.as_ptr().add(at(j)), k);
-        stuck[j] = _mm256_cmp_pd::<_CMP_GT_OQ>(st, zero);
-        act[j] = if EDGE {
-            let a = _mm256_maskload_pd(s.active.as_ptr().add(at(j)), k);
-            _mm256_cmp_pd::<_CMP_GT_OQ>(a, zero)
-        } else {
-            _mm256_castsi256_pd(k)
+        let load = |a: &[f64]| _mm256_maskload_pd(a.as_ptr().add(at(j)), k);
+        let hold = load(s.hold);
+        *v = Four {
+            x: load(s.x),
+            y: load(s.y),
+            vx: load(s.vx),
+            vy: load(s.vy),
+            stuck: _mm256_cmp_pd::<_CMP_GT_OQ>(load(s.stuck), zero),
+            act: if EDGE {
+                _mm256_cmp_pd::<_CMP_GT_OQ>(load(s.active), zero)
+            } else {
+                _mm256_castsi256_pd(k)
+            },
+            slide: load(s.slide),
+            s2: zero,
+            h2: _mm256_mul_pd(hold, hold),
         };
-        slide[j] = _mm256_maskload_pd(s.slide.as_ptr().add(at(j)), k);
-        s2[j] = _mm256_mul_pd(slide[j], slide[j]);
-        let hold = _mm256_maskload_pd(s.hold.as_ptr().add(at(j)), k);
-        h2[j] = _mm256_mul_pd(hold, hold);
+        v.s2 = _mm256_mul_pd(v.slide, v.slide);
     }
     // Each vector's table (one for all, or its world's); every table has `steps` rows.
     // (one table for all without a call per vector: a call a tile was 2 % of a 2-step call)
@@ -166,41 +163,17 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
     for k in 0..plate.steps() {
         for j in 0..T {
             // SAFETY: k < steps, the length of every table (`Plate`).
-            let [u1, u2, u3] = *rows[j].get_unchecked(k);
-            let (u1, u2, u3) = (_mm256_set1_pd(u1), _mm256_set1_pd(u2), _mm256_set1_pd(u3));
-            let sx = _mm256_fnmadd_pd(u3, y[j], u1);
-            let sy = _mm256_fmadd_pd(u3, x[j], u2);
-            let (wx, wy) = (_mm256_sub_pd(vx[j], sx), _mm256_sub_pd(vy[j], sy));
-            let q = _mm256_fmadd_pd(wx, wx, _mm256_mul_pd(wy, wy));
-            let stick = _mm256_or_pd(
-                _mm256_cmp_pd::<_CMP_LE_OQ>(q, s2[j]),
-                _mm256_and_pd(stuck[j], _mm256_cmp_pd::<_CMP_LE_OQ>(q, h2[j])),
-            );
-            let slides = _mm256_andnot_pd(stick, act[j]);
-            let keep = _mm256_and_pd(slides, _mm256_fnmadd_pd(slide[j], rsqrt(q, slides), one));
-            let nvx = _mm256_fmadd_pd(wx, keep, sx);
-            let nvy = _mm256_fmadd_pd(wy, keep, sy);
-            let nx = _mm256_fmadd_pd(_mm256_add_pd(vx[j], nvx), hdt, x[j]);
-            let ny = _mm256_fmadd_pd(_mm256_add_pd(vy[j], nvy), hdt, y[j]);
+            let off = step::<EDGE>(&mut v[j], *rows[j].get_unchecked(k), &c);
             if EDGE {
-                let a = act[j];
-                x[j] = _mm256_blendv_pd(x[j], nx, a);
-                y[j] = _mm256_blendv_pd(y[j], ny, a);
-                vx[j] = _mm256_blendv_pd(vx[j], nvx, a);
-                vy[j] = _mm256_blendv_pd(vy[j], nvy, a);
-                stuck[j] = _mm256_blendv_pd(stuck[j], stick, a);
-                let off = leaving(nx, ny, abs, halfv, a);
                 let bits = _mm256_movemask_pd(off);
                 if bits != 0 {
-                    act[j] = _mm256_andnot_pd(off, a);
                     mark_left(bits, s.left, at(j), first + k + 1);
                 }
-            } else {
-                (x[j], y[j], vx[j], vy[j], stuck[j]) = (nx, ny, nvx, nvy, stick);
             }
         }
     }
-    for j in 0..T {
+    let one = _mm256_set1_pd(1.0);
+    for (j, v) in v.iter().enumerate() {
         // Whole vectors with plain stores: a masked store is microcoded on AMD Zen (about 12
         // cycles each), which made a 2-step call on many parts spend more time storing than
         // stepping.
@@ -211,17 +184,115 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
                 _mm256_maskstore_pd(a, live[j], v);
             }
         };
-        store(s.x.as_mut_ptr().add(at(j)), x[j]);
-        store(s.y.as_mut_ptr().add(at(j)), y[j]);
-        store(s.vx.as_mut_ptr().add(at(j)), vx[j]);
-        store(s.vy.as_mut_ptr().add(at(j)), vy[j]);
-        store(
-            s.stuck.as_mut_ptr().add(at(j)),
-            _mm256_and_pd(stuck[j], one),
-        );
+        store(s.x.as_mut_ptr().add(at(j)), v.x);
+        store(s.y.as_mut_ptr().add(at(j)), v.y);
+        store(s.vx.as_mut_ptr().add(at(j)), v.vx);
+        store(s.vy.as_mut_ptr().add(at(j)), v.vy);
+        store(s.stuck.as_mut_ptr().add(at(j)), _mm256_and_pd(v.stuck, one));
         if EDGE {
-            store(s.active.as_mut_ptr().add(at(j)), _mm256_and_pd(act[j], one));
+            store(s.active.as_mut_ptr().add(at(j)), _mm256_and_pd(v.act, one));
         }
     }
     T
+}
+
+/// One vector of four parts through the steps, as the tiles hold it: position, velocity, the
+/// stuck and the active lanes (all ones where true), and the friction thresholds (`mu g dt`,
+/// its square and the square of `mu_s g dt`).
+#[derive(Clone, Copy)]
+pub(in crate::sim) struct Four {
+    pub x: __m256d,
+    pub y: __m256d,
+    pub vx: __m256d,
+    pub vy: __m256d,
+    pub stuck: __m256d,
+    pub act: __m256d,
+    pub slide: __m256d,
+    pub s2: __m256d,
+    pub h2: __m256d,
+}
+
+impl Four {
+    /// Every lane zero.
+    ///
+    /// # Safety
+    /// The CPU has AVX.
+    #[inline(always)]
+    pub(in crate::sim) unsafe fn zero() -> Self {
+        let zero = _mm256_setzero_pd();
+        Four {
+            x: zero,
+            y: zero,
+            vx: zero,
+            vy: zero,
+            stuck: zero,
+            act: zero,
+            slide: zero,
+            s2: zero,
+            h2: zero,
+        }
+    }
+}
+
+/// What every vector's step takes: one, half the step, the plate's half side and the mask of
+/// every bit but the sign.
+#[derive(Clone, Copy)]
+pub(in crate::sim) struct Consts {
+    one: __m256d,
+    hdt: __m256d,
+    half: __m256d,
+    abs: __m256d,
+}
+
+impl Consts {
+    /// For steps of `dt` on a plate of half side `half`.
+    #[inline(always)]
+    pub(in crate::sim) unsafe fn new(dt: f64, half: f64) -> Self {
+        Consts {
+            one: _mm256_set1_pd(1.0),
+            hdt: _mm256_set1_pd(0.5 * dt),
+            half: _mm256_set1_pd(half),
+            abs: _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX)),
+        }
+    }
+}
+
+/// The exact implicit step of the vector `v` under the plate velocity `[u1, u2, u3]`, in place;
+/// with a plate edge (`EDGE`) the lanes that leave it are frozen: returns them (all ones; none
+/// without an edge).
+#[inline(always)]
+pub(in crate::sim) unsafe fn step<const EDGE: bool>(
+    v: &mut Four,
+    [u1, u2, u3]: [f64; 3],
+    c: &Consts,
+) -> __m256d {
+    let (u1, u2, u3) = (_mm256_set1_pd(u1), _mm256_set1_pd(u2), _mm256_set1_pd(u3));
+    let sx = _mm256_fnmadd_pd(u3, v.y, u1);
+    let sy = _mm256_fmadd_pd(u3, v.x, u2);
+    let (wx, wy) = (_mm256_sub_pd(v.vx, sx), _mm256_sub_pd(v.vy, sy));
+    let q = _mm256_fmadd_pd(wx, wx, _mm256_mul_pd(wy, wy));
+    let stick = _mm256_or_pd(
+        _mm256_cmp_pd::<_CMP_LE_OQ>(q, v.s2),
+        _mm256_and_pd(v.stuck, _mm256_cmp_pd::<_CMP_LE_OQ>(q, v.h2)),
+    );
+    let slides = _mm256_andnot_pd(stick, v.act);
+    let keep = _mm256_and_pd(slides, _mm256_fnmadd_pd(v.slide, rsqrt(q, slides), c.one));
+    let nvx = _mm256_fmadd_pd(wx, keep, sx);
+    let nvy = _mm256_fmadd_pd(wy, keep, sy);
+    let nx = _mm256_fmadd_pd(_mm256_add_pd(v.vx, nvx), c.hdt, v.x);
+    let ny = _mm256_fmadd_pd(_mm256_add_pd(v.vy, nvy), c.hdt, v.y);
+    if EDGE {
+        let a = v.act;
+        v.x = _mm256_blendv_pd(v.x, nx, a);
+        v.y = _mm256_blendv_pd(v.y, ny, a);
+        v.vx = _mm256_blendv_pd(v.vx, nvx, a);
+        v.vy = _mm256_blendv_pd(v.vy, nvy, a);
+        v.stuck = _mm256_blendv_pd(v.stuck, stick, a);
+        let off = leaving(nx, ny, c.abs, c.half, a);
+        v.act = _mm256_andnot_pd(off, a);
+        off
+    } else {
+        (v.x, v.y, v.vx, v.vy, v.stuck) = (nx, ny, nvx, nvy, stick);
+        _mm256_setzero_pd()
+    }
 }

@@ -263,7 +263,7 @@ fn portable_step(s: &mut Lanes, i: usize, [u1, u2, u3]: [f64; 3], step: usize, d
 
 /// Deterministic pseudo-random numbers in [-1, 1) (the kernels' tests).
 #[cfg(test)]
-pub(super) fn noise(seed: u64, n: usize) -> Vec<f64> {
+pub(in crate::sim) fn noise(seed: u64, n: usize) -> Vec<f64> {
     let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
     (0..n)
         .map(|_| {
