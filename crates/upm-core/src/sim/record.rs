@@ -242,7 +242,7 @@ unsafe fn pairs_streamed(out: *mut [f64; 2], a: &[f64], b: &[f64]) {
 }
 
 /// Eight flags (the bits of the index, flag `j` bit `j`) as eight bools (byte `j`, little-endian).
-const FLAG_BYTES: [u64; 256] = {
+pub(super) const FLAG_BYTES: [u64; 256] = {
     let mut table = [0u64; 256];
     let mut bits = 0;
     while bits < 256 {

@@ -13,25 +13,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use super::kernel::avx2::{step, Consts, Four};
 use super::kernel::NEVER;
 use super::points::Source;
-use super::record::Rec;
+use super::record::{Rec, FLAG_BYTES};
 
 /// Set to run every chunk the general way (the tests compare the two).
 pub(super) static OFF: AtomicBool = AtomicBool::new(false);
-
-/// Four flags (the bits of the index, flag `j` bit `j`) as four bools (byte `j`, little-endian).
-const FLAG_BYTES: [u32; 16] = {
-    let mut table = [0u32; 16];
-    let mut bits = 0;
-    while bits < 16 {
-        let mut j = 0;
-        while j < 4 {
-            table[bits] |= (((bits >> j) & 1) as u32) << (8 * j);
-            j += 1;
-        }
-        bits += 1;
-    }
-    table
-};
 
 impl Source<'_> {
     /// Runs the points `start .. start + k` (all the world's parts are points, in order; the run
@@ -205,7 +190,8 @@ unsafe fn split(p: *const [f64; 2]) -> (__m256d, __m256d) {
 /// The four lanes set in `mask` as four bools at `out`.
 #[inline(always)]
 unsafe fn flags(out: *mut bool, mask: __m256d) {
-    let word = FLAG_BYTES[_mm256_movemask_pd(mask) as usize];
+    // (four flags: the low four bytes of eight's)
+    let word = FLAG_BYTES[_mm256_movemask_pd(mask) as usize] as u32;
     out.cast::<u32>().write_unaligned(word);
 }
 
