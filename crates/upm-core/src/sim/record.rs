@@ -211,6 +211,22 @@ pub(super) struct RunState<'a> {
     pub stuck: &'a [f64],
 }
 
+/// The cells `(a[q], b[q])` of four lanes, in order, as two vectors of two cells each.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) unsafe fn cells(
+    a: std::arch::x86_64::__m256d,
+    b: std::arch::x86_64::__m256d,
+) -> [std::arch::x86_64::__m256d; 2] {
+    use std::arch::x86_64::*;
+    // (a0 b0 a2 b2) and (a1 b1 a3 b3), then their 128-bit halves regrouped in order
+    let (lo, hi) = (_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b));
+    [
+        _mm256_permute2f128_pd::<0x20>(lo, hi),
+        _mm256_permute2f128_pd::<0x31>(lo, hi),
+    ]
+}
+
 /// Writes `(a[q], b[q])` at `out[q]` for every `q`: 16-byte stores until `out` is 32-byte
 /// aligned, then pairs of cells as one non-temporal 32-byte store each.
 ///
@@ -229,10 +245,9 @@ unsafe fn pairs_streamed(out: *mut [f64; 2], a: &[f64], b: &[f64]) {
     while q + 4 <= k {
         let x = _mm256_loadu_pd(a.as_ptr().add(q));
         let y = _mm256_loadu_pd(b.as_ptr().add(q));
-        // (x0 y0 x2 y2) and (x1 y1 x3 y3), then their 128-bit halves regrouped in order.
-        let (lo, hi) = (_mm256_unpacklo_pd(x, y), _mm256_unpackhi_pd(x, y));
-        _mm256_stream_pd(out.add(q).cast(), _mm256_permute2f128_pd(lo, hi, 0x20));
-        _mm256_stream_pd(out.add(q + 2).cast(), _mm256_permute2f128_pd(lo, hi, 0x31));
+        let [c01, c23] = cells(x, y);
+        _mm256_stream_pd(out.add(q).cast(), c01);
+        _mm256_stream_pd(out.add(q + 2).cast(), c23);
         q += 4;
     }
     while q < k {
@@ -298,6 +313,19 @@ fn left_time(steps: f64, dt: f64) -> f64 {
     }
 }
 
+/// [`left_time`] of four step counts, and the lanes that left (all ones).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) unsafe fn left_times(
+    steps: std::arch::x86_64::__m256d,
+    dt: f64,
+) -> [std::arch::x86_64::__m256d; 2] {
+    use std::arch::x86_64::*;
+    let left = _mm256_cmp_pd::<_CMP_NEQ_OQ>(steps, _mm256_set1_pd(super::kernel::NEVER));
+    let time = _mm256_mul_pd(steps, _mm256_set1_pd(dt));
+    [_mm256_blendv_pd(_mm256_set1_pd(f64::NAN), time, left), left]
+}
+
 /// `out[q] = left_time(steps[q], dt)` for every `q`: 8-byte stores until `out` is 32-byte
 /// aligned, then four a non-temporal store (the same product, so the same bits).
 ///
@@ -313,18 +341,9 @@ unsafe fn times_streamed(out: *mut f64, steps: &[f64], dt: f64) {
         out.add(q).write(left_time(steps[q], dt));
         q += 1;
     }
-    let (never, nan, dtv) = (
-        _mm256_set1_pd(super::kernel::NEVER),
-        _mm256_set1_pd(f64::NAN),
-        _mm256_set1_pd(dt),
-    );
     while q + 4 <= k {
         let s = _mm256_loadu_pd(steps.as_ptr().add(q));
-        let left = _mm256_cmp_pd::<_CMP_NEQ_OQ>(s, never);
-        _mm256_stream_pd(
-            out.add(q),
-            _mm256_blendv_pd(nan, _mm256_mul_pd(s, dtv), left),
-        );
+        _mm256_stream_pd(out.add(q), left_times(s, dt)[0]);
         q += 4;
     }
     while q < k {

@@ -10,10 +10,10 @@
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use super::kernel::avx2::{step, Consts, Four};
+use super::kernel::avx2::{leaving, step, Consts, Four};
 use super::kernel::NEVER;
 use super::points::Source;
-use super::record::{Rec, FLAG_BYTES};
+use super::record::{cells, left_times, Rec, FLAG_BYTES};
 
 /// Set to run every chunk the general way (the tests compare the two).
 pub(super) static OFF: AtomicBool = AtomicBool::new(false);
@@ -109,10 +109,7 @@ impl Source<'_> {
                 _mm256_cmp_pd::<_CMP_EQ_OQ>(vy, sy),
             );
             // one off the plate at the start has left it at step 0 (`off_plate`)
-            let off = _mm256_or_pd(
-                _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_and_pd(x, abs), half),
-                _mm256_cmp_pd::<_CMP_GT_OQ>(_mm256_and_pd(y, abs), half),
-            );
+            let off = leaving(x, y, abs, half, ones);
             *left = _mm256_blendv_pd(never, zero, off);
             let each = |a: &[f64]| {
                 if a.len() == 1 {
@@ -162,10 +159,8 @@ impl Source<'_> {
         }
         // when each left (`left_time`: the step count times dt, NaN: never), and whether it did
         let (times, gone) = rec.left_cells(at);
-        let (nan, dt) = (_mm256_set1_pd(f64::NAN), _mm256_set1_pd(dt));
         for (j, &l) in left.iter().enumerate() {
-            let did = _mm256_cmp_pd::<_CMP_NEQ_OQ>(l, never);
-            let t = _mm256_blendv_pd(nan, _mm256_mul_pd(l, dt), did);
+            let [t, did] = left_times(l, dt);
             // (plain stores: non-temporal ones in 16-byte halves, a world's times being only
             // 8-byte aligned, made a 2-step call 15 % slower)
             _mm256_storeu_pd(times.add(4 * j), t);
@@ -213,11 +208,9 @@ unsafe fn record<const T: usize>(rec: &Rec, row: usize, at: usize, v: &[Four; T]
 #[inline(always)]
 unsafe fn pairs<const T: usize>(out: *mut [f64; 2], ab: [[__m256d; 2]; T]) {
     for (j, [a, b]) in ab.into_iter().enumerate() {
-        // (a0 b0 a2 b2) and (a1 b1 a3 b3): the cells of lanes 0 and 2, and of 1 and 3
-        let (lo, hi) = (_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b));
-        let put = |q: usize, v: __m256d| _mm256_storeu_pd(out.add(q).cast(), v);
-        put(4 * j, _mm256_permute2f128_pd::<0x20>(lo, hi));
-        put(4 * j + 2, _mm256_permute2f128_pd::<0x31>(lo, hi));
+        let [c01, c23] = cells(a, b);
+        _mm256_storeu_pd(out.add(4 * j).cast(), c01);
+        _mm256_storeu_pd(out.add(4 * j + 2).cast(), c23);
     }
 }
 
