@@ -56,11 +56,13 @@ use record::{recorded_rows, Rec, Recorder};
 
 /// Steps of plate velocity tabulated at a time, at most.
 const BLOCK_STEPS: usize = 4096;
-/// Work of one block, in point-steps and disk-steps: about 0.1 s on one core (a point-step
-/// costs about 0.6 ns), so that the caller's check between blocks (Ctrl-C) comes often enough
+/// Work of one block, in point-steps and disk-steps: about 0.17 s on one core (a point-step
+/// costs about 0.62 ns), so that the caller's check between blocks (Ctrl-C) comes often enough
 /// whatever the number of parts, and the points' state goes through memory (72 bytes a part,
-/// each way) only once per 0.1 s.
-const BLOCK_POINT_STEPS: usize = 160_000_000;
+/// each way) only once per block. A run of one block takes its points in one pass
+/// (`short`): 2^28 keeps 1e6 points x 200 steps in one (at 1.6e8 it was two blocks of 160 and
+/// 40 steps, 0.75 ns per point-step against 0.65 in one, Intel Xeon, one thread).
+const BLOCK_POINT_STEPS: usize = 1 << 28;
 const BLOCK_DISK_STEPS: usize = 200_000;
 
 /// A polygon's step costs about this many disks' (its sliding solve is a Newton iteration).

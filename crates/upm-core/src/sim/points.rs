@@ -242,22 +242,24 @@ impl<'p> Points<'p> {
             !once || (source.is_some() && first == 0),
             "a run of one block runs once"
         );
-        // A run of one block of points alone on the AVX2 build: each tile of the chunk reads,
+        // A run of one block of points alone on a vector build: each tile of the chunk reads,
         // records and steps its points in one pass (`super::short`), but the last few.
+        #[cfg(target_arch = "x86_64")]
+        let simd = kernel::simd();
         #[cfg(target_arch = "x86_64")]
         let short = once
             && index.is_none()
             && !spatial
             && !table.is_empty()
-            && kernel::simd() == kernel::Simd::Avx2
+            && simd != kernel::Simd::Portable
             && !super::short::OFF.load(Ordering::Relaxed);
         let task = |local: &mut Option<Box<Local>>, (start, k): (usize, usize)| {
             #[cfg(target_arch = "x86_64")]
             let (start, k) = match &source {
                 Some(src) if short => {
-                    // SAFETY: AVX2 and FMA (`short`); the chunk's points are the source's and
-                    // this task's alone.
-                    let done = unsafe { src.short(start, k, table, cfg.dt, rec) };
+                    // SAFETY: simd() only reports builds the CPU has; the chunk's points are
+                    // the source's and this task's alone.
+                    let done = unsafe { src.short(simd, start, k, table, cfg.dt, rec) };
                     if done == k {
                         return;
                     }

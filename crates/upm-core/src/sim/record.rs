@@ -465,6 +465,12 @@ impl Rec {
         (self.left.add(part), self.gone.add(part))
     }
 
+    /// Whether the result goes to memory with non-temporal stores (see [`Rec::stream`]).
+    #[inline]
+    pub(super) fn streams(&self) -> bool {
+        self.stream
+    }
+
     /// Orders the non-temporal stores of [`Rec::point_streamed`] before whatever the thread does
     /// next (the run's end is seen by other threads only after them).
     #[inline]

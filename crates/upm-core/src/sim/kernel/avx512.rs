@@ -12,6 +12,19 @@ use super::{Lanes, Plate};
 /// on an Intel Xeon; what does not fit in the 32 registers is re-read from L1.
 const TILE: usize = 8;
 
+/// The vectors the next tile takes when `left` remain: a full tile, but the last ones in the
+/// narrowest tile that holds them (a world of a few parts does not pay for a full tile), split
+/// in two tiles of at least four when fewer than twelve remain (so no tile of one or two vectors
+/// waits on its own step's latency behind full ones: 1000 parts were 15 tiles of eight, one of
+/// four and one of one).
+pub(in crate::sim) fn tile_width(left: usize) -> usize {
+    if left <= TILE || left >= TILE + 4 {
+        left.min(TILE)
+    } else {
+        left.div_ceil(2)
+    }
+}
+
 /// `1/sqrt(q)` to about one ulp: the 14-bit estimate `r` (`vrsqrt14pd`, relative error below
 /// `2^-14`) corrected by the series of `(1 - e)^(-1/2)` in `e = 1 - q r^2` up to `e^3`; the
 /// first omitted term is `35 e^4 / 128 < 2^-53.8`. `q r` is formed first so that `r^2` cannot
@@ -69,13 +82,15 @@ pub(super) unsafe fn run<const EDGE: bool>(
     let n = s.x.len();
     let mut start = 0;
     while start < n {
-        // the last parts in the narrowest tile that holds them (a world of a few parts does
-        // not pay for a full tile)
-        let vectors = (n - start).div_ceil(8);
+        let vectors = tile_width((n - start).div_ceil(8));
         start += 8 * match vectors {
             1 => tile::<EDGE, 1>(plate, first, dt, half, s, start),
             2 => tile::<EDGE, 2>(plate, first, dt, half, s, start),
-            3 | 4 => tile::<EDGE, 4>(plate, first, dt, half, s, start),
+            3 => tile::<EDGE, 3>(plate, first, dt, half, s, start),
+            4 => tile::<EDGE, 4>(plate, first, dt, half, s, start),
+            5 => tile::<EDGE, 5>(plate, first, dt, half, s, start),
+            6 => tile::<EDGE, 6>(plate, first, dt, half, s, start),
+            7 => tile::<EDGE, 7>(plate, first, dt, half, s, start),
             _ => tile::<EDGE, TILE>(plate, first, dt, half, s, start),
         };
     }
@@ -96,88 +111,173 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
     let n = s.x.len();
     let zero = _mm512_setzero_pd();
     let one = _mm512_set1_pd(1.0);
-    let hdt = _mm512_set1_pd(0.5 * dt);
-    let halfv = _mm512_set1_pd(half);
     let mut live = [0 as __mmask8; T];
     for (j, l) in live.iter_mut().enumerate() {
         let lo = start + 8 * j;
         *l = if lo < n { first_lanes(n - lo) } else { 0 };
     }
     let at = |j: usize| start + 8 * j;
-    let (mut x, mut y, mut vx, mut vy) = ([zero; T], [zero; T], [zero; T], [zero; T]);
-    let (mut slide, mut s2, mut h2) = ([zero; T], [zero; T], [zero; T]);
-    let (mut stuck, mut act) = ([0 as __mmask8; T], [0 as __mmask8; T]);
-    for j in 0..T {
+    let c = Consts::new(dt, half);
+    let mut v = [Eight::zero(); T];
+    for (j, v) in v.iter_mut().enumerate() {
         let k = live[j];
-        x[j] = _mm512_maskz_loadu_pd(k, s.x.as_ptr().add(at(j)));
-        y[j] = _mm512_maskz_loadu_pd(k, s.y.as_ptr().add(at(j)));
-        vx[j] = _mm512_maskz_loadu_pd(k, s.vx.as_ptr().add(at(j)));
-        vy[j] = _mm512_maskz_loadu_pd(k, s.vy.as_ptr().add(at(j)));
-        let st = _mm512_maskz_loadu_pd(k, s.stuck.as_ptr().add(at(j)));
-        stuck[j] = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(st, zero);
-        act[j] = if EDGE {
-            let a = _mm512_maskz_loadu_pd(k, s.active.as_ptr().add(at(j)));
-            _mm512_cmp_pd_mask::<_CMP_GT_OQ>(a, zero)
-        } else {
-            k
+        let load = |a: &[f64]| _mm512_maskz_loadu_pd(k, a.as_ptr().add(at(j)));
+        let (slide, hold) = (load(s.slide), load(s.hold));
+        *v = Eight {
+            x: load(s.x),
+            y: load(s.y),
+            vx: load(s.vx),
+            vy: load(s.vy),
+            stuck: _mm512_cmp_pd_mask::<_CMP_GT_OQ>(load(s.stuck), zero),
+            act: if EDGE {
+                _mm512_cmp_pd_mask::<_CMP_GT_OQ>(load(s.active), zero)
+            } else {
+                k
+            },
+            slide,
+            s2: _mm512_mul_pd(slide, slide),
+            h2: _mm512_mul_pd(hold, hold),
         };
-        slide[j] = _mm512_maskz_loadu_pd(k, s.slide.as_ptr().add(at(j)));
-        s2[j] = _mm512_mul_pd(slide[j], slide[j]);
-        let hold = _mm512_maskz_loadu_pd(k, s.hold.as_ptr().add(at(j)));
-        h2[j] = _mm512_mul_pd(hold, hold);
     }
     // Each vector's table (one for all, or its world's); every table has `steps` rows.
-    let rows: [&[[f64; 3]]; T] = std::array::from_fn(|j| plate.row(at(j)));
+    let mut rows: [&[[f64; 3]]; T] = [plate.tables[0]; T];
+    if plate.tables.len() > 1 {
+        for (j, r) in rows.iter_mut().enumerate() {
+            *r = plate.row(at(j));
+        }
+    }
     for k in 0..plate.steps() {
         for j in 0..T {
             // SAFETY: k < steps, the length of every table (`Plate`).
-            let [u1, u2, u3] = *rows[j].get_unchecked(k);
-            let (u1, u2, u3) = (_mm512_set1_pd(u1), _mm512_set1_pd(u2), _mm512_set1_pd(u3));
-            let sx = _mm512_fnmadd_pd(u3, y[j], u1);
-            let sy = _mm512_fmadd_pd(u3, x[j], u2);
-            let (wx, wy) = (_mm512_sub_pd(vx[j], sx), _mm512_sub_pd(vy[j], sy));
-            let q = _mm512_fmadd_pd(wx, wx, _mm512_mul_pd(wy, wy));
-            // |w| <= mu g dt, or stuck and |w| <= mu_s g dt, compared squared.
-            let stick = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(q, s2[j])
-                | (stuck[j] & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(q, h2[j]));
-            // Sliding parts keep the share 1 - mu g dt / |w| of w; stuck ones none.
-            let keep = _mm512_maskz_fnmadd_pd(!stick, slide[j], rsqrt(q), one);
-            let nvx = _mm512_fmadd_pd(wx, keep, sx);
-            let nvy = _mm512_fmadd_pd(wy, keep, sy);
-            let nx = _mm512_fmadd_pd(_mm512_add_pd(vx[j], nvx), hdt, x[j]);
-            let ny = _mm512_fmadd_pd(_mm512_add_pd(vy[j], nvy), hdt, y[j]);
-            if EDGE {
-                // Parts that left the plate keep their state.
-                let a = act[j];
-                x[j] = _mm512_mask_mov_pd(x[j], a, nx);
-                y[j] = _mm512_mask_mov_pd(y[j], a, ny);
-                vx[j] = _mm512_mask_mov_pd(vx[j], a, nvx);
-                vy[j] = _mm512_mask_mov_pd(vy[j], a, nvy);
-                stuck[j] = (stick & a) | (stuck[j] & !a);
-                let off = (_mm512_cmp_pd_mask::<_CMP_GT_OQ>(_mm512_abs_pd(nx), halfv)
-                    | _mm512_cmp_pd_mask::<_CMP_GT_OQ>(_mm512_abs_pd(ny), halfv))
-                    & a;
-                if off != 0 {
-                    act[j] &= !off;
-                    mark_left(off, s.left, at(j), first + k + 1);
-                }
-            } else {
-                (x[j], y[j], vx[j], vy[j], stuck[j]) = (nx, ny, nvx, nvy, stick);
+            let off = step::<EDGE>(&mut v[j], *rows[j].get_unchecked(k), &c);
+            if EDGE && off != 0 {
+                mark_left(off, s.left, at(j), first + k + 1);
             }
         }
     }
-    for j in 0..T {
+    for (j, v) in v.iter().enumerate() {
         let k = live[j];
-        _mm512_mask_storeu_pd(s.x.as_mut_ptr().add(at(j)), k, x[j]);
-        _mm512_mask_storeu_pd(s.y.as_mut_ptr().add(at(j)), k, y[j]);
-        _mm512_mask_storeu_pd(s.vx.as_mut_ptr().add(at(j)), k, vx[j]);
-        _mm512_mask_storeu_pd(s.vy.as_mut_ptr().add(at(j)), k, vy[j]);
-        let st = _mm512_maskz_mov_pd(stuck[j], one);
-        _mm512_mask_storeu_pd(s.stuck.as_mut_ptr().add(at(j)), k, st);
+        let store =
+            |a: &mut [f64], x: __m512d| _mm512_mask_storeu_pd(a.as_mut_ptr().add(at(j)), k, x);
+        store(s.x, v.x);
+        store(s.y, v.y);
+        store(s.vx, v.vx);
+        store(s.vy, v.vy);
+        store(s.stuck, _mm512_maskz_mov_pd(v.stuck, one));
         if EDGE {
-            let a = _mm512_maskz_mov_pd(act[j], one);
-            _mm512_mask_storeu_pd(s.active.as_mut_ptr().add(at(j)), k, a);
+            store(s.active, _mm512_maskz_mov_pd(v.act, one));
         }
     }
     T
+}
+
+/// One vector of eight parts through the steps, as the tiles hold it: position, velocity, the
+/// stuck and the active lanes (mask bits), and the friction thresholds (`mu g dt`, its square
+/// and the square of `mu_s g dt`).
+#[derive(Clone, Copy)]
+pub(in crate::sim) struct Eight {
+    pub x: __m512d,
+    pub y: __m512d,
+    pub vx: __m512d,
+    pub vy: __m512d,
+    pub stuck: __mmask8,
+    pub act: __mmask8,
+    pub slide: __m512d,
+    pub s2: __m512d,
+    pub h2: __m512d,
+}
+
+impl Eight {
+    /// Every lane zero.
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F.
+    #[inline(always)]
+    pub(in crate::sim) unsafe fn zero() -> Self {
+        let zero = _mm512_setzero_pd();
+        Eight {
+            x: zero,
+            y: zero,
+            vx: zero,
+            vy: zero,
+            stuck: 0,
+            act: 0,
+            slide: zero,
+            s2: zero,
+            h2: zero,
+        }
+    }
+}
+
+/// What every vector's step takes: one, half the step and the plate's half side.
+#[derive(Clone, Copy)]
+pub(in crate::sim) struct Consts {
+    one: __m512d,
+    hdt: __m512d,
+    half: __m512d,
+}
+
+impl Consts {
+    /// For steps of `dt` on a plate of half side `half`.
+    #[inline(always)]
+    pub(in crate::sim) unsafe fn new(dt: f64, half: f64) -> Self {
+        Consts {
+            one: _mm512_set1_pd(1.0),
+            hdt: _mm512_set1_pd(0.5 * dt),
+            half: _mm512_set1_pd(half),
+        }
+    }
+}
+
+/// The lanes of `active` whose position `(x, y)` is past the plate's half side `half` in x or y.
+#[inline(always)]
+pub(in crate::sim) unsafe fn leaving(
+    x: __m512d,
+    y: __m512d,
+    half: __m512d,
+    active: __mmask8,
+) -> __mmask8 {
+    (_mm512_cmp_pd_mask::<_CMP_GT_OQ>(_mm512_abs_pd(x), half)
+        | _mm512_cmp_pd_mask::<_CMP_GT_OQ>(_mm512_abs_pd(y), half))
+        & active
+}
+
+/// The exact implicit step of the vector `v` under the plate velocity `[u1, u2, u3]`, in place;
+/// with a plate edge (`EDGE`) the lanes that leave it are frozen: returns them (none without an
+/// edge).
+#[inline(always)]
+pub(in crate::sim) unsafe fn step<const EDGE: bool>(
+    v: &mut Eight,
+    [u1, u2, u3]: [f64; 3],
+    c: &Consts,
+) -> __mmask8 {
+    let (u1, u2, u3) = (_mm512_set1_pd(u1), _mm512_set1_pd(u2), _mm512_set1_pd(u3));
+    let sx = _mm512_fnmadd_pd(u3, v.y, u1);
+    let sy = _mm512_fmadd_pd(u3, v.x, u2);
+    let (wx, wy) = (_mm512_sub_pd(v.vx, sx), _mm512_sub_pd(v.vy, sy));
+    let q = _mm512_fmadd_pd(wx, wx, _mm512_mul_pd(wy, wy));
+    // |w| <= mu g dt, or stuck and |w| <= mu_s g dt, compared squared.
+    let stick = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(q, v.s2)
+        | (v.stuck & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(q, v.h2));
+    // Sliding parts keep the share 1 - mu g dt / |w| of w; stuck ones none.
+    let keep = _mm512_maskz_fnmadd_pd(!stick, v.slide, rsqrt(q), c.one);
+    let nvx = _mm512_fmadd_pd(wx, keep, sx);
+    let nvy = _mm512_fmadd_pd(wy, keep, sy);
+    let nx = _mm512_fmadd_pd(_mm512_add_pd(v.vx, nvx), c.hdt, v.x);
+    let ny = _mm512_fmadd_pd(_mm512_add_pd(v.vy, nvy), c.hdt, v.y);
+    if EDGE {
+        // Parts that left the plate keep their state.
+        let a = v.act;
+        v.x = _mm512_mask_mov_pd(v.x, a, nx);
+        v.y = _mm512_mask_mov_pd(v.y, a, ny);
+        v.vx = _mm512_mask_mov_pd(v.vx, a, nvx);
+        v.vy = _mm512_mask_mov_pd(v.vy, a, nvy);
+        v.stuck = (stick & a) | (v.stuck & !a);
+        let off = leaving(nx, ny, c.half, a);
+        v.act = a & !off;
+        off
+    } else {
+        (v.x, v.y, v.vx, v.vy, v.stuck) = (nx, ny, nvx, nvy, stick);
+        0
+    }
 }
