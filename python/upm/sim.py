@@ -468,7 +468,7 @@ def simulate(
     threads : int, optional
         Run on a pool of this many threads (default: one per core, or ``RAYON_NUM_THREADS``).
     progress : callable, optional
-        Called with the fraction of the run done (0 to 1) about every 0.1 s of CPU time, on the
+        Called with the fraction of the run done (0 to 1) at most about every 0.17 s of one core's work, on the
         thread running the simulation; an exception it raises stops the run and is raised here
         (as Ctrl-C is).
 
