@@ -468,9 +468,9 @@ def simulate(
     threads : int, optional
         Run on a pool of this many threads (default: one per core, or ``RAYON_NUM_THREADS``).
     progress : callable, optional
-        Called with the fraction of the run done (0 to 1) at most about every 0.17 s of one core's work, on the
-        thread running the simulation; an exception it raises stops the run and is raised here
-        (as Ctrl-C is).
+        Called with the fraction of the run done (0 to 1) at most about every 0.17 s of one
+        core's work, on the thread running the simulation; an exception it raises stops the run
+        and is raised here (as Ctrl-C is).
 
     Returns
     -------
