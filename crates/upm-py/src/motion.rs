@@ -363,7 +363,8 @@ pub fn simulate<'py>(
         plate_size,
         record_every,
     };
-    let motions: Vec<CoreMotion> = motions.iter().map(|p| p.inner.clone()).collect();
+    // (lent, not copied: the Python objects stay borrowed for the call)
+    let motions: Vec<&CoreMotion> = motions.iter().map(|p| &p.inner).collect();
     if motions.is_empty() {
         return Err(crate::errors::to_py(
             py,
@@ -435,7 +436,7 @@ pub fn simulate<'py>(
                     None => Ok(()),
                 }
             };
-            sim::simulate_stacked(
+            sim::simulate_stacked_refs(
                 &motions,
                 &parts,
                 &cfg,

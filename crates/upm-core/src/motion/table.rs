@@ -273,8 +273,14 @@ impl PlateMotion {
     /// Motions with equal keys have the same phasors at every step, so [`fill_many`] turns them
     /// once for all of them (the planner's rollouts: one kind of pulse at many places).
     pub(crate) fn timing(&self) -> Vec<u64> {
-        let mut key: Vec<u64> = self.starts.iter().map(|s| s.to_bits()).collect();
-        for item in &self.items {
+        self.timing_words().collect()
+    }
+
+    /// The words of [`PlateMotion::timing`], one after another, without building the key (a
+    /// batch compares each of its motions with the one before: most are alike).
+    pub(crate) fn timing_words(&self) -> impl Iterator<Item = u64> + '_ {
+        let starts = self.starts.iter().map(|s| s.to_bits());
+        let items = self.items.iter().flat_map(|item| {
             let phase = match &item.segment {
                 Segment::Translation {
                     wave: Waveform::Harmonics(h),
@@ -291,9 +297,9 @@ impl PlateMotion {
                 [1.0, e.attack, e.sustain, e.decay].map(f64::to_bits)
             });
             let duration = item.duration.map_or([0, 0], |d| [1, d.to_bits()]);
-            key.extend(phase.into_iter().chain(env).chain(duration));
-        }
-        key
+            phase.into_iter().chain(env).chain(duration)
+        });
+        starts.chain(items)
     }
 }
 

@@ -37,23 +37,23 @@ pub(super) fn worlds_per_group(m: usize) -> usize {
 /// (see `PlateMotion::timing`; numbered in the order each first appears) are neighbours, in their
 /// order within it. A group of neighbours turns its plate's phasors once (each world records
 /// into its own place, so the order is free).
-pub(super) fn by_timing(motions: &[PlateMotion]) -> Vec<(usize, usize)> {
+pub(super) fn by_timing(motions: &[&PlateMotion]) -> Vec<(usize, usize)> {
     let mut classes: HashMap<Vec<u64>, usize> = HashMap::new();
-    // (a motion of the previous one's timing skips the hash: a batch's rollouts mostly are)
-    let mut last: Option<(Vec<u64>, usize)> = None;
+    // (a motion of the previous one's timing, compared word by word, builds no key and skips
+    // the hash: a batch's rollouts mostly are)
+    let mut last: Option<(&PlateMotion, usize)> = None;
     let mut order: Vec<(usize, usize)> = motions
         .iter()
         .enumerate()
         .map(|(b, m)| {
-            let key = m.timing();
-            let class = match &last {
-                Some((k, class)) if *k == key => *class,
+            let class = match last {
+                Some((prev, class)) if prev.timing_words().eq(m.timing_words()) => class,
                 _ => {
                     let next = classes.len();
-                    *classes.entry(key.clone()).or_insert(next)
+                    *classes.entry(m.timing()).or_insert(next)
                 }
             };
-            last = Some((key, class));
+            last = Some((m, class));
             (class, b)
         })
         .collect();
