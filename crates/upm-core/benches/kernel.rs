@@ -7,7 +7,8 @@
 //! four-lane `sqrt` plus a division on independent data of realistic magnitude, the bound of a
 //! step written with a correctly rounded root and division (the vector builds use neither).
 //! `ONLY=trans` or `ONLY=rot` runs the disk and polygon benches (`--disks`, `--polygons`) on one
-//! plate only (for a profile of one).
+//! plate only (for a profile of one); `EVERY=k` makes every run record every `k`-th step instead
+//! of the last only (the cost of recording).
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -82,14 +83,14 @@ fn spread(n: usize) -> Vec<[f64; 2]> {
         .collect()
 }
 
-/// A run of `steps` steps of `dt` recording only the last.
+/// A run of `steps` steps of `dt` recording only the last (every `EVERY`-th, if set).
 fn last_step_only(steps: usize, dt: f64) -> Config {
     Config {
         dt,
         duration: steps as f64 * dt,
         g: 9.81,
         plate_size: None,
-        record_every: steps,
+        record_every: std::env::var("EVERY").map_or(steps, |k| k.parse().expect("EVERY=k")),
     }
 }
 
