@@ -133,6 +133,54 @@ def test_results_kept_are_never_overwritten_and_recycled_memory_gives_the_same_r
     assert np.array_equal(upm.simulate(motion, a, **kw).positions, kept[0])
 
 
+def test_turning_parts_write_every_angle_and_spin_into_recycled_memory():
+    """Where every part is a disk or a polygon the run fills its angles and spins into memory
+    handed back by earlier results (not zeroed): whatever that memory held (NaN here), each run
+    equals the one before it bit for bit, on every path that records them: disks and polygons
+    stepped on their own, leaving the plate, in contact, and on a plate that leaves its plane;
+    and where some parts are points their angle and spin stay zero."""
+    rot = upm.PlateMotion.rotation((0.01, 0.0), upm.Harmonics([0.6, -0.2], frequency=35.0))
+    rng = np.random.default_rng(5)
+    n = 60
+    xy = rng.uniform(-0.08, 0.08, (n, 2))
+    spin = rng.uniform(-3, 3, n)
+    disks = [upm.Disk(tuple(p), radius=0.004, spin=float(w)) for p, w in zip(xy, spin, strict=True)]
+    hexagons = [
+        upm.Polygon.regular(6, 0.004, position=tuple(p), spin=float(w)) for p, w in zip(xy, spin, strict=True)
+    ]
+    grid = np.stack(np.meshgrid(np.linspace(-0.07, 0.07, 10), np.linspace(-0.04, 0.04, 6)), -1).reshape(-1, 2)
+    apart = [upm.Disk(tuple(p), radius=0.004, spin=float(w)) for p, w in zip(grid, spin, strict=True)]
+    # (1200 rows of 60 parts: results large enough for the pool of buffers to keep)
+    dt = 1 / 35 / 400
+    kw = dict(duration=1200 * dt, dt=dt, mu=0.3, mu_s=0.35, record_every=1)
+    cases = [
+        (rot, disks, kw),
+        (rot, hexagons, kw),
+        (rot, disks, dict(kw, plate_size=0.1)),  # some leave the plate
+        (rot, apart, dict(kw, contacts=True)),
+        (upm.PlateMotion.ppod("Sink"), disks, dict(kw, duration=1200 * 0.05 / 400, dt=0.05 / 400)),
+    ]
+    reused = 0
+    for motion, parts, k in cases:
+        first = upm.simulate(motion, parts, **k)
+        kept = first.angles.copy(), first.spins.copy()
+        assert np.isfinite(kept[0]).all() and np.isfinite(kept[1]).all()
+        assert np.any(kept[1] != kept[1][0])
+        for _ in range(2):
+            given = {address(first.angles), address(first.spins)}
+            first.angles[:] = np.nan  # given back holding NaN
+            first.spins[:] = np.nan
+            del first
+            first = upm.simulate(motion, parts, **k)
+            reused += bool(given & {address(first.angles), address(first.spins)})
+            assert np.array_equal(first.angles, kept[0]) and np.array_equal(first.spins, kept[1])
+        del first
+    assert reused >= len(cases), "the angles and spins given back were not reused"
+    mixed = upm.simulate(rot, [*disks[:5], upm.Point((0.01, 0.02))], **kw)
+    assert np.all(mixed.angles[:, 5] == 0.0) and np.all(mixed.spins[:, 5] == 0.0)
+    assert np.any(mixed.spins[:, :5] != 0.0)
+
+
 def test_what_points_lack_is_a_read_only_zero_that_takes_no_memory():
     """Point parts have no angle, spin or flight: those results are one zero seen at every index
     (no memory cleared or mapped), which no one can write through, in one world and in a batch."""

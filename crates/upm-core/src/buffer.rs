@@ -108,6 +108,19 @@ pub fn result_pairs(n: usize, what: &str) -> Result<Vec<[f64; 2]>> {
     }
 }
 
+/// An empty buffer with room for `n` values, for a result: a [`recycle`]d buffer when one fits,
+/// else one reserved fallibly; `what` names the result in the error.
+pub fn result(n: usize, what: &str) -> Result<Vec<f64>> {
+    match spare(n, false) {
+        Some(v) => Ok(v),
+        None => {
+            let mut v = Vec::new();
+            reserve(&mut v, n, what)?;
+            Ok(v)
+        }
+    }
+}
+
 /// An empty buffer of pairs over the allocation of `v` (an even capacity).
 fn pairs(v: Vec<f64>) -> Vec<[f64; 2]> {
     assert!(v.is_empty() && v.capacity().is_multiple_of(2));

@@ -421,7 +421,13 @@ where
         && contacts.is_none()
         && !flying;
     // Reserved fallibly (an error, not an abort, when it cannot fit), reusing recycled results.
-    let turning = !disk_index.is_empty() || !parts.polygons.is_empty();
+    let turning = if n_points == m {
+        record::Turning::None
+    } else if n_points > 0 {
+        record::Turning::Some
+    } else {
+        record::Turning::All
+    };
     let mut recorder = Recorder::new(motions.len(), rows, m, turning, flying)?;
     // Grouped worlds with the same timing are neighbours: a group turns their phasors once.
     let order = if grouped {

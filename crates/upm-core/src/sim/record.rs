@@ -48,12 +48,33 @@ pub struct Stacked {
     pub flight: Vec<f64>,
 }
 
+/// Which parts turn (disks and polygons do; points do not), for their angles and spins.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Turning {
+    None,
+    Some,
+    All,
+}
+
+impl Turning {
+    /// The angles' (or spins') buffer of `cells` cells: empty, zeroed, or room that the run
+    /// fills ([`Recorder::new`]).
+    fn buffer(self, cells: usize, what: &str) -> Result<Vec<f64>> {
+        match self {
+            Turning::None => Ok(Vec::new()),
+            Turning::Some => buffer::zeroed(cells, what),
+            Turning::All => buffer::result(cells, what),
+        }
+    }
+}
+
 /// The result buffers of every world of a run while it runs, stacked: world `b`'s rows follow
 /// world `b - 1`'s, so a batch is one set of arrays `(worlds, rows, parts)`.
 pub(super) struct Recorder {
     out: Stacked,
     /// Flight times are recorded (some world's plate leaves its plane).
     flying: bool,
+    turning: Turning,
     m: usize,
     rows: usize,
     worlds: usize,
@@ -95,13 +116,20 @@ unsafe impl Sync for Rec {}
 
 impl Recorder {
     /// Buffers for `worlds` worlds of `rows` rows of `m` parts (reserved fallibly: an error, not
-    /// an abort); angles and spins only if some part `turning`, flight times only if some world
-    /// is `flying` (moves out of the plate's plane); else they are left empty.
+    /// an abort); angles and spins only if some part is `turning` (a disk or a polygon), flight
+    /// times only if some world is `flying` (moves out of the plate's plane); else they are left
+    /// empty.
+    ///
+    /// Where every part turns (`Turning::All`) the run writes every angle and spin, so they are
+    /// taken like the positions, from buffers handed back by earlier results where one fits
+    /// (fresh zeroed memory costs a page fault per 4 KiB on first write: disks recorded every
+    /// step spent a third of their time in the kernel for it); where some parts are points,
+    /// whose angle and spin stay zero and are never written, they are allocated zeroed.
     pub(super) fn new(
         worlds: usize,
         rows: usize,
         m: usize,
-        turning: bool,
+        turning: Turning,
         flying: bool,
     ) -> Result<Self> {
         let cells = worlds
@@ -118,8 +146,8 @@ impl Recorder {
             positions: buffer::result_pairs(cells, "the positions")?,
             velocities: buffer::result_pairs(cells, "the velocities")?,
             stuck: Vec::new(),
-            angles: buffer::zeroed(if turning { cells } else { 0 }, "the angles")?,
-            spins: buffer::zeroed(if turning { cells } else { 0 }, "the spins")?,
+            angles: turning.buffer(cells, "the angles")?,
+            spins: turning.buffer(cells, "the spins")?,
             left: buffer::scratch(worlds * m),
             left_plate: Vec::new(),
             flight: if flying {
@@ -134,6 +162,7 @@ impl Recorder {
         Ok(Recorder {
             out,
             flying,
+            turning,
             m,
             rows,
             worlds,
@@ -188,6 +217,10 @@ impl Recorder {
         }
         self.out.positions.set_len(cells);
         self.out.velocities.set_len(cells);
+        if self.turning == Turning::All {
+            self.out.angles.set_len(cells);
+            self.out.spins.set_len(cells);
+        }
         self.out.stuck.set_len(cells);
         self.out
     }
