@@ -4,8 +4,9 @@
 //!
 //! Positions, velocities and stuck flags are reserved uninitialised (positions and velocities in
 //! buffers handed back by earlier results when they fit: see [`buffer::result_pairs`]) and written
-//! exactly once per `(row, part)`; angles and spins are allocated zeroed, and only when some part
-//! turns (a run of point parts leaves them empty: see [`super::simulate_stacked`]).
+//! exactly once per `(row, part)`; angles and spins only when some part turns (a run of point
+//! parts leaves them empty: see [`super::simulate_stacked`]), allocated zeroed when some parts
+//! are points (their cells are never written), else reserved like the positions ([`Turning`]).
 
 use crate::buffer;
 use crate::error::Result;
