@@ -10,19 +10,22 @@
 
 use crate::error::{Error, Result};
 
+/// The error for a result of `bytes` bytes that cannot be allocated; `what` names it.
+fn too_big(bytes: f64, what: &str) -> Error {
+    Error::parameter(
+        "record_every",
+        format!(
+            "is too small for this run: {what} needs {:.3} GB more, which cannot be allocated; \
+             raise record_every, simulate fewer parts or split the batch",
+            bytes / 1e9
+        ),
+    )
+}
+
 /// Reserves room for exactly `n` more elements of `v`; `what` names the result in the error.
 pub fn reserve<T>(v: &mut Vec<T>, n: usize, what: &str) -> Result<()> {
-    v.try_reserve_exact(n).map_err(|_| {
-        let gb = n as f64 * std::mem::size_of::<T>() as f64 / 1e9;
-        Error::parameter(
-            "record_every",
-            format!(
-                "is too small for this run: {what} needs {gb:.3} GB more, which cannot be allocated; \
-                 raise record_every, simulate fewer parts or split the batch"
-            ),
-        )
-    })?;
-    Ok(())
+    v.try_reserve_exact(n)
+        .map_err(|_| too_big(n as f64 * std::mem::size_of::<T>() as f64, what))
 }
 
 /// `n` zeros, allocated fallibly and zeroed by the allocator (for large buffers, pages the kernel
@@ -31,23 +34,14 @@ pub fn zeroed(n: usize, what: &str) -> Result<Vec<f64>> {
     if n == 0 {
         return Ok(Vec::new());
     }
-    let too_big = || {
-        Error::parameter(
-            "record_every",
-            format!(
-                "is too small for this run: {what} needs {:.3} GB more, which cannot be allocated; \
-                 raise record_every, simulate fewer parts or split the batch",
-                n as f64 * 8.0 / 1e9
-            ),
-        )
-    };
-    let layout = std::alloc::Layout::array::<f64>(n).map_err(|_| too_big())?;
+    let error = || too_big(n as f64 * 8.0, what);
+    let layout = std::alloc::Layout::array::<f64>(n).map_err(|_| error())?;
     // SAFETY: the layout has non-zero size; a null return is handled; the zeroed allocation is
     // `n` valid f64 (all-zero bits are 0.0) owned by the Vec with the global allocator's layout.
     unsafe {
         let ptr = std::alloc::alloc_zeroed(layout) as *mut f64;
         if ptr.is_null() {
-            return Err(too_big());
+            return Err(error());
         }
         Ok(Vec::from_raw_parts(ptr, n, n))
     }
@@ -93,25 +87,26 @@ fn spare(n: usize, even: bool) -> Option<Vec<f64>> {
     Some(spare.swap_remove(fit))
 }
 
-/// An empty buffer with room for `n` pairs, for a result: a [`recycle`]d buffer when one fits
+/// An empty buffer with room for `n` values, for a result: a [`recycle`]d buffer when one fits
 /// (a result that was handed back, e.g. by the NumPy array that owned it: its pages are mapped,
 /// so a caller that simulates again and again pays no page faults for its results), else one
 /// reserved fallibly; `what` names the result in the error.
-pub fn result_pairs(n: usize, what: &str) -> Result<Vec<[f64; 2]>> {
-    match spare(2 * n, true) {
-        Some(v) => Ok(pairs(v)),
-        None => {
-            let mut v = Vec::new();
-            reserve(&mut v, n, what)?;
-            Ok(v)
-        }
-    }
+pub fn result(n: usize, what: &str) -> Result<Vec<f64>> {
+    taken(n, false, what)
 }
 
-/// An empty buffer with room for `n` values, for a result: a [`recycle`]d buffer when one fits,
-/// else one reserved fallibly; `what` names the result in the error.
-pub fn result(n: usize, what: &str) -> Result<Vec<f64>> {
-    match spare(n, false) {
+/// [`result`] for `n` pairs.
+pub fn result_pairs(n: usize, what: &str) -> Result<Vec<[f64; 2]>> {
+    let twice = n
+        .checked_mul(2)
+        .ok_or_else(|| too_big(n as f64 * 16.0, what))?;
+    Ok(pairs(taken(twice, true, what)?))
+}
+
+/// A [`spare`] buffer with room for `n` values (an even capacity if `even`), or a new one
+/// reserved fallibly.
+fn taken(n: usize, even: bool, what: &str) -> Result<Vec<f64>> {
+    match spare(n, even) {
         Some(v) => Ok(v),
         None => {
             let mut v = Vec::new();

@@ -7,7 +7,7 @@
 use std::arch::x86_64::*;
 
 use super::{Air, Reach, Steps};
-use crate::sim::kernel::avx512::{first_lanes, mark_left, rsqrt};
+use crate::sim::kernel::avx512::{first_lanes, leaving, mark_left, rsqrt};
 use crate::sim::kernel::Lanes;
 
 /// Vectors per tile: 64 parts, enough to hide the step's dependency chain (8 measured best of 2,
@@ -159,9 +159,7 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
                 vx[j] = _mm512_mask_mov_pd(vx[j], a, nvx);
                 vy[j] = _mm512_mask_mov_pd(vy[j], a, nvy);
                 stuck[j] = (stick & !flying & a) | (stuck[j] & !a);
-                let off = (_mm512_cmp_pd_mask::<_CMP_GT_OQ>(_mm512_abs_pd(nx), halfv)
-                    | _mm512_cmp_pd_mask::<_CMP_GT_OQ>(_mm512_abs_pd(ny), halfv))
-                    & a;
+                let off = leaving(nx, ny, halfv, a);
                 if off != 0 {
                     act[j] &= !off;
                     mark_left(off, l.left, at(j), steps.first + k + 1);

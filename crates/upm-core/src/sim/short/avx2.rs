@@ -10,35 +10,12 @@ use crate::sim::points::Source;
 use crate::sim::record::{cells, left_times, Rec, FLAG_BYTES};
 
 impl Source<'_> {
-    /// Runs the points `start .. start + k` (all the world's parts are points, in order; the run
-    /// is one block of the steps `table`, each of `dt`, on a plate in its plane), in whole
-    /// vectors of four, recording through `rec`; returns how many it ran (a multiple of four:
-    /// the rest, fewer than four, are the caller's).
+    /// The points `start .. end` (whole vectors of four) in tiles of up to eight vectors.
     ///
     /// # Safety
-    /// The CPU has AVX2 and FMA; the points are within the source and the result, and no one
-    /// else writes their cells.
+    /// As [`Source::short`], on a CPU with AVX2 and FMA.
     #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn short_avx2(
-        &self,
-        start: usize,
-        k: usize,
-        table: &[[f64; 3]],
-        dt: f64,
-        rec: &Rec,
-    ) -> usize {
-        let end = start + k / 4 * 4;
-        if self.half.is_finite() {
-            self.tiles::<true>(start, end, table, dt, rec);
-        } else {
-            self.tiles::<false>(start, end, table, dt, rec);
-        }
-        end - start
-    }
-
-    /// The points `start .. end` (whole vectors) in tiles of up to eight vectors.
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn tiles<const EDGE: bool>(
+    pub(super) unsafe fn tiles<const EDGE: bool>(
         &self,
         start: usize,
         end: usize,

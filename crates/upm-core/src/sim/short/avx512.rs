@@ -12,38 +12,12 @@ use crate::sim::kernel::NEVER;
 use crate::sim::points::Source;
 use crate::sim::record::{Rec, FLAG_BYTES};
 
-impl Source<'_> {
-    /// Runs the points `start .. start + k` (all the world's parts are points, in order; the run
-    /// is one block of the steps `table`, each of `dt`, on a plate in its plane), in whole
-    /// vectors of eight, recording through `rec`; returns how many it ran (a multiple of eight:
-    /// the rest, fewer than eight, are the caller's).
-    ///
-    /// # Safety
-    /// The CPU has AVX-512F; the points are within the source and the result, and no one else
-    /// writes their cells.
-    #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn short_avx512(
-        &self,
-        start: usize,
-        k: usize,
-        table: &[[f64; 3]],
-        dt: f64,
-        rec: &Rec,
-    ) -> usize {
-        let end = start + k / 8 * 8;
-        if self.half.is_finite() {
-            tiles::<true>(self, start, end, table, dt, rec);
-        } else {
-            tiles::<false>(self, start, end, table, dt, rec);
-        }
-        rec.fence();
-        end - start
-    }
-}
-
-/// The points `start .. end` (whole vectors) in tiles of up to eight vectors.
+/// The points `start .. end` (whole vectors of eight) in tiles of up to eight vectors.
+///
+/// # Safety
+/// As [`Source::short`], on a CPU with AVX-512F.
 #[target_feature(enable = "avx512f")]
-unsafe fn tiles<const EDGE: bool>(
+pub(super) unsafe fn tiles<const EDGE: bool>(
     src: &Source,
     start: usize,
     end: usize,

@@ -39,11 +39,21 @@ impl Source<'_> {
         dt: f64,
         rec: &Rec,
     ) -> usize {
-        match simd {
-            Simd::Avx2 => self.short_avx2(start, k, table, dt, rec),
-            Simd::Avx512 => self.short_avx512(start, k, table, dt, rec),
-            Simd::Portable => 0,
+        let width = match simd {
+            Simd::Avx2 => 4,
+            Simd::Avx512 => 8,
+            Simd::Portable => return 0,
+        };
+        let end = start + k / width * width;
+        match (simd, self.half.is_finite()) {
+            (Simd::Avx512, true) => avx512::tiles::<true>(self, start, end, table, dt, rec),
+            (Simd::Avx512, false) => avx512::tiles::<false>(self, start, end, table, dt, rec),
+            (_, true) => self.tiles::<true>(start, end, table, dt, rec),
+            (_, false) => self.tiles::<false>(start, end, table, dt, rec),
         }
+        // (the AVX-512 build streams a large result)
+        rec.fence();
+        end - start
     }
 }
 
