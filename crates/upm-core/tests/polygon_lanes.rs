@@ -1,13 +1,13 @@
 //! Polygon parts on a planar plate run four at a time in lanes (the friction of four parts'
 //! sliding solves taken together): the same to the bit as an independent loop of the one-part
-//! step (`Stepper::step`, its solve in a lane of its own), and a part's trajectory the same to
+//! step (`Stepper::step_request`, its solve in a lane of its own), and a part's trajectory the same to
 //! the bit whatever parts share its lanes and however many threads run them.
 
 mod common;
 
-use common::{pentagon, uniform};
+use common::{extrapolate, pentagon, uniform, HISTORY, TRUSTED};
 use upm_core::motion::PlateMotion;
-use upm_core::polygon::{Polygon, Stepper};
+use upm_core::polygon::{Polygon, Request, Stepper};
 use upm_core::sim::{simulate, Config, Parts, Trajectory};
 use upm_core::waveform::{Harmonics, Waveform};
 
@@ -94,9 +94,11 @@ fn turn([c, s]: [f64; 2], p: [f64; 2]) -> [f64; 2] {
 }
 
 /// The integrator's polygon step written out (docs/polygons.md): the implicit step of the
-/// relative twist in the part's frame (`Stepper::step`, one part at a time), its last two
-/// sliding twists extrapolated for the next solve's start, then the trapezoid. Returns the
-/// origin, the velocity, the angle and the stuck flag after every step.
+/// relative twist in the part's frame (`Stepper::step_request`, one part at a time), the twists
+/// of up to its last seven steps that slid on one after another extrapolated by a polynomial
+/// for the next solve's start (weights `(-1)^j C(n, j + 1)`, the latest first), with the
+/// contraction the last solve measured (up to 32 solves in a row), then the trapezoid. Returns
+/// the origin, the velocity, the angle and the stuck flag after every step.
 fn reference(
     motion: &PlateMotion,
     p: &Parts,
@@ -114,26 +116,24 @@ fn reference(
     let u0 = motion.velocity(0.0);
     let surface0 = [u0[0] - u0[2] * c[1], u0[1] + u0[2] * c[0]];
     let mut stuck = v == surface0 && spin == u0[2];
-    let (mut last, mut before) = ([0.0; 3], [0.0; 3]);
+    let (mut history, mut slid) = ([[0.0; 3]; HISTORY], 0);
+    let (mut contraction, mut trusted) = (None, 0);
     let mut out = Vec::new();
     for u in table {
         let surface = [u[0] - u[2] * c[1], u[1] + u[2] * c[0]];
         let free = [v[0] - surface[0], v[1] - surface[1]];
         let cs = [angle.cos(), angle.sin()];
         let local = turn([cs[0], -cs[1]], free);
-        let guess = if before == [0.0; 3] || last == [0.0; 3] {
-            last
-        } else {
-            std::array::from_fn(|j| last[j] + (last[j] - before[j]))
-        };
+        let guess = extrapolate(&history, slid);
         let st = stepper
-            .step(
-                [local[0], local[1], spin - u[2]],
-                p.mu[i] * G * cfg.dt,
-                p.mu_s[i] * G * cfg.dt,
-                stuck,
-                (!stuck).then_some(guess),
-            )
+            .step_request(&Request {
+                free: [local[0], local[1], spin - u[2]],
+                slide: p.mu[i] * G * cfg.dt,
+                hold: p.mu_s[i] * G * cfg.dt,
+                was_stuck: stuck,
+                guess: (!stuck).then_some(guess),
+                contraction: contraction.filter(|_| trusted < TRUSTED),
+            })
             .unwrap();
         let w = turn(cs, [st.w[0], st.w[1]]);
         let (nv, nspin) = ([surface[0] + w[0], surface[1] + w[1]], u[2] + st.w[2]);
@@ -143,7 +143,18 @@ fn reference(
         ];
         angle += 0.5 * (spin + nspin) * cfg.dt;
         (v, spin, stuck) = (nv, nspin, st.stuck);
-        (before, last) = (last, st.w);
+        if st.w == [0.0; 3] {
+            slid = 0;
+        } else {
+            history.rotate_right(1);
+            history[0] = st.w;
+            slid = (slid + 1).min(HISTORY);
+        }
+        (contraction, trusted) = match (st.iterations, st.contraction) {
+            (0, _) => (None, 0),
+            (_, Some(k)) => (Some(k), 0),
+            (_, None) => (contraction, trusted + 1),
+        };
         let off = turn([angle.cos(), angle.sin()], shape.centroid);
         out.push(([c[0] - off[0], c[1] - off[1]], v, angle, stuck));
     }

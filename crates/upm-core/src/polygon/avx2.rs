@@ -7,7 +7,7 @@ use std::arch::x86_64::*;
 use std::mem::MaybeUninit;
 
 use super::four::{Asked, Quad, FOUR, SIXTH};
-use super::lanes::{from_sums, Edges, LG, LN2_HI, LN2_LO, THIRD};
+use super::lanes::{from_sums, Edges, LG, LN2_HI, LN2_LO, RECIP, THIRD};
 use super::load::Linear;
 use super::newton::Evals;
 use super::{Fan, Friction, Polygon};
@@ -368,27 +368,38 @@ unsafe fn edge_line(
     let ta = a(m(ax, ex), m(ay, ey));
     let tb = a(ta, len);
     let drho = div(m(len, a(ta, tb)), a(ra, rb));
-    let hh = _mm256_andnot_pd(set(-0.0), h);
     let after = _mm256_cmp_pd::<_CMP_GE_OQ>(ta, zero);
     let before = _mm256_cmp_pd::<_CMP_LE_OQ>(tb, zero);
+    let across = _mm256_andnot_pd(after, before_not(before));
+    let abs = _mm256_andnot_pd(set(-0.0), h);
+    // (max_pd returns its second operand where the first is not a number, as f64::max does not;
+    // |h| is one here)
+    let hh = _mm256_blendv_pd(abs, _mm256_max_pd(abs, m(set(1e-100), len)), across);
     let mid_num = m(tb, a(a(hh, rb), tb));
     let mid_den = m(hh, a(hh, rb));
-    let num = _mm256_blendv_pd(
+    let n1 = _mm256_blendv_pd(
         _mm256_blendv_pd(mid_num, sub(len, drho), before),
         a(len, drho),
         after,
     );
-    let den = _mm256_blendv_pd(
+    let d1 = _mm256_blendv_pd(
         _mm256_blendv_pd(mid_den, sub(rb, tb), before),
         a(ta, ra),
         after,
     );
-    let across = _mm256_andnot_pd(after, _mm256_andnot_pd(before, area));
-    let arg1 = _mm256_and_pd(area, div(num, den));
     let neg_ta = _mm256_xor_pd(ta, set(-0.0));
-    let arg2 = _mm256_and_pd(across, div(m(neg_ta, sub(a(hh, ra), ta)), m(hh, a(hh, ra))));
+    let (n2, d2) = (m(neg_ta, sub(a(hh, ra), ta)), m(hh, a(hh, ra)));
+    let num = _mm256_blendv_pd(n1, a(m(n1, d2), m(n2, a(d1, n1))), across);
+    let den = _mm256_blendv_pd(d1, m(d1, d2), across);
+    let arg = _mm256_and_pd(area, div(num, den));
     let h = _mm256_and_pd(area, h);
-    [h, area, ta, drho, a(a(arg1, arg2), m(arg1, arg2))]
+    [h, area, ta, drho, arg]
+}
+
+/// The lanes not set in the mask `before`.
+#[inline(always)]
+unsafe fn before_not(before: __m256d) -> __m256d {
+    _mm256_xor_pd(before, _mm256_castsi256_pd(_mm256_set1_epi64x(-1)))
 }
 
 /// Edge `k`'s terms of the fan's six sums from its ends, [`geometry`] and the logarithm `d`.
@@ -457,9 +468,10 @@ unsafe fn ln_1p(x: __m256d) -> __m256d {
         set(4_503_599_627_370_496.0),
     );
     let big = _mm256_castsi256_pd(_mm256_cmpgt_epi64(k, int(1)));
-    let c = _mm256_div_pd(
+    let r = _mm256_castsi256_pd(_mm256_sub_epi64(int(RECIP as i64), ub));
+    let c = m(
         _mm256_blendv_pd(sub(x, sub(u, one)), sub(one, sub(u, x)), big),
-        u,
+        m(r, sub(set(2.0), m(u, r))),
     );
     let c = _mm256_and_pd(_mm256_castsi256_pd(_mm256_cmpgt_epi64(int(54), k)), c);
     let mant = _mm256_castsi256_pd(_mm256_or_si256(

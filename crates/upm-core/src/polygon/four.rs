@@ -14,7 +14,7 @@
 //! fan's terms are [`super::lanes`]'s, summed in another order: they agree with
 //! [`super::Polygon::friction_hessian`] to rounding, not to the bit.
 
-use super::lanes::{asinh_args, ln_1p};
+use super::lanes::{ln_1p, log_arg};
 use super::newton::{Eval, Evals};
 use super::{Fan, Friction, Polygon, FAR};
 #[cfg(target_arch = "x86_64")]
@@ -325,9 +325,9 @@ pub(super) fn fan_lane(q: &Quad, l: usize, r0: [f64; 2]) -> Fan {
         let ta = ax * ex + ay * ey;
         let tb = ta + len;
         let drho = len * (ta + tb) / (ra + rb);
-        let (arg1, arg2) = asinh_args(h, ta, tb, ra, rb, len, drho, skip);
+        let arg = log_arg(h, ta, tb, ra, rb, len, drho, skip);
         let h = if skip { 0.0 } else { h };
-        let d = ln_1p((arg1 + arg2) + arg1 * arg2);
+        let d = ln_1p(arg);
         // (the edge's normal is n = (e_y, -e_x): its products with e are the quad's squares)
         let h2 = h * h;
         let dist = h * SIXTH * ((len * rb + ta * drho) + h2 * d);

@@ -95,13 +95,16 @@ fn pick(c: bool, a: f64, b: f64) -> f64 {
 }
 
 /// The difference `asinh(tb/|h|) - asinh(ta/|h|)` along an edge of length `len` (`tb = ta +
-/// len`, `ra` and `rb` the distances of its ends, `drho = rb - ra`) as `ln(1 + a1) + ln(1 + a2)`,
-/// both arguments `>= 0`, returned as `(a1, a2)`: with `asinh(t/|h|) = ln((t + rho)/|h|)`, on one
-/// side of the foot of `h` the difference is one `ln_1p` of a ratio of positive sums, across it a
-/// sum of two. Both zero where `skip` (no area).
+/// len`, `ra` and `rb` the distances of its ends, `drho = rb - ra`) as `ln(1 + arg)`, `arg >= 0`
+/// returned (zero where `skip`, no area): with `asinh(t/|h|) = ln((t + rho)/|h|)`, on one side of
+/// the foot of `h` the difference is one `ln_1p` of a ratio `a1 = n1 / d1` of positive sums,
+/// across it a sum `ln(1 + a1) + ln(1 + a2)`, one logarithm of `(1 + a1)(1 + a2)`: `arg = (n1 d2
+/// + n2 (d1 + n1)) / (d1 d2)`, positive sums over one division. (There `|h|` is taken at least
+/// 1e-100 of the edge's length, so that `d1 d2` stays a normal number: closer to the line the
+/// logarithm, below 500 either way, enters the sums times `h²`, far below their rounding.)
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub(super) fn asinh_args(
+pub(super) fn log_arg(
     h: f64,
     ta: f64,
     tb: f64,
@@ -110,20 +113,20 @@ pub(super) fn asinh_args(
     len: f64,
     drho: f64,
     skip: bool,
-) -> (f64, f64) {
-    let hh = h.abs();
+) -> f64 {
     let (after, before) = (ta >= 0.0, tb <= 0.0);
-    let num = pick(
+    let across = !after && !before;
+    let hh = pick(across, h.abs().max(1e-100 * len), h.abs());
+    let n1 = pick(
         after,
         len + drho,
         pick(before, len - drho, tb * (hh + rb + tb)),
     );
-    let den = pick(after, ta + ra, pick(before, rb - tb, hh * (hh + rb)));
-    let across = !after && !before && !skip;
-    (
-        pick(skip, 0.0, num / den),
-        pick(across, -ta * (hh + ra - ta) / (hh * (hh + ra)), 0.0),
-    )
+    let d1 = pick(after, ta + ra, pick(before, rb - tb, hh * (hh + rb)));
+    let (n2, d2) = (-ta * (hh + ra - ta), hh * (hh + ra));
+    let num = pick(across, n1 * d2 + n2 * (d1 + n1), n1);
+    let den = pick(across, d1 * d2, d1);
+    pick(skip, 0.0, num / den)
 }
 
 /// The portable build of [`fan_loaded`]: each lane's arithmetic in plain Rust.
@@ -137,7 +140,7 @@ pub(super) fn fan_with<const CURVATURE: bool, const LOADED: bool>(
     for e in &p.lanes {
         // (a half with no live lane adds nothing: left out, as the vector builds do)
         let width = if e.upper { LANES } else { LANES / 2 };
-        let (mut arg1, mut arg2) = ([0.0; LANES], [0.0; LANES]);
+        let mut arg = [0.0; LANES];
         let mut geo = [[0.0; LANES]; 6]; // h, ta, ra, rb, drho, skip
         for l in 0..width {
             let a = [e.ax[l] - r0[0], e.ay[l] - r0[1]];
@@ -154,16 +157,11 @@ pub(super) fn fan_with<const CURVATURE: bool, const LOADED: bool>(
             let tb = ta + len;
             // rb - ra without cancellation
             let drho = len * (ta + tb) / (ra + rb);
-            (arg1[l], arg2[l]) = asinh_args(h, ta, tb, ra, rb, len, drho, skip);
+            arg[l] = log_arg(h, ta, tb, ra, rb, len, drho, skip);
             geo[0][l] = pick(skip, 0.0, h);
             geo[1][l] = ta;
             (geo[2][l], geo[3][l], geo[4][l]) = (ra, rb, drho);
             geo[5][l] = pick(skip, 1.0, 0.0);
-        }
-        // ln(1 + arg1) + ln(1 + arg2), both arguments >= 0: one logarithm of the product
-        let mut arg = [0.0; LANES];
-        for l in 0..width {
-            arg[l] = (arg1[l] + arg2[l]) + arg1[l] * arg2[l];
         }
         let dasinh = ln_1p8(&arg);
         for l in 0..width {
@@ -267,6 +265,17 @@ pub(super) const LN2_HI: f64 = 0.6931471803691238;
 pub(super) const LN2_LO: f64 = 1.9082149292705877e-10;
 /// The minimax polynomial `R(s²)` of `ln(1 + f) = f - f²/2 + s (f²/2 + R)`, `s = f / (2 + f)`,
 /// on `sqrt(2)/2 <= 1 + f < sqrt(2)` (fdlibm's coefficients, error below 2^-58).
+/// `1 / u` for `u >= 1` to about 1.5 % (from its bits, one Newton step; some number past
+/// `1e308`), for a correction far below an ulp, without a division.
+#[inline(always)]
+pub(super) fn recip(u: f64) -> f64 {
+    let r = f64::from_bits(RECIP.wrapping_sub(u.to_bits()));
+    r * (2.0 - u * r)
+}
+
+/// The bits whose difference with a double's approximate its reciprocal.
+pub(super) const RECIP: u64 = 0x7fde_6238_22fc_16e6;
+
 pub(super) const LG: [f64; 7] = [
     0.6666666666666735,
     0.3999999999940942,
@@ -297,8 +306,8 @@ pub(super) fn ln_1p(x: f64) -> f64 {
     let k = (high >> 20) as i64 - 0x3ff;
     // k as a double, exact (0 <= k < 1024)
     let dk = f64::from_bits(0x4330_0000_0000_0000 | (k as u64 & 0x7ff)) - 4_503_599_627_370_496.0;
-    // the rounding of 1 + x, relative: ln(1 + x) = ln(u) + c
-    let c = pick(k >= 2, 1.0 - (u - x), x - (u - 1.0)) / u;
+    // the rounding of 1 + x, relative: ln(1 + x) = ln(u) + c (c below an ulp: over u to 2 %)
+    let c = pick(k >= 2, 1.0 - (u - x), x - (u - 1.0)) * recip(u);
     let c = pick(k < 54, c, 0.0);
     let m =
         f64::from_bits((((high & 0x000f_ffff) + 0x3fe6_a09e) << 32) | (u.to_bits() & 0xffff_ffff));

@@ -92,9 +92,10 @@ pub(super) enum Ask {
 }
 
 /// Where a solve is.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 enum Phase {
     /// Waiting for `Phi` at the start.
+    #[default]
     Start,
     /// A whole Newton step taken in Newton's region, waiting for `Phi` after it.
     Fine,
@@ -113,6 +114,10 @@ const TOLERANCE: f64 = 1e-14;
 /// Whole Newton steps taken once `Phi` no longer resolves its fall, at most (the gradient then
 /// sits at its rounding floor).
 const FINE_STEPS: usize = 4;
+/// How far the contraction a part's last solve measured is trusted for its next solve's first
+/// step: that step ends the solve if this many times the contraction predicts a next step below
+/// [`TOLERANCE`].
+const SAFETY: f64 = 10.0;
 /// Newton iterations allowed before the solve reports that it did not converge.
 const MAX_ITERATIONS: usize = 100;
 /// Halvings of a step before the line search gives up (no step within rounding lowers `Phi`).
@@ -122,7 +127,13 @@ const HALVINGS: usize = 60;
 /// falls (Armijo); done when the step is below [`TOLERANCE`] of the iterate (or, converging
 /// quadratically, the next one would be), and then settled only if the gradient is zero to
 /// `1e-9` of `scale` (`|y*| + c`, the gradient's terms).
-#[derive(Debug, Clone, Copy)]
+///
+/// Converging quadratically, `|next| / |y| ~ kappa (|step| / |y|)²`: the solve measures the
+/// contraction `kappa` from its steps ([`Step::contraction`]), and a solve given the one its
+/// part's last solve measured (`prior`) may end at its first step, from a guess close enough
+/// that [`SAFETY`] times that contraction predicts a next step below the tolerance: a part
+/// sliding on smoothly from an extrapolated guess then asks for `Phi` once a step.
+#[derive(Debug, Clone, Copy, Default)]
 pub(super) struct Newton {
     y: [f64; 3],
     /// `Phi` and the gradient's size at `y` (once evaluated).
@@ -137,11 +148,15 @@ pub(super) struct Newton {
     previous: f64,
     it: usize,
     phase: Phase,
+    /// The contraction the part's last solve measured, and the one this solve measures.
+    prior: Option<f64>,
+    measured: Option<f64>,
 }
 
 impl Newton {
-    /// A solve from `y`, which asks for `Phi` there first.
-    pub(super) fn new(y: [f64; 3], scale: f64, k: f64) -> (Self, Ask) {
+    /// A solve from `y`, which asks for `Phi` there first; `prior` the contraction the part's
+    /// last solve measured, if it is to be trusted.
+    pub(super) fn new(y: [f64; 3], scale: f64, k: f64, prior: Option<f64>) -> (Self, Ask) {
         let n = Newton {
             y,
             value: f64::NAN,
@@ -153,6 +168,8 @@ impl Newton {
             previous: f64::INFINITY,
             it: 0,
             phase: Phase::Start,
+            prior,
+            measured: None,
         };
         (n, Ask::Eval(y))
     }
@@ -204,16 +221,26 @@ impl Newton {
             return Err(unconverged(y));
         }
         let (norm, step, length) = (at.norm, at.step, at.length);
+        if self.previous.is_finite() && self.previous > 0.0 {
+            // the contraction after a whole Newton step (a step below rounding counted as at
+            // it: the iterate is then as close as rounding tells, not closer)
+            let next = length.max(f64::EPSILON * norm);
+            self.measured = Some(next * norm / (self.previous * self.previous));
+        }
         if length <= TOLERANCE * norm + 1e-15 * self.scale {
             return Ok(Ask::Done(self.settled(self.it)));
         }
         // converging quadratically, |next| ~ |step|² |step| / |previous|²: when that is below
         // the tolerance this step is the last, taken without evaluating Phi after it
         let previous = self.previous;
-        if previous.is_finite()
-            && length <= 1e-7 * norm
-            && length * length * length <= TOLERANCE * norm * previous * previous
-        {
+        let last = if previous.is_finite() {
+            length * length * length <= TOLERANCE * norm * previous * previous
+        } else {
+            // the first step: by the contraction the part's last solve measured
+            self.prior
+                .is_some_and(|k| SAFETY * k * length * length <= TOLERANCE * norm * norm)
+        };
+        if last && length <= 1e-7 * norm {
             return Ok(Ask::Done(Some(self.done(add(y, step), self.it + 1))));
         }
         if -at.slope <= 1e-14 * at.value {
@@ -223,7 +250,7 @@ impl Newton {
             if self.fine > FINE_STEPS || length >= 0.5 * self.last {
                 return Ok(Ask::Done(self.settled(self.it)));
             }
-            self.last = length;
+            (self.last, self.previous) = (length, length);
             self.y = add(y, step);
             self.phase = Phase::Fine;
             return Ok(Ask::Eval(self.y));
@@ -248,6 +275,7 @@ impl Newton {
             w: [y[0], y[1], y[2] / self.k],
             stuck: false,
             iterations,
+            contraction: self.measured,
         }
     }
 }

@@ -47,6 +47,9 @@ pub struct Step {
     pub stuck: bool,
     /// Newton iterations of the sliding solve (0 when it took no solve).
     pub iterations: usize,
+    /// The contraction of its Newton steps the sliding solve measured (`|next| / |y| ~ kappa
+    /// (|step| / |y|)²`), if it took two in a row; the part's next solve may trust it.
+    pub contraction: Option<f64>,
 }
 
 /// Where [`Stepper::step`] goes: done, or on to its sliding solve, started from the last twist
@@ -134,16 +137,25 @@ impl Stepper {
         was_stuck: bool,
         guess: Option<[f64; 3]>,
     ) -> Result<Step> {
-        let r = Request {
+        self.step_request(&Request {
             free,
             slide,
             hold,
             was_stuck,
             guess,
-        };
-        match self.plan(&r)? {
+            contraction: None,
+        })
+    }
+
+    /// [`Stepper::step`] with `r`'s arguments; a solve from a guess trusts the contraction the
+    /// part's last solve measured, if given ([`Step::contraction`]): it may then end after one
+    /// Newton step, as the integrator's solves do.
+    pub fn step_request(&self, r: &Request) -> Result<Step> {
+        match self.plan(r)? {
             Plan::Done(st) => Ok(st),
-            Plan::Slide { toward, guess } => self.slide(free, slide, toward, guess),
+            Plan::Slide { toward, guess } => {
+                self.slide(r.free, r.slide, toward, guess, r.contraction)
+            }
         }
     }
 
@@ -160,6 +172,7 @@ impl Stepper {
             w: [0.0; 3],
             stuck: true,
             iterations: 0,
+            contraction: None,
         };
         let load = self.shape.load();
         if load != [0.0; 2] {
@@ -178,6 +191,7 @@ impl Stepper {
                 w: [free[0] * f, free[1] * f, 0.0],
                 stuck: false,
                 iterations: 0,
+                contraction: None,
             }));
         }
         // the moment that keeps it, per mu N [m], over the largest pure moment
@@ -238,7 +252,7 @@ impl Stepper {
         let k = self.gyration;
         let guess = guess.filter(|g| g.iter().any(|&x| x != 0.0));
         if force > 1.0 && guess.is_some() {
-            return self.slide(free, slide, None, guess);
+            return self.slide(free, slide, None, guess, None);
         }
         // a moment beyond the loaded mean distance's bound, max(1 + k.r) times the uniform one
         // (on three feet, the farthest foot's distance)
@@ -252,7 +266,7 @@ impl Stepper {
         };
         let moment = (k * k * free[2]).abs() / (c * bound);
         if moment > 1.0 && guess.is_some() {
-            return self.slide(free, slide, None, guess);
+            return self.slide(free, slide, None, guess, None);
         }
         let g = self
             .shape
@@ -262,10 +276,11 @@ impl Stepper {
                 w: [0.0; 3],
                 stuck: true,
                 iterations: 0,
+                contraction: None,
             });
         }
         let toward = [g.twist[0], g.twist[1], k * g.twist[2]];
-        self.slide(free, slide, Some(toward), guess)
+        self.slide(free, slide, Some(toward), guess, None)
     }
 
     /// The largest ratio `<zs, e> / D(e)` over the sampled directions (a lower bound of the
@@ -297,13 +312,15 @@ impl Stepper {
     /// `Phi` is a parabola in `t` (`D` is homogeneous), least at `t = (<d, y*> - c D(d)) / |d|²`.
     /// Near the limit surface the minimiser is small and lies close to `toward`'s ray, where
     /// `Phi` is smooth; started from the free twist instead, Newton's iterates could end at the
-    /// kink at 0.
+    /// kink at 0. `prior`: the contraction the part's last solve measured, for a solve from a
+    /// guess ([`Newton`]).
     pub(super) fn slide(
         &self,
         free: [f64; 3],
         c: f64,
         toward: Option<[f64; 3]>,
         guess: Option<[f64; 3]>,
+        prior: Option<f64>,
     ) -> Result<Step> {
         let k = self.gyration;
         // scaled coordinates y = (vx, vy, k omega): Phi = |y - y*|²/2 + c D
@@ -319,6 +336,7 @@ impl Stepper {
                         w: [y[0], y[1], y[2] / k],
                         stuck: false,
                         iterations: 0,
+                        contraction: None,
                     })
                 }
                 Err(Some(y)) => {
@@ -334,7 +352,7 @@ impl Stepper {
                 // the solve parts in lanes take (Stepper::begin; a planar plate's, uniform
                 // pressure), in a lane of its own: the same bits whichever way the part is
                 // stepped
-                return self.solve_alone(&self.quad, free, c, g, toward);
+                return self.solve_alone(&self.quad, free, c, g, toward, prior);
             }
             let y = [g[0], g[1], k * g[2]];
             if let Some(st) = self.newton(y, phi(y), size + c, &phi)? {
@@ -409,7 +427,7 @@ impl Stepper {
         scale: f64,
         phi: &impl Fn([f64; 3]) -> Eval,
     ) -> Result<Option<Step>> {
-        let (mut solve, _) = Newton::new(y, scale, self.gyration);
+        let (mut solve, _) = Newton::new(y, scale, self.gyration, None);
         let mut ask = solve.feed(&at)?;
         loop {
             match ask {

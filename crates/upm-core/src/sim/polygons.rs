@@ -13,7 +13,7 @@
 use rayon::prelude::*;
 
 use crate::error::Result;
-use crate::polygon::{Begun, Evals, Polygon, Quad, Request, Solve, Step, Stepper, FOUR};
+use crate::polygon::{Evals, Polygon, Quad, Request, Solve, Step, Stepper, FOUR};
 
 use super::lift::fly;
 use super::record::Rec;
@@ -29,6 +29,9 @@ pub(super) struct Next {
     pub(super) stuck: bool,
     /// The twist relative to the plate in the part's frame (the next solve's guess).
     relative: [f64; 3],
+    /// Newton iterations of the sliding solve (0: none) and the contraction it measured.
+    iterations: usize,
+    contraction: Option<f64>,
 }
 
 /// One polygon part: its state and friction thresholds.
@@ -40,10 +43,16 @@ pub(super) struct PolygonState {
     pub(super) angle: f64,
     pub(super) spin: f64,
     stuck: bool,
-    /// The relative twist in the part's frame after the last step and after the one before
-    /// (zero where that step did not slide): the next solve starts from their extrapolation.
-    last: [f64; 3],
-    before: [f64; 3],
+    /// The relative twists in the part's frame after the last steps, the latest first, and how
+    /// many of them slid on one after another (at most [`HISTORY`]): the next solve starts from
+    /// their extrapolation ([`PolygonState::guess`]).
+    history: [[f64; 3]; HISTORY],
+    slid: usize,
+    /// The contraction of the Newton steps the part's last solve measured ([`Step::contraction`])
+    /// and the solves since then that trusted it: the next solve trusts it up to [`TRUSTED`]
+    /// solves in a row.
+    contraction: Option<f64>,
+    trusted: usize,
     pub(super) active: bool,
     pub(super) left: Option<f64>,
     /// Height above the plate surface and its rate, on a plate that moves out of its plane.
@@ -58,6 +67,25 @@ pub(super) struct PolygonState {
     /// (stuck, or sliding without spin) reuses them ([`PolygonState::turned`]).
     turned: std::cell::Cell<(f64, [f64; 2])>,
 }
+
+/// Relative twists of the steps before a sliding solve that its guess extrapolates, at most.
+const HISTORY: usize = 7;
+
+/// The weights of the polynomial extrapolations to the next step from the last `n` relative
+/// twists (row `n - 1`, the latest first: `(-1)^j C(n, j + 1)`).
+const EXTRAPOLATION: [[f64; HISTORY]; HISTORY] = [
+    [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [2.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [3.0, -3.0, 1.0, 0.0, 0.0, 0.0, 0.0],
+    [4.0, -6.0, 4.0, -1.0, 0.0, 0.0, 0.0],
+    [5.0, -10.0, 10.0, -5.0, 1.0, 0.0, 0.0],
+    [6.0, -15.0, 20.0, -15.0, 6.0, -1.0, 0.0],
+    [7.0, -21.0, 35.0, -35.0, 21.0, -7.0, 1.0],
+];
+
+/// Sliding solves in a row that trust the contraction measured before them: then one measures
+/// it again.
+const TRUSTED: usize = 32;
 
 /// The steppers of `polygons` (`(part, shape)`), in order: one built per distinct shape (its
 /// outline, its frame and its feet, to the bit) and cloned for the others, so that many parts of
@@ -121,8 +149,10 @@ impl PolygonState {
             spin,
             // A part that starts moving with the plate surface starts stuck.
             stuck: moves_with_plate(c, v, u0) && spin == u0[2],
-            last: [0.0; 3],
-            before: [0.0; 3],
+            history: [[0.0; 3]; HISTORY],
+            slid: 0,
+            contraction: None,
+            trusted: 0,
             active: !outside,
             left: outside.then_some(0.0),
             air: [0.0; 2],
@@ -170,12 +200,13 @@ impl PolygonState {
         let next = if flew || n <= 0.0 {
             self.flight += usize::from(flew);
             // (no guess after landing: the twist changed freely in the air)
-            (self.last, self.before) = ([0.0; 3], [0.0; 3]);
             Next {
                 v: self.v,
                 spin: self.spin,
                 stuck: false,
                 relative: [0.0; 3],
+                iterations: 0,
+                contraction: None,
             }
         } else {
             self.press(nz, n)?;
@@ -209,14 +240,20 @@ impl PolygonState {
     /// `load` (the normal force over `m g`); the state is not changed.
     pub(super) fn friction(&self, u: [f64; 3], load: f64) -> Result<Next> {
         let (r, turned) = self.request(u, load);
-        let st = self
-            .stepper
-            .step(r.free, r.slide, r.hold, r.was_stuck, r.guess);
-        self.finish(u, turned, st)
+        let st = self.stepper.step_request(&r).map_err(|e| self.failed(e))?;
+        Ok(self.finish(u, turned, st))
+    }
+
+    /// The error `e` of this part's step, naming the part.
+    #[cold]
+    #[inline(never)]
+    fn failed(&self, e: crate::error::Error) -> crate::error::Error {
+        e.with_context(&format!("part {}", self.index))
     }
 
     /// The arguments of [`PolygonState::friction`]'s step ([`Stepper::step`]), and the cosine
     /// and sine of the part's angle.
+    #[inline(always)]
     fn request(&self, [u1, u2, u3]: [f64; 3], load: f64) -> (Request, [f64; 2]) {
         let [x, y] = self.c;
         let surface = [u1 - u3 * y, u2 + u3 * x];
@@ -229,50 +266,47 @@ impl PolygonState {
             hold: self.hold * load,
             was_stuck: self.stuck,
             guess: (!self.stuck).then(|| self.guess()),
+            contraction: self.contraction.filter(|_| self.trusted < TRUSTED),
         };
         (r, cs)
     }
 
     /// The state after the step `st` taken for [`PolygonState::request`] under the plate
     /// velocity `u` (`cs` the angle's cosine and sine).
-    fn finish(&self, [u1, u2, u3]: [f64; 3], cs: [f64; 2], st: Result<Step>) -> Result<Next> {
-        let st = st.map_err(|e| e.with_context(&format!("part {}", self.index)))?;
+    #[inline(always)]
+    fn finish(&self, [u1, u2, u3]: [f64; 3], cs: [f64; 2], st: Step) -> Next {
         let [x, y] = self.c;
         let surface = [u1 - u3 * y, u2 + u3 * x];
         let w = turn(cs, [st.w[0], st.w[1]]);
-        Ok(Next {
+        Next {
             v: [surface[0] + w[0], surface[1] + w[1]],
             spin: u3 + st.w[2],
             stuck: st.stuck,
             relative: st.w,
-        })
+            iterations: st.iterations,
+            contraction: st.contraction,
+        }
     }
 
     /// Moves on by the step `st` taken for [`PolygonState::request`] under the plate velocity
     /// `u` in step `s` (0-based; `cs` the angle's cosine and sine).
-    fn take(
-        &mut self,
-        u: [f64; 3],
-        cs: [f64; 2],
-        st: Result<Step>,
-        s: usize,
-        cfg: &Config,
-    ) -> Result<()> {
-        let next = self.finish(u, cs, st)?;
+    #[inline(always)]
+    fn take(&mut self, u: [f64; 3], cs: [f64; 2], st: Step, s: usize, cfg: &Config) {
+        let next = self.finish(u, cs, st);
         self.advance(next, cfg.dt);
         self.leaves(s, cfg);
-        Ok(())
     }
 
-    /// The next sliding solve's start: the last step's relative twist, moved on by its change
-    /// over the last step when both steps slid (the twist changes smoothly while the part
-    /// slides, so the start is off by the second difference, not the first).
+    /// The next sliding solve's start: the relative twists of the last steps that slid on one
+    /// after another, extrapolated ([`EXTRAPOLATION`]); zero when the last step did not slide.
     fn guess(&self) -> [f64; 3] {
-        let (l, b) = (self.last, self.before);
-        if b == [0.0; 3] || l == [0.0; 3] {
-            return l;
-        }
-        std::array::from_fn(|i| l[i] + (l[i] - b[i]))
+        let Some(weights) = self.slid.checked_sub(1).map(|n| EXTRAPOLATION[n]) else {
+            return [0.0; 3];
+        };
+        std::array::from_fn(|i| {
+            let terms = weights.iter().zip(&self.history).map(|(w, h)| w * h[i]);
+            terms.fold(0.0, |sum, t| sum + t)
+        })
     }
 
     /// Moves to the state `next` over one step of `dt`: the centroid and angle by the trapezoid.
@@ -283,8 +317,20 @@ impl PolygonState {
             y + 0.5 * (self.v[1] + next.v[1]) * dt,
         ];
         self.angle += 0.5 * (self.spin + next.spin) * dt;
-        self.before = self.last;
-        (self.v, self.spin, self.stuck, self.last) = (next.v, next.spin, next.stuck, next.relative);
+        (self.v, self.spin, self.stuck) = (next.v, next.spin, next.stuck);
+        if next.relative == [0.0; 3] {
+            self.slid = 0;
+        } else {
+            self.history.copy_within(..HISTORY - 1, 1);
+            self.history[0] = next.relative;
+            self.slid = (self.slid + 1).min(HISTORY);
+        }
+        // the contraction a solve measured, trusted by the next ones
+        match (next.iterations, next.contraction) {
+            (0, _) => (self.contraction, self.trusted) = (None, 0),
+            (_, Some(k)) => (self.contraction, self.trusted) = (Some(k), 0),
+            (_, None) => self.trusted += 1,
+        }
     }
 
     /// Takes the state a contact solve gave (centroid, angle, velocity, spin); the part slides
@@ -292,7 +338,7 @@ impl PolygonState {
     pub(super) fn collided(&mut self, c: [f64; 2], angle: f64, v: [f64; 2], spin: f64) {
         (self.c, self.angle, self.v, self.spin, self.stuck) = (c, angle, v, spin, false);
         // no guess: the contact changed the twist
-        (self.last, self.before) = ([0.0; 3], [0.0; 3]);
+        (self.slid, self.contraction) = (0, None);
     }
 
     /// Whether the centroid left the plate in step `s` (0-based); the part is then frozen.
@@ -359,16 +405,18 @@ fn run_lanes(
 ) -> Result<()> {
     let edges = parts.iter().map(|p| p.stepper.shape.vertices.len());
     let mut quad = Quad::new(edges.max().unwrap_or(0));
-    // each lane's part, that part's next step in the block, and its solve (with its angle's
-    // cosine and sine) while it waits for friction
+    // each lane's part, that part's next step in the block, and its solve (begun in place, with
+    // its angle's cosine and sine) while it waits for friction
     let mut part: [Option<usize>; FOUR] = [None; FOUR];
     let mut next = [0; FOUR];
-    let mut solving: [Option<(Solve, [f64; 2])>; FOUR] = [None; FOUR];
+    let mut solves = [Solve::default(); FOUR];
+    let mut turned = [[1.0, 0.0]; FOUR];
+    let mut solving = [false; FOUR];
     let mut evals = Evals::default();
     let mut waiting = 0;
     loop {
         for l in 0..FOUR {
-            while solving[l].is_none() {
+            while !solving[l] {
                 let i = match part[l] {
                     Some(i) if next[l] < table.len() => i,
                     _ if waiting < parts.len() => {
@@ -387,41 +435,41 @@ fn run_lanes(
                 let (k, u) = (next[l], table[next[l]]);
                 if p.active {
                     let (r, cs) = p.request(u, 1.0);
-                    match p.stepper.begin(&r) {
-                        Ok(Begun::Solve(solve)) => {
-                            solving[l] = Some((solve, cs));
+                    match p.stepper.begin(&r, &mut solves[l]) {
+                        Ok(None) => {
+                            (solving[l], turned[l]) = (true, cs);
                             break;
                         }
-                        Ok(Begun::Done(st)) => p.take(u, cs, Ok(st), first + k, cfg)?,
-                        Err(e) => p.take(u, cs, Err(e), first + k, cfg)?,
+                        Ok(Some(st)) => p.take(u, cs, st, first + k, cfg),
+                        Err(e) => return Err(p.failed(e)),
                     }
                 }
                 p.record(first + k + 1, rec);
                 next[l] += 1;
             }
         }
-        if solving.iter().all(Option::is_none) {
+        if !solving.contains(&true) {
             return Ok(());
         }
-        let asks = std::array::from_fn(|l| match (&solving[l], part[l]) {
-            (Some((solve, _)), Some(i)) => Some(solve.asked(&parts[i].stepper)),
+        let asks = std::array::from_fn(|l| match part[l] {
+            Some(i) if solving[l] => Some(solves[l].asked(&parts[i].stepper)),
             _ => None,
         });
         let shapes = part.map(|i| i.map(|i| &parts[i].stepper.shape));
         quad.evaluate(shapes, &asks, &mut evals);
         for l in 0..FOUR {
-            let (Some((solve, cs)), Some(i)) = (solving[l].as_mut(), part[l]) else {
+            let Some(i) = part[l].filter(|_| solving[l]) else {
                 continue;
             };
             let p = &mut parts[i];
-            let st = match solve.feed(&p.stepper, &evals.get(l)) {
+            let st = match solves[l].feed(&p.stepper, &evals.get(l)) {
                 Ok(None) => continue,
-                Ok(Some(st)) => Ok(st),
-                Err(e) => Err(e),
+                Ok(Some(st)) => st,
+                Err(e) => return Err(p.failed(e)),
             };
-            let (k, cs) = (next[l], *cs);
-            solving[l] = None;
-            p.take(table[k], cs, st, first + k, cfg)?;
+            let k = next[l];
+            solving[l] = false;
+            p.take(table[k], turned[l], st, first + k, cfg);
             p.record(first + k + 1, rec);
             next[l] += 1;
         }
