@@ -1,5 +1,5 @@
 //! A polygon part's step taken in parts, so that many parts' sliding solves can take their
-//! friction together (`sim::polygons`, four parts in lanes, [`super::Quad`]): [`Stepper::begin`]
+//! friction together (`sim::polygons`, eight parts in lanes, [`super::Quad`]): [`Stepper::begin`]
 //! decides the step as [`Stepper::step`] does, up to a sliding solve that goes on from a guess,
 //! and that solve ([`Solve`]) asks for `Phi` at one twist after another.
 

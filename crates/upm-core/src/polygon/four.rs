@@ -2,12 +2,13 @@
 //! ([`super::Polygon::fan`]) about each lane's centre of rotation, the edges taken one after
 //! another, each vertex's distance and its reciprocal computed once for the two edges that meet
 //! there; then the wrench and Hessian, and for a sliding solve `Phi` and its Newton step
-//! ([`Quad::evaluate`], [`super::newton::Eval`]). The integrator steps four parts of a planar
-//! plate this way (their sliding solves side by side, `sim::polygons`), and
+//! ([`Quad::evaluate`], [`super::newton::Eval`]). The integrator steps eight parts of a planar
+//! plate this way, in two quads (their sliding solves side by side, `sim::polygons`,
+//! [`evaluate_pair`]: one vector of eight on AVX-512, `super::avx512`), and
 //! [`super::Stepper::step`] takes its solve from a guess in a lane of its own.
 //!
 //! A lane's arithmetic does not depend on the other lanes (a lane with fewer edges adds nothing
-//! for the others': its sums are left as they are), and the AVX2 build
+//! for the others': its sums are left as they are), and the AVX-512 and AVX2 builds
 //! ([`super::avx2::evals_four`]) and the portable one ([`fan_lane`], [`friction_lane`],
 //! [`Eval::of`]) compute the same bits (no fused multiply–adds, the edges summed in order): a
 //! part's step is the same whatever parts share its lanes, and whichever build takes it. The
@@ -22,6 +23,9 @@ use crate::sim::kernel::{simd, Simd};
 
 /// Parts in lanes.
 pub const FOUR: usize = 4;
+
+/// Parts in the lanes of two quads ([`evaluate_pair`]).
+pub const EIGHT: usize = 2 * FOUR;
 
 /// What a sliding solve asks about ([`super::Solve::asked`]): the friction at `twist`, and
 /// `Phi` at the scaled twist `y` toward `target` with `c` and `1 / k` ([`Eval::of`]).
@@ -212,6 +216,16 @@ impl Quad {
         asks: &[Option<Asked>; FOUR],
         out: &mut Evals,
     ) {
+        #[cfg(target_arch = "x86_64")]
+        if simd() == Simd::Avx512 {
+            // (this build's lanes everywhere: the quad's own lanes beside a copy of them)
+            let mut pair = [*out, Evals::default()];
+            let shapes = std::array::from_fn(|l| if l < FOUR { shapes[l] } else { None });
+            let asks = std::array::from_fn(|l| if l < FOUR { asks[l] } else { None });
+            eight([self, self], shapes, &asks, &mut pair);
+            *out = pair[0];
+            return;
+        }
         let fanned: [bool; FOUR] = std::array::from_fn(|l| match (shapes[l], asks[l]) {
             (Some(p), Some(a)) => fans(p, a.twist),
             _ => false,
@@ -248,6 +262,65 @@ impl Quad {
                 p.friction_hessian([a.twist[0], a.twist[1]], a.twist[2])
             };
             out.set(l, &Eval::of(&f, a.y, a.target, a.c, a.kinv));
+        }
+    }
+}
+
+/// [`Quad::evaluate`] of two quads' lanes at once (lanes `0..4` of `shapes`, `asks` and `out`
+/// the first quad's, `4..8` the second's): on the AVX-512 build in vectors of eight
+/// (`avx512::evals_eight`) when the quads have as many edges, else quad by quad. A lane's bits
+/// are the same either way.
+pub(crate) fn evaluate_pair(
+    q: [&Quad; 2],
+    shapes: [Option<&Polygon>; EIGHT],
+    asks: &[Option<Asked>; EIGHT],
+    out: &mut [Evals; 2],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if simd() == Simd::Avx512 && q[0].edges() == q[1].edges() {
+        return eight(q, shapes, asks, out);
+    }
+    for (h, out) in out.iter_mut().enumerate() {
+        let lanes = FOUR * h..FOUR * (h + 1);
+        let (shapes, asks) = (&shapes[lanes.clone()], &asks[lanes]);
+        q[h].evaluate(
+            std::array::from_fn(|l| shapes[l]),
+            &std::array::from_fn(|l| asks[l]),
+            out,
+        );
+    }
+}
+
+/// [`evaluate_pair`] on the AVX-512 build (the quads of as many edges): the lanes in the fan's
+/// regime in vectors of eight, any other one by [`Polygon::friction_hessian`].
+#[cfg(target_arch = "x86_64")]
+fn eight(
+    q: [&Quad; 2],
+    shapes: [Option<&Polygon>; EIGHT],
+    asks: &[Option<Asked>; EIGHT],
+    out: &mut [Evals; 2],
+) {
+    let fanned: [bool; EIGHT] = std::array::from_fn(|l| match (shapes[l], asks[l]) {
+        (Some(p), Some(a)) => fans(p, a.twist),
+        _ => false,
+    });
+    if fanned.contains(&true) {
+        // (a lane out of the fan's regime turns about its centroid, inside the part)
+        let asked = std::array::from_fn(|l| match asks[l] {
+            Some(a) if fanned[l] => a,
+            _ => Asked {
+                twist: [0.0, 0.0, 1.0],
+                kinv: 1.0,
+                ..Asked::default()
+            },
+        });
+        // SAFETY: simd() chooses the AVX-512 build only on a CPU that has AVX-512F.
+        unsafe { super::avx512::evals_eight(q, &asked, out) };
+    }
+    for l in (0..EIGHT).filter(|&l| !fanned[l]) {
+        if let (Some(p), Some(a)) = (shapes[l], asks[l]) {
+            let f = p.friction_hessian([a.twist[0], a.twist[1]], a.twist[2]);
+            out[l / FOUR].set(l % FOUR, &Eval::of(&f, a.y, a.target, a.c, a.kinv));
         }
     }
 }
@@ -474,6 +547,80 @@ mod tests {
                 let bits = |f: Fan| [f.dist, f.unit[0], f.curvature[2]].map(f64::to_bits);
                 assert_eq!(bits(a), bits(b), "lane {l}");
             }
+        }
+    }
+
+    #[test]
+    fn two_quads_in_lanes_of_eight_give_each_lane_the_bits_of_four() {
+        // each lane's evaluation (friction, Phi, Newton step) at centres inside, outside, on
+        // edges and at vertices of four shapes, beside other shapes and empty lanes: the
+        // AVX-512 build's vectors of eight give the bits of the AVX2 build's four, and of the
+        // portable lane
+        let all = shapes();
+        let lanes = [
+            [Some(&all[0]), Some(&all[1]), None, Some(&all[3])],
+            [Some(&all[2]), Some(&all[3]), Some(&all[1]), Some(&all[0])],
+        ];
+        let q = lanes.map(Quad::of);
+        assert_eq!(q[0].edges(), q[1].edges());
+        let spin = |r: [f64; 2], omega: f64| [r[1] * omega, -r[0] * omega, omega];
+        let mut checked = 0;
+        for i in 0..8 {
+            let asks: [Asked; EIGHT] = std::array::from_fn(|l| {
+                let p = lanes[l / FOUR][l % FOUR].unwrap_or(&all[0]);
+                let omega = 0.4 + 0.3 * l as f64 - 1.3 * (i % 3) as f64;
+                let twist = spin(super::super::lanes::tests::centres(p)[(i + l) % 8], omega);
+                Asked {
+                    twist,
+                    y: [twist[0] * 1.1, twist[1] - 1e-3, 0.004 * twist[2]],
+                    target: [0.01 * l as f64, -0.02, 0.003 * i as f64],
+                    c: 2e-4 * (1.0 + l as f64),
+                    kinv: 150.0 + 10.0 * l as f64,
+                }
+            });
+            let bits = |e: &Evals, l: usize| -> Vec<u64> {
+                let e = e.get(l);
+                [e.value, e.gnorm, e.length, e.slope, e.norm]
+                    .into_iter()
+                    .chain(e.step)
+                    .map(|x| if x.is_nan() { u64::MAX } else { x.to_bits() })
+                    .collect()
+            };
+            let mut portable = [Evals::default(); 2];
+            for l in 0..EIGHT {
+                let a = asks[l];
+                let f = friction_lane(&q[l / FOUR], l % FOUR, a.twist);
+                portable[l / FOUR].set(l % FOUR, &Eval::of(&f, a.y, a.target, a.c, a.kinv));
+            }
+            #[cfg(target_arch = "x86_64")]
+            if is_x86_feature_detected!("avx2") {
+                for h in 0..2 {
+                    let mut four = Evals::default();
+                    let asks4 = std::array::from_fn(|l| asks[FOUR * h + l]);
+                    // SAFETY: the CPU has AVX2.
+                    unsafe { super::super::avx2::evals_four(&q[h], &asks4, &mut four) };
+                    for l in 0..FOUR {
+                        assert_eq!(bits(&four, l), bits(&portable[h], l), "avx2 {i} {h} {l}");
+                    }
+                }
+                checked += 1;
+            }
+            #[cfg(target_arch = "x86_64")]
+            if is_x86_feature_detected!("avx512f") {
+                let mut eight = [Evals::default(); 2];
+                // SAFETY: the CPU has AVX-512F.
+                unsafe { super::super::avx512::evals_eight([&q[0], &q[1]], &asks, &mut eight) };
+                for l in 0..EIGHT {
+                    let (h, k) = (l / FOUR, l % FOUR);
+                    assert_eq!(bits(&eight[h], k), bits(&portable[h], k), "avx512 {i} {l}");
+                }
+                checked += 1;
+            }
+        }
+        // (on a machine without AVX2 there is no vector build to compare)
+        #[cfg(target_arch = "x86_64")]
+        if is_x86_feature_detected!("avx2") {
+            assert!(checked >= 8);
         }
     }
 

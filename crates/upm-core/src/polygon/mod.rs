@@ -24,6 +24,8 @@ use crate::error::{Error, Result};
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
+#[cfg(target_arch = "x86_64")]
+mod avx512;
 mod begin;
 mod far;
 mod four;
@@ -35,7 +37,8 @@ mod step;
 mod tripod;
 pub use begin::Request;
 pub(crate) use begin::Solve;
-pub use four::{Quad, FOUR};
+pub(crate) use four::evaluate_pair;
+pub use four::{Quad, EIGHT, FOUR};
 pub use limit::Gauge;
 pub(crate) use newton::Evals;
 pub use step::{Step, Stepper};

@@ -1,7 +1,7 @@
 //! Newton's method for the sliding solve of [`super::Stepper`], as a machine that asks for `Phi`
 //! at one point at a time ([`Newton::feed`]): one solve drives it with one evaluation after
-//! another, four parts in lanes ([`super::Stepper::step_four`]) drive four with one evaluation
-//! of the four points, and both take the same steps.
+//! another, parts in lanes (`sim::polygons`) drive eight with one evaluation of the eight
+//! points, and both take the same steps.
 
 use super::step::Step;
 use super::Friction;

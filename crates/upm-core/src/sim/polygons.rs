@@ -13,7 +13,9 @@
 use rayon::prelude::*;
 
 use crate::error::Result;
-use crate::polygon::{Evals, Polygon, Quad, Request, Solve, Step, Stepper, FOUR};
+use crate::polygon::{
+    evaluate_pair, Evals, Polygon, Quad, Request, Solve, Step, Stepper, EIGHT, FOUR,
+};
 
 use super::lift::fly;
 use super::record::Rec;
@@ -361,7 +363,7 @@ impl PolygonState {
 /// Advances `polygons` through one block (`table[k]`: the plate velocity at the end of step
 /// `first + k`; `normals[k]` its out-of-plane accelerations, empty for a planar plate),
 /// recording as it goes; the first error (a sliding solve that did not converge) stops the run.
-/// On a planar plate slices of parts run four at a time in lanes ([`run_lanes`]), a rayon task
+/// On a planar plate slices of parts run eight at a time in lanes ([`run_lanes`]), a rayon task
 /// each; on a plate that moves out of its plane (each part's pressure its own), one part per
 /// task.
 pub(super) fn run(
@@ -373,11 +375,13 @@ pub(super) fn run(
     rec: &Rec,
 ) -> Result<()> {
     if normals.is_empty() {
-        // a slice of parts a task, a few for each thread (the results do not depend on it)
-        let slice = polygons
-            .len()
-            .div_ceil(4 * rayon::current_num_threads())
-            .max(FOUR);
+        // a slice of parts a task (the results do not depend on it): one on one thread, two for
+        // each of more. (A slice ends with lanes idle while its last parts finish the block: four
+        // slices on one thread cost 168-178 ns per part-step for the kernel bench's hexagons,
+        // one 159-162.)
+        let threads = rayon::current_num_threads();
+        let slices = if threads == 1 { 1 } else { 2 * threads };
+        let slice = polygons.len().div_ceil(slices).max(EIGHT);
         return polygons
             .par_chunks_mut(slice)
             .try_for_each(|parts| run_lanes(parts, table, first, cfg, rec));
@@ -391,11 +395,14 @@ pub(super) fn run(
     })
 }
 
-/// [`run`] for `parts` on a planar plate, four at a time in lanes: each lane takes a part
+/// [`run`] for `parts` on a planar plate, eight at a time in lanes: each lane takes a part
 /// through the block's steps on its own until the part's sliding solve asks for the friction
-/// at a twist ([`Stepper::begin`]); then the four lanes' friction is taken together
-/// ([`Quad::evaluate`]), and each goes on. A lane whose part is done with the block takes the
-/// next part, so that lanes wait for each other only at the end of the slice.
+/// at a twist ([`Stepper::begin`]); then the lanes' friction is taken together
+/// ([`evaluate_pair`]: a vector of eight on AVX-512, two of four elsewhere), and each goes on.
+/// A lane whose part is done with the block takes the next part, so that lanes wait for each
+/// other only at the end of the slice. (Parts taken for stints of 64 steps in turn, so that the
+/// lanes would run out of work together, cost more than the end's idle lanes: 152–162 -> 167–168
+/// ns for the kernel bench's hexagons.)
 fn run_lanes(
     parts: &mut [PolygonState],
     table: &[[f64; 3]],
@@ -403,26 +410,29 @@ fn run_lanes(
     cfg: &Config,
     rec: &Rec,
 ) -> Result<()> {
+    // two quads of as many edges: the lanes of one vector of eight on AVX-512, two of four
+    // elsewhere
     let edges = parts.iter().map(|p| p.stepper.shape.vertices.len());
-    let mut quad = Quad::new(edges.max().unwrap_or(0));
+    let edges = edges.max().unwrap_or(0);
+    let mut quads = [Quad::new(edges), Quad::new(edges)];
     // each lane's part, that part's next step in the block, and its solve (begun in place, with
     // its angle's cosine and sine) while it waits for friction
-    let mut part: [Option<usize>; FOUR] = [None; FOUR];
-    let mut next = [0; FOUR];
-    let mut solves = [Solve::default(); FOUR];
-    let mut turned = [[1.0, 0.0]; FOUR];
-    let mut solving = [false; FOUR];
-    let mut evals = Evals::default();
+    let mut part: [Option<usize>; EIGHT] = [None; EIGHT];
+    let mut next = [0; EIGHT];
+    let mut solves = [Solve::default(); EIGHT];
+    let mut turned = [[1.0, 0.0]; EIGHT];
+    let mut solving = [false; EIGHT];
+    let mut evals = [Evals::default(); 2];
     let mut waiting = 0;
     loop {
-        for l in 0..FOUR {
+        for l in 0..EIGHT {
             while !solving[l] {
                 let i = match part[l] {
                     Some(i) if next[l] < table.len() => i,
                     _ if waiting < parts.len() => {
                         // done with its part (or none yet): the next one
                         (part[l], next[l]) = (Some(waiting), 0);
-                        quad.set(l, Some(&parts[waiting].stepper.shape));
+                        quads[l / FOUR].set(l % FOUR, Some(&parts[waiting].stepper.shape));
                         waiting += 1;
                         continue;
                     }
@@ -456,13 +466,13 @@ fn run_lanes(
             _ => None,
         });
         let shapes = part.map(|i| i.map(|i| &parts[i].stepper.shape));
-        quad.evaluate(shapes, &asks, &mut evals);
-        for l in 0..FOUR {
+        evaluate_pair([&quads[0], &quads[1]], shapes, &asks, &mut evals);
+        for l in 0..EIGHT {
             let Some(i) = part[l].filter(|_| solving[l]) else {
                 continue;
             };
             let p = &mut parts[i];
-            let st = match solves[l].feed(&p.stepper, &evals.get(l)) {
+            let st = match solves[l].feed(&p.stepper, &evals[l / FOUR].get(l % FOUR)) {
                 Ok(None) => continue,
                 Ok(Some(st)) => st,
                 Err(e) => return Err(p.failed(e)),
