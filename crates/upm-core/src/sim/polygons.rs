@@ -65,9 +65,12 @@ pub(super) struct PolygonState {
     pub(super) hold: f64,
     /// Its place among all parts.
     pub(super) index: usize,
-    /// The cosine and sine of the angle, and the angle they are of: a part that does not turn
-    /// (stuck, or sliding without spin) reuses them ([`PolygonState::turned`]).
-    turned: std::cell::Cell<(f64, [f64; 2])>,
+    /// The cosine and sine of the angle, computed when the angle changes ([`PolygonState::turn_to`]):
+    /// a part that does not turn (stuck, or sliding without spin) keeps them, and the next step
+    /// reads them long after they were stored. (Computed where they were first needed, the
+    /// cosine and sine the library stored one at a time were loaded together just after, which
+    /// the CPU cannot forward.)
+    cs: [f64; 2],
 }
 
 /// Relative twists of the steps before a sliding solve that its guess extrapolates, at most.
@@ -162,19 +165,21 @@ impl PolygonState {
             slide: parts.mu(i) * cfg.g * cfg.dt,
             hold: parts.mu_s(i) * cfg.g * cfg.dt,
             index: i,
-            turned: std::cell::Cell::new((f64::NAN, [1.0, 0.0])),
+            cs: [angle.cos(), angle.sin()],
         }
     }
 
-    /// `[cos, sin]` of the angle, computed again only when the angle changed.
+    /// `[cos, sin]` of the angle ([`PolygonState::turn_to`]).
     fn turned(&self) -> [f64; 2] {
-        let (at, cs) = self.turned.get();
-        if at.to_bits() == self.angle.to_bits() {
-            return cs;
+        self.cs
+    }
+
+    /// Sets the angle, and its cosine and sine if it changed.
+    fn turn_to(&mut self, angle: f64) {
+        if angle.to_bits() != self.angle.to_bits() {
+            self.cs = [angle.cos(), angle.sin()];
         }
-        let cs = [self.angle.cos(), self.angle.sin()];
-        self.turned.set((self.angle, cs));
-        cs
+        self.angle = angle;
     }
 
     /// One step (0-based `s`) under the plate velocity `u`, if the part is still on the plate.
@@ -318,7 +323,7 @@ impl PolygonState {
             x + 0.5 * (self.v[0] + next.v[0]) * dt,
             y + 0.5 * (self.v[1] + next.v[1]) * dt,
         ];
-        self.angle += 0.5 * (self.spin + next.spin) * dt;
+        self.turn_to(self.angle + 0.5 * (self.spin + next.spin) * dt);
         (self.v, self.spin, self.stuck) = (next.v, next.spin, next.stuck);
         if next.relative == [0.0; 3] {
             self.slid = 0;
@@ -338,7 +343,8 @@ impl PolygonState {
     /// Takes the state a contact solve gave (centroid, angle, velocity, spin); the part slides
     /// into the next friction step.
     pub(super) fn collided(&mut self, c: [f64; 2], angle: f64, v: [f64; 2], spin: f64) {
-        (self.c, self.angle, self.v, self.spin, self.stuck) = (c, angle, v, spin, false);
+        (self.c, self.v, self.spin, self.stuck) = (c, v, spin, false);
+        self.turn_to(angle);
         // no guess: the contact changed the twist
         (self.slid, self.contraction) = (0, None);
     }
