@@ -177,7 +177,7 @@ impl Stepper {
         let load = self.shape.load();
         if load != [0.0; 2] {
             return self
-                .step_loaded(free, [slide, c, force], guess, load)
+                .step_loaded(free, [slide, c, force], guess, load, r.contraction)
                 .map(Plan::Done);
         }
         if free[2] == 0.0 {
@@ -241,18 +241,20 @@ impl Stepper {
     /// unless the force alone is outside the cylinder `|F| <= 1` (still the limit set's bound:
     /// the pressure is nowhere negative) and the part slides on from a guess.
     /// `[slide, c, force]`: the sliding threshold, the threshold in force now (static while
-    /// stuck) and the free twist's force over it.
+    /// stuck) and the free twist's force over it; `prior` the contraction the part's last solve
+    /// measured, which its solve from a guess may trust.
     fn step_loaded(
         &self,
         free: [f64; 3],
         [slide, c, force]: [f64; 3],
         guess: Option<[f64; 3]>,
         load: [f64; 2],
+        prior: Option<f64>,
     ) -> Result<Step> {
         let k = self.gyration;
         let guess = guess.filter(|g| g.iter().any(|&x| x != 0.0));
         if force > 1.0 && guess.is_some() {
-            return self.slide(free, slide, None, guess, None);
+            return self.slide(free, slide, None, guess, prior);
         }
         // a moment beyond the loaded mean distance's bound, max(1 + k.r) times the uniform one
         // (on three feet, the farthest foot's distance)
@@ -266,7 +268,7 @@ impl Stepper {
         };
         let moment = (k * k * free[2]).abs() / (c * bound);
         if moment > 1.0 && guess.is_some() {
-            return self.slide(free, slide, None, guess, None);
+            return self.slide(free, slide, None, guess, prior);
         }
         let g = self
             .shape
@@ -280,7 +282,7 @@ impl Stepper {
             });
         }
         let toward = [g.twist[0], g.twist[1], k * g.twist[2]];
-        self.slide(free, slide, Some(toward), guess, None)
+        self.slide(free, slide, Some(toward), guess, prior)
     }
 
     /// The largest ratio `<zs, e> / D(e)` over the sampled directions (a lower bound of the
@@ -340,7 +342,7 @@ impl Stepper {
                     })
                 }
                 Err(Some(y)) => {
-                    if let Some(st) = self.newton(y, phi(y), size + c, &phi)? {
+                    if let Some(st) = self.newton(y, phi(y), size + c, &phi, None)? {
                         return Ok(st);
                     }
                 }
@@ -355,7 +357,7 @@ impl Stepper {
                 return self.solve_alone(&self.quad, free, c, g, toward, prior);
             }
             let y = [g[0], g[1], k * g[2]];
-            if let Some(st) = self.newton(y, phi(y), size + c, &phi)? {
+            if let Some(st) = self.newton(y, phi(y), size + c, &phi, prior)? {
                 return Ok(st);
             }
         }
@@ -400,7 +402,7 @@ impl Stepper {
             }
         };
         let (y, at) = self.start(target, toward, c, &phi);
-        if let Some(st) = self.newton(y, at, size + c, &phi)? {
+        if let Some(st) = self.newton(y, at, size + c, &phi, None)? {
             return Ok(st);
         }
         // the last resort: from the exact gauge's direction (the start above may have come
@@ -408,7 +410,7 @@ impl Stepper {
         let z = [free[0] / c, free[1] / c, k * k * free[2] / c];
         let g = self.shape.gauge(z[0], z[1], z[2])?;
         let (y, at) = self.start(target, [g.twist[0], g.twist[1], k * g.twist[2]], c, &phi);
-        match self.newton(y, at, size + c, &phi)? {
+        match self.newton(y, at, size + c, &phi, None)? {
             Some(st) => Ok(st),
             None => Err(Error::Convergence(format!(
                 "the sliding step of a polygon part from the relative twist {free:?} ended off \
@@ -417,17 +419,18 @@ impl Stepper {
         }
     }
 
-    /// Newton's method ([`Newton`]) from `y` (where `Phi` is `at`): the step, or None when it
-    /// ends where the gradient is not zero to `1e-9` of `scale` (`|y*| + c`, the gradient's
-    /// terms).
+    /// Newton's method ([`Newton`]) from `y` (where `Phi` is `at`), trusting the contraction
+    /// `prior` for a start from a guess: the step, or None when it ends where the gradient is
+    /// not zero to `1e-9` of `scale` (`|y*| + c`, the gradient's terms).
     fn newton(
         &self,
         y: [f64; 3],
         at: Eval,
         scale: f64,
         phi: &impl Fn([f64; 3]) -> Eval,
+        prior: Option<f64>,
     ) -> Result<Option<Step>> {
-        let (mut solve, _) = Newton::new(y, scale, self.gyration, None);
+        let (mut solve, _) = Newton::new(y, scale, self.gyration, prior);
         let mut ask = solve.feed(&at)?;
         loop {
             match ask {
