@@ -118,11 +118,13 @@ fn reference(
     let mut stuck = v == surface0 && spin == u0[2];
     let (mut history, mut slid) = ([[0.0; 3]; HISTORY], 0);
     let (mut contraction, mut trusted) = (None, 0);
+    // the angle's cosine and sine: a turn below 1e-3 rad rotates them by its series, every
+    // 16th turn (or a larger one) takes the library's
+    let (mut cs, mut turns) = ([angle.cos(), angle.sin()], 0);
     let mut out = Vec::new();
     for u in table {
         let surface = [u[0] - u[2] * c[1], u[1] + u[2] * c[0]];
         let free = [v[0] - surface[0], v[1] - surface[1]];
-        let cs = [angle.cos(), angle.sin()];
         let local = turn([cs[0], -cs[1]], free);
         let guess = extrapolate(&history, slid);
         let st = stepper
@@ -141,7 +143,20 @@ fn reference(
             c[0] + 0.5 * (v[0] + nv[0]) * cfg.dt,
             c[1] + 0.5 * (v[1] + nv[1]) * cfg.dt,
         ];
-        angle += 0.5 * (spin + nspin) * cfg.dt;
+        let turned = angle + 0.5 * (spin + nspin) * cfg.dt;
+        if turned != angle {
+            let d = turned - angle;
+            turns += 1;
+            if turns >= 16 || d.abs() >= 1e-3 {
+                (cs, turns) = ([turned.cos(), turned.sin()], 0);
+            } else {
+                let d2 = d * d;
+                let c = 1.0 - 0.5 * d2 * (1.0 - d2 / 12.0);
+                let s = d * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0));
+                cs = [cs[0] * c - cs[1] * s, cs[1] * c + cs[0] * s];
+            }
+        }
+        angle = turned;
         (v, spin, stuck) = (nv, nspin, st.stuck);
         if st.w == [0.0; 3] {
             slid = 0;
@@ -155,7 +170,7 @@ fn reference(
             (_, Some(k)) => (Some(k), 0),
             (_, None) => (contraction, trusted + 1),
         };
-        let off = turn([angle.cos(), angle.sin()], shape.centroid);
+        let off = turn(cs, shape.centroid);
         out.push(([c[0] - off[0], c[1] - off[1]], v, angle, stuck));
     }
     out

@@ -237,17 +237,8 @@ impl Quad {
         let lanes = false;
         #[cfg(target_arch = "x86_64")]
         if lanes {
-            // (a lane out of the fan's regime turns about its centroid, inside the part)
-            let asked = std::array::from_fn(|l| match asks[l] {
-                Some(a) if fanned[l] => a,
-                _ => Asked {
-                    twist: [0.0, 0.0, 1.0],
-                    kinv: 1.0,
-                    ..Asked::default()
-                },
-            });
             // SAFETY: simd() chooses these builds only on a CPU that has AVX2.
-            unsafe { super::avx2::evals_four(self, &asked, out) };
+            unsafe { super::avx2::evals_four(self, &vector_asks(asks, fanned), out) };
         }
         for l in 0..FOUR {
             let (Some(p), Some(a)) = (shapes[l], asks[l]) else {
@@ -305,17 +296,8 @@ fn eight(
         _ => false,
     });
     if fanned.contains(&true) {
-        // (a lane out of the fan's regime turns about its centroid, inside the part)
-        let asked = std::array::from_fn(|l| match asks[l] {
-            Some(a) if fanned[l] => a,
-            _ => Asked {
-                twist: [0.0, 0.0, 1.0],
-                kinv: 1.0,
-                ..Asked::default()
-            },
-        });
         // SAFETY: simd() chooses the AVX-512 build only on a CPU that has AVX-512F.
-        unsafe { super::avx512::evals_eight(q, &asked, out) };
+        unsafe { super::avx512::evals_eight(q, &vector_asks(asks, fanned), out) };
     }
     for l in (0..EIGHT).filter(|&l| !fanned[l]) {
         if let (Some(p), Some(a)) = (shapes[l], asks[l]) {
@@ -323,6 +305,20 @@ fn eight(
             out[l / FOUR].set(l % FOUR, &Eval::of(&f, a.y, a.target, a.c, a.kinv));
         }
     }
+}
+
+/// What each lane of a vector build is asked: a lane in the fan's regime (`fanned`) what it
+/// asks, any other one a turn about its centroid (inside the part: finite; its result unused).
+#[cfg(target_arch = "x86_64")]
+fn vector_asks<const N: usize>(asks: &[Option<Asked>; N], fanned: [bool; N]) -> [Asked; N] {
+    std::array::from_fn(|l| match asks[l] {
+        Some(a) if fanned[l] => a,
+        _ => Asked {
+            twist: [0.0, 0.0, 1.0],
+            kinv: 1.0,
+            ..Asked::default()
+        },
+    })
 }
 
 /// Whether the friction of `p` at `[vx, vy, omega]` is the fan's ([`Polygon::friction_hessian`]):
