@@ -359,6 +359,29 @@ def test_polygons_points_and_disks_together_keep_their_order_and_batches_match_s
     assert np.abs(batch.spins[:, :, 1]).max() > 0.1  # the pentagon turns
 
 
+def test_parts_of_one_outline_share_its_construction_but_not_their_feet_or_pose():
+    # The binding builds each distinct outline (and feet) once: parts of one outline on other
+    # feet, or none, and at other poses each move as they do alone.
+    motion = upm.PlateMotion.rotation((0.01, 0.0), upm.Harmonics([0.4, -0.2], frequency=30.0))
+    box = [(-0.01, -0.005), (0.01, -0.005), (0.01, 0.005), (-0.01, 0.005)]
+    feet = [(-0.008, -0.004), (0.008, -0.004), (0.0, 0.004)]
+    parts = [
+        upm.Polygon(box, position=(0.03, 0.0), spin=2.0),
+        upm.Polygon(box, position=(-0.03, 0.02), angle=0.5, support=feet),
+        upm.Polygon(box, position=(0.0, -0.04), angle=1.0, spin=-3.0),
+        upm.Polygon(box, position=(0.02, 0.05), support=feet),
+    ]
+    kw = dict(duration=0.05, dt=5e-5, mu=0.3, mu_s=0.35, record_every=20)
+    together = upm.simulate(motion, parts, **kw)
+    for i, part in enumerate(parts):
+        alone = upm.simulate(motion, [part], **kw)
+        for name in ("positions", "velocities", "angles", "spins", "stuck"):
+            assert np.array_equal(getattr(alone, name)[:, 0], getattr(together, name)[:, i]), (i, name)
+    # on three feet a part moves otherwise than on its whole footprint (the key tells them apart)
+    flat = upm.simulate(motion, [upm.Polygon(box, position=(-0.03, 0.02), angle=0.5)], **kw)
+    assert not np.array_equal(together.angles[:, 1], flat.angles[:, 0])
+
+
 def test_a_polygon_leaving_the_plate_is_flagged_and_frozen():
     motion = upm.PlateMotion.rest(1.0)
     part = upm.Polygon.regular(6, 0.01, position=(0.09, 0.0), velocity=(0.5, 0.0), spin=5.0)

@@ -9,6 +9,7 @@ use upm_core::sim::{self, Config, PartsView, Stacked};
 use upm_core::{Error, Waveform};
 
 use crate::errors::{core, detached, on_threads, shape_error, Failure};
+use crate::polygon::PolygonArg;
 use crate::{pair_view, view, WaveformBatch};
 
 /// A plate motion program (see `upm.PlateMotion`).
@@ -282,14 +283,6 @@ fn view2<'a>(a: &'a PyReadonlyArray2<'_, f64>) -> std::borrow::Cow<'a, [f64]> {
     }
 }
 
-/// A polygon part as the Python layer passes it: its index, its vertices `(K, 2)` in its frame
-/// and its three feet `(3, 2)` there, if it stands on them.
-type PolygonArg<'py> = (
-    usize,
-    PyReadonlyArray2<'py, f64>,
-    Option<PyReadonlyArray2<'py, f64>>,
-);
-
 /// Simulates point and disk parts under each of `motions` (B worlds); arrays carry a batch axis.
 #[pyfunction]
 #[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4, world_mu=None, world_mu_s=None, polygons=None))]
@@ -324,15 +317,7 @@ pub fn simulate<'py>(
 ) -> PyResult<Bound<'py, PyTuple>> {
     // Polygon parts: (part, vertices (K, 2) in its frame, three feet (3, 2) or None), checked
     // convex and counter-clockwise, the feet carrying it.
-    let polygons = polygons
-        .iter()
-        .flatten()
-        .map(|(i, v, feet)| {
-            let name = format!("parts[{i}].vertices");
-            let shape = crate::polygon::polygon(py, &name, v, feet.as_ref())?;
-            Ok((*i, shape))
-        })
-        .collect::<PyResult<Vec<_>>>()?;
+    let polygons = crate::polygon::polygons(py, polygons.as_deref().unwrap_or_default())?;
     // The caller's arrays as they are: no copy of a contiguous array.
     let position = pair_view(py, "positions", &positions)?;
     let velocity = velocities

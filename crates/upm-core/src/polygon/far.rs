@@ -86,7 +86,12 @@ pub(super) fn rules(vertices: &[[f64; 2]]) -> [Nodes; 4] {
 fn nodes(vertices: &[[f64; 2]], k: usize) -> Nodes {
     let (x, w) = rule(k);
     let n = vertices.len();
-    let (mut px, mut py, mut pw) = (vec![], vec![], vec![]);
+    let room = (n * k * k).div_ceil(LANES) * LANES;
+    let (mut px, mut py, mut pw) = (
+        Vec::with_capacity(room),
+        Vec::with_capacity(room),
+        Vec::with_capacity(room),
+    );
     for k in 0..n {
         let (a, b) = (vertices[k], vertices[(k + 1) % n]);
         let jac = cross(a, b);
