@@ -263,8 +263,6 @@ pub(super) const THIRD: f64 = 1.0 / 3.0;
 
 pub(super) const LN2_HI: f64 = 0.6931471803691238;
 pub(super) const LN2_LO: f64 = 1.9082149292705877e-10;
-/// The minimax polynomial `R(s²)` of `ln(1 + f) = f - f²/2 + s (f²/2 + R)`, `s = f / (2 + f)`,
-/// on `sqrt(2)/2 <= 1 + f < sqrt(2)` (fdlibm's coefficients, error below 2^-58).
 /// `1 / u` for `u >= 1` to about 1.5 % (from its bits, one Newton step; some number past
 /// `1e308`), for a correction far below an ulp, without a division.
 #[inline(always)]
@@ -276,6 +274,8 @@ pub(super) fn recip(u: f64) -> f64 {
 /// The bits whose difference with a double's approximate its reciprocal.
 pub(super) const RECIP: u64 = 0x7fde_6238_22fc_16e6;
 
+/// The minimax polynomial `R(s²)` of `ln(1 + f) = f - f²/2 + s (f²/2 + R)`, `s = f / (2 + f)`,
+/// on `sqrt(2)/2 <= 1 + f < sqrt(2)` (fdlibm's coefficients, error below 2^-58).
 pub(super) const LG: [f64; 7] = [
     0.6666666666666735,
     0.3999999999940942,
