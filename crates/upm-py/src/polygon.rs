@@ -62,18 +62,20 @@ pub(crate) fn polygons(
     let mut built: std::collections::HashMap<Vec<u64>, Polygon> = Default::default();
     let mut out = Vec::with_capacity(items.len());
     for (i, v, feet) in items {
-        // (the counts first: outlines of other sizes, with or without feet, never meet)
+        // (the shapes first: arrays of other shapes, with or without feet, never meet, and one
+        // of a wrong shape is built, and refused, on its own)
+        let shape_of = |a: &PyReadonlyArray2<'_, f64>| a.as_array().shape().to_vec();
+        let feet_shape = feet.as_ref().map_or(vec![usize::MAX], shape_of);
         let feet_bits = feet
             .iter()
             .flat_map(|f| f.as_array().iter().map(|x| x.to_bits()).collect::<Vec<_>>());
-        let key: Vec<u64> = [
-            v.as_array().len() as u64,
-            feet.as_ref().map_or(0, |f| f.as_array().len() as u64 + 1),
-        ]
-        .into_iter()
-        .chain(v.as_array().iter().map(|x| x.to_bits()))
-        .chain(feet_bits)
-        .collect();
+        let key: Vec<u64> = shape_of(v)
+            .into_iter()
+            .chain(feet_shape)
+            .map(|n| n as u64)
+            .chain(v.as_array().iter().map(|x| x.to_bits()))
+            .chain(feet_bits)
+            .collect();
         let shape = match built.get(&key) {
             Some(p) => p.clone(),
             None => {
