@@ -17,6 +17,20 @@ fn regular(n: usize, r: f64) -> Polygon {
     Polygon::new("n-gon", &v).unwrap()
 }
 
+/// The optimality condition of the step to `w` from the free twist `free` (`c = mu g dt`) written
+/// out, `(w - w*, k² (omega - omega*)) - c F(w)` with `F` the friction wrench of `w` (zero at the
+/// minimiser), and its size `|r_x| + |r_y| + |r_m| / k`.
+fn optimality(p: &Stepper, free: [f64; 3], c: f64, w: [f64; 3]) -> ([f64; 3], f64) {
+    let k2 = p.gyration * p.gyration;
+    let f = p.shape.wrench([w[0], w[1]], w[2]);
+    let res = [
+        w[0] - free[0] - c * f[0],
+        w[1] - free[1] - c * f[1],
+        k2 * (w[2] - free[2]) - c * f[2],
+    ];
+    (res, res[0].abs() + res[1].abs() + res[2].abs() / p.gyration)
+}
+
 #[test]
 fn a_part_spinning_in_place_slows_by_the_mean_distance_over_the_gyration_squared() {
     // a square feels no force spinning about its centroid (an irregular part does, and that
@@ -70,13 +84,7 @@ fn the_step_is_the_minimiser_stuck_exactly_inside_the_limit_set() {
             continue;
         }
         slid += 1;
-        // optimality: (w - w*, k² (omega - omega*)) = c x (the friction wrench of w)
-        let f = shape.wrench([st.w[0], st.w[1]], st.w[2]);
-        let res = [
-            st.w[0] - free[0] - c * f[0],
-            st.w[1] - free[1] - c * f[1],
-            k2 * (st.w[2] - free[2]) - c * f[2],
-        ];
+        let (res, off) = optimality(&p, free, c, st.w);
         let size = free[0].hypot(free[1]) + p.gyration * free[2].abs();
         // started from a nearby guess (the last step's twist in a run) it lands on the same point
         let near = [st.w[0] * 1.01, st.w[1] * 0.99, st.w[2] * 1.02];
@@ -89,7 +97,7 @@ fn the_step_is_the_minimiser_stuck_exactly_inside_the_limit_set() {
             );
         }
         assert!(
-            res[0].abs() + res[1].abs() + res[2].abs() / p.gyration < 1e-12 * size,
+            off < 1e-12 * size,
             "twist {i}: residual {res:?} free {free:?} c {c} {st:?}"
         );
     }
@@ -183,14 +191,9 @@ fn a_start_far_from_a_small_answer_ends_at_the_minimiser_not_at_the_kink() {
         ];
         let warm = p.step(free, c, c, false, Some(guess)).unwrap();
         let size = free[0].hypot(free[1]) + p.gyration * free[2].abs();
-        let f = shape.wrench([warm.w[0], warm.w[1]], warm.w[2]);
-        let res = [
-            warm.w[0] - free[0] - c * f[0],
-            warm.w[1] - free[1] - c * f[1],
-            k2 * (warm.w[2] - free[2]) - c * f[2],
-        ];
+        let (res, off) = optimality(&p, free, c, warm.w);
         assert!(
-            res[0].abs() + res[1].abs() + res[2].abs() / p.gyration < 1e-12 * size,
+            off < 1e-12 * size,
             "twist {i}: residual {res:?}, free {free:?}, guess {guess:?}: {warm:?} vs {cold:?}"
         );
         for j in 0..3 {
@@ -277,17 +280,9 @@ fn near_the_largest_moment_with_little_force_the_step_is_the_minimiser() {
             continue;
         }
         slid += 1;
-        let w = shape.wrench([st.w[0], st.w[1]], st.w[2]);
-        let res = [
-            st.w[0] - free[0] - c * w[0],
-            st.w[1] - free[1] - c * w[1],
-            k2 * (st.w[2] - free[2]) - c * w[2],
-        ];
+        let (res, off) = optimality(&p, free, c, st.w);
         let size = free[0].hypot(free[1]) + p.gyration * free[2].abs();
-        assert!(
-            res[0].abs() + res[1].abs() + res[2].abs() / p.gyration < 1e-11 * size,
-            "twist {i}: residual {res:?} {st:?}"
-        );
+        assert!(off < 1e-11 * size, "twist {i}: residual {res:?} {st:?}");
     }
     assert!(stuck > 20 && slid > 20, "{stuck} stuck, {slid} slid");
 }
@@ -333,16 +328,8 @@ fn a_solve_trusting_the_last_solve_s_contraction_ends_where_a_cold_one_does() {
                 "step {s}: {warm:?} vs {cold:?}"
             );
         }
-        let f = shape.wrench([warm.w[0], warm.w[1]], warm.w[2]);
-        let res = [
-            warm.w[0] - free[0] - c * f[0],
-            warm.w[1] - free[1] - c * f[1],
-            k2 * (warm.w[2] - free[2]) - c * f[2],
-        ];
-        assert!(
-            res[0].abs() + res[1].abs() + res[2].abs() / p.gyration < 1e-13 * size,
-            "step {s}: residual {res:?}"
-        );
+        let (res, off) = optimality(&p, free, c, warm.w);
+        assert!(off < 1e-13 * size, "step {s}: residual {res:?}");
         once += usize::from(warm.iterations == 1);
         history.rotate_right(1);
         history[0] = warm.w;
