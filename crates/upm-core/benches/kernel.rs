@@ -8,7 +8,9 @@
 //! step written with a correctly rounded root and division (the vector builds use neither).
 //! `ONLY=trans` or `ONLY=rot` runs the disk and polygon benches (`--disks`, `--polygons`) on one
 //! plate only (for a profile of one); `EVERY=k` makes every run record every `k`-th step instead
-//! of the last only (the cost of recording).
+//! of the last only (the cost of recording). `--batch` runs the batch bench alone (on one thread
+//! and on every core); `--batch-profile` then repeats its one-thread batch, and
+//! `--batch-fixed-profile` its 2-step call on every core, for a profiler.
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -293,7 +295,8 @@ fn main() {
 
 /// Batches of small worlds (the predictive planner's rollouts: 500 enveloped jets at scattered
 /// centres, 8 parts each, 840 steps) against one world of as many parts on the first jet, ns per
-/// part-step on one thread; and the batch's fixed cost (a 2-step call) per world.
+/// part-step on one thread and on every core; and the batch's fixed cost (a 2-step call) per
+/// world.
 fn batch() {
     let (b, m, steps) = (500, 8, 840);
     let dt = 1.0 / 2400.0;
@@ -306,7 +309,6 @@ fn batch() {
                 .unwrap()
         })
         .collect();
-    let one = one_thread();
     let cfg = |steps: usize| Config {
         dt,
         duration: steps as f64 * dt,
@@ -322,30 +324,42 @@ fn batch() {
         })
         .unwrap()
     };
-    let time = |steps: usize| one.install(|| best_of(5, || stacked(steps)));
-    let (run, fixed) = (time(steps), time(2));
     let large = Parts::points(
         spread(b * m),
         vec![[0.0; 2]; b * m],
         vec![0.3; b * m],
         vec![0.4; b * m],
     );
-    let world = one.install(|| best_of(5, || simulate(&motions[0], &large, &cfg(steps)).unwrap()));
     let per = |t: f64| t * 1e9 / (b * m * steps) as f64;
-    println!(
-        "batches, {b} enveloped jets x {m} parts x {steps} steps, ns per part-step on 1 thread:"
-    );
-    println!(
-        "  batch {:.2}, one world of {} parts {:.2}: {:.2}x; a 2-step batch call {:.2} us per world",
-        per(run),
-        b * m,
-        per(world),
-        run / world,
-        fixed * 1e6 / b as f64
-    );
-    if std::env::args().any(|a| a == "--batch-profile") {
-        for _ in 0..100 {
-            black_box(one.install(|| stacked(steps)));
+    println!("batches, {b} enveloped jets x {m} parts x {steps} steps, ns per part-step:");
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    for threads in [1, cores] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let time = |steps: usize| pool.install(|| best_of(5, || stacked(steps)));
+        let (run, fixed) = (time(steps), time(2));
+        let world =
+            pool.install(|| best_of(5, || simulate(&motions[0], &large, &cfg(steps)).unwrap()));
+        println!(
+            "  {threads} thread(s): batch {:.2}, one world of {} parts {:.2}: {:.2}x; a 2-step \
+             batch call {:.2} us per world",
+            per(run),
+            b * m,
+            per(world),
+            run / world,
+            fixed * 1e6 / b as f64
+        );
+        if threads == 1 && std::env::args().any(|a| a == "--batch-profile") {
+            for _ in 0..100 {
+                black_box(pool.install(|| stacked(steps)));
+            }
+        }
+        if threads == cores && std::env::args().any(|a| a == "--batch-fixed-profile") {
+            for _ in 0..3000 {
+                black_box(pool.install(|| stacked(2)));
+            }
         }
     }
 }

@@ -124,6 +124,12 @@ impl Harmonics {
         v
     }
 
+    /// The cosine and sine coefficients, divided by the scale (what [`Harmonics::value_of`]
+    /// sums; of one length).
+    pub(crate) fn terms(&self) -> (&[f64], &[f64]) {
+        (&self.cos, &self.sin)
+    }
+
     /// Angular frequency of the fundamental [rad/s] and the velocity scale [m/s]: the velocity
     /// at time `t` is `scale * value_of(cos wt, sin wt)` with `w = 2 pi frequency`.
     #[inline]

@@ -17,8 +17,8 @@ pub mod spatial;
 mod table;
 
 pub use spatial::{Spatial, Term};
-pub(crate) use table::Phases;
 use table::{about, along, feed, jet, Stretch};
+pub(crate) use table::{Columns, Phases};
 
 /// One kind of plate motion.
 #[derive(Debug, Clone, PartialEq)]

@@ -587,6 +587,10 @@ impl Run<'_> {
     }
 }
 
+#[path = "across.rs"]
+mod across;
+pub(crate) use across::Columns;
+
 #[cfg(test)]
 #[path = "table_tests.rs"]
 mod tests;

@@ -187,3 +187,71 @@ fn steps_before_the_program_and_empty_ranges() {
         );
     }
 }
+
+/// [`moved`] with its first drive a translation instead of a rotation, its second a rotation
+/// instead of a translation, and each with a third harmonic: the same timing, unlike in kind.
+fn swapped(k: f64) -> PlateMotion {
+    let three = |f: f64| Harmonics::new(vec![0.7, -0.35, k], vec![0.1, 0.05, 0.2], f).unwrap();
+    let tr = PlateMotion::translation([0.6, 0.8], three(35.0).into())
+        .unwrap()
+        .with_envelope(0.05, 0.1, 0.07)
+        .unwrap();
+    let rot = PlateMotion::rotation([k, 0.01], three(25.0).into())
+        .unwrap()
+        .with_envelope(0.06, 0.0, 0.06)
+        .unwrap();
+    let mut items = moved(k).items;
+    items[0] = tr.items[0].clone();
+    items[3] = rot.items[0].clone();
+    PlateMotion {
+        items,
+        starts: moved(k).starts,
+    }
+}
+
+#[test]
+fn motions_side_by_side_are_bitwise_each_alone() {
+    // Ten motions: more than one vector of eight. Alike: every jet and every drive evaluated
+    // together; unlike: two of them with their drives of another kind and harmonic count.
+    let alike: Vec<PlateMotion> = (0..10).map(|k| moved(0.003 * k as f64 - 0.01)).collect();
+    let mut unlike = alike.clone();
+    unlike[3] = swapped(0.02);
+    unlike[9] = swapped(-0.01);
+    let dt = 1.0 / (24.0 * 140.0);
+    let n = (1.2 / dt) as usize;
+    let (width, col) = (13, 2);
+    for motions in [&alike, &unlike] {
+        let refs: Vec<&PlateMotion> = motions.iter().collect();
+        assert!(refs.iter().all(|m| m.timing() == refs[0].timing()));
+        for range in [0..n, 517..n - 3, 1000..1001] {
+            let phases = Phases::of(refs[0], range.clone(), dt);
+            let mut values = vec![f64::NAN; 3 * width * range.len()];
+            let mut out = Columns {
+                values: &mut values,
+                width,
+            };
+            phases.extend_across(&refs, range.clone(), &mut out, col);
+            for (j, m) in refs.iter().enumerate() {
+                let mut alone = Vec::new();
+                fill(m, range.clone(), dt, &mut alone);
+                for (r, u) in alone.iter().enumerate() {
+                    for (c, want) in u.iter().enumerate() {
+                        let got = values[(3 * r + c) * width + col + j];
+                        assert_eq!(
+                            got.to_bits(),
+                            want.to_bits(),
+                            "motion {j}, step {}, component {c}: {got} against {want}",
+                            range.start + r
+                        );
+                    }
+                }
+            }
+            // the columns of no motion untouched
+            let mut outside = values
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| !(col..col + refs.len()).contains(&(i % width)));
+            assert!(outside.clone().count() > 0 && outside.all(|(_, v)| v.is_nan()));
+        }
+    }
+}

@@ -8,14 +8,16 @@
 
 use std::collections::HashMap;
 use std::ops::Range;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
 use rayon::prelude::*;
 
 use super::kernel::{self, Plate};
-use super::points::{write, zeroed, Base, Points, ARRAYS};
-use super::{half_side, Config, World};
-use crate::motion::{Phases, PlateMotion};
+use super::points::{write, zeroed, Base, Points, Source, ARRAYS};
+use super::record::{Rec, Recorder, Stacked};
+use super::{half_side, Config, Error, PartsView, WorldFriction};
+use crate::motion::{Columns, Phases, PlateMotion};
 
 /// Lanes of a group: one full register tile of the widest build.
 const LANES: usize = 64;
@@ -24,20 +26,96 @@ const LANES: usize = 64;
 pub(super) const MAX_POINTS: usize = 32;
 
 /// The lanes a world of `m` points takes in a group: whole vectors of eight.
-pub(super) fn stride(m: usize) -> usize {
+fn stride(m: usize) -> usize {
     m.div_ceil(8).max(1) * 8
 }
 
 /// Worlds per group for worlds of `m` points.
-pub(super) fn worlds_per_group(m: usize) -> usize {
+fn worlds_per_group(m: usize) -> usize {
     (LANES / stride(m)).max(1)
+}
+
+/// A world of a batch run in a group: its motion, its timing's number among the batch's (see
+/// [`by_timing`]), its place in the batch and where it records. (No more: a batch of many small
+/// worlds pays for what each world carries.)
+pub(super) struct Member<'a> {
+    motion: &'a PlateMotion,
+    timing: usize,
+    b: usize,
+    rec: Rec,
+}
+
+/// Runs `motions` (worlds of at most [`MAX_POINTS`] point parts, `parts`, with `friction`'s rows
+/// where given; on the plane), grouped, for `steps` steps a block of `block` steps at a time,
+/// recording into `recorder`; `between` as [`super::simulate_stacked`] calls it.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn simulate<E, B>(
+    motions: &[&PlateMotion],
+    parts: &PartsView,
+    cfg: &Config,
+    friction: Option<&WorldFriction>,
+    steps: usize,
+    block: usize,
+    mut recorder: Recorder,
+    mut between: B,
+) -> std::result::Result<Stacked, E>
+where
+    E: From<Error>,
+    B: FnMut(usize) -> std::result::Result<(), E>,
+{
+    // Worlds with the same timing are neighbours: a group turns their phasors once.
+    let members: Vec<Member> = by_timing(motions)
+        .into_iter()
+        .map(|(timing, b)| Member {
+            motion: motions[b],
+            timing,
+            b,
+            rec: recorder.rec(b, steps, cfg.record_every),
+        })
+        .collect();
+    recorder.times(0, 0, steps, cfg.record_every, cfg.dt);
+    // (the points record their initial state as their group reads them)
+    let per_group = worlds_per_group(parts.len());
+    let mut groups = Group::take(members.len().div_ceil(per_group));
+    let not_finite = AtomicBool::new(false);
+    let first_block = Start {
+        parts,
+        friction,
+        not_finite: &not_finite,
+    };
+    let mut first = 0;
+    while first < steps {
+        let end = (first + block).min(steps);
+        let shared = shared_phases(&members, per_group, first..end, cfg.dt);
+        members
+            .par_chunks(per_group)
+            .zip(groups.par_iter_mut())
+            .for_each(|(ws, g)| g.run(ws, &shared, first..end, cfg, &first_block));
+        if first == 0 && not_finite.load(Ordering::Relaxed) {
+            parts.check()?; // names the first part whose state is not finite
+        }
+        recorder.times(first + 1, end, steps, cfg.record_every, cfg.dt);
+        between(end)?;
+        first = end;
+    }
+    Group::give_back(groups);
+    // SAFETY: every row of every world was written: row 0 and every recorded step's row by its
+    // group, in the block of that step; its times of leaving the plate in its last block.
+    Ok(unsafe { recorder.finish() })
+}
+
+/// Where a group reads its worlds' points from as their first block starts.
+struct Start<'a, 'p> {
+    parts: &'a PartsView<'p>,
+    friction: Option<&'a WorldFriction<'a>>,
+    not_finite: &'a AtomicBool,
 }
 
 /// The order in which to run `motions`, as `(timing, index)` pairs: those with the same timing
 /// (see `PlateMotion::timing`; numbered in the order each first appears) are neighbours, in their
 /// order within it. A group of neighbours turns its plate's phasors once (each world records
 /// into its own place, so the order is free).
-pub(super) fn by_timing(motions: &[&PlateMotion]) -> Vec<(usize, usize)> {
+fn by_timing(motions: &[&PlateMotion]) -> Vec<(usize, usize)> {
     let mut classes: HashMap<Vec<u64>, usize> = HashMap::new();
     // (a motion of the previous one's timing, compared word by word, builds no key and skips
     // the hash: a batch's rollouts mostly are)
@@ -64,8 +142,8 @@ pub(super) fn by_timing(motions: &[&PlateMotion]) -> Vec<(usize, usize)> {
 /// The phasor samples of the block `steps` for every timing whose worlds fill more than one
 /// group, taken once here instead of once per group (indexed by timing; `None` for the other
 /// timings, whose one group takes its own). `worlds` are in the order of [`by_timing`].
-pub(super) fn shared_phases(
-    worlds: &[World],
+fn shared_phases(
+    worlds: &[Member],
     per_group: usize,
     steps: Range<usize>,
     dt: f64,
@@ -86,7 +164,7 @@ pub(super) fn shared_phases(
         .collect()
 }
 
-/// Steps whose plate velocities a group tabulates at a time: 8 worlds' tables of 128 steps take
+/// Steps whose plate velocities a group tabulates at a time: 8 worlds at 128 steps take
 /// 24 KiB, within the L1 cache.
 const PIECE: usize = 128;
 
@@ -94,7 +172,7 @@ const PIECE: usize = 128;
 /// samples of the block `steps`: the batch's in `shared` where the timing spans groups (`None`
 /// here), else the run's own, taken now.
 fn runs(
-    worlds: &[World],
+    worlds: &[Member],
     shared: &[Option<Phases>],
     steps: Range<usize>,
     dt: f64,
@@ -117,94 +195,89 @@ fn runs(
     out
 }
 
-/// The plate velocity of each of `worlds` (into the same place of `tables`, emptied first) at
-/// each step of `steps` (within the block), from the samples of its timing ([`runs`]).
+/// The plate velocity of each of `worlds` at each step of `steps` (within the block), from the
+/// samples of its timing ([`runs`]), into `table` (resized): world `w` in column `w` of a
+/// table of as many columns as worlds (see [`Plate`]).
 fn tabulate(
-    worlds: &[World],
+    worlds: &[Member],
     shared: &[Option<Phases>],
     runs: &[(Range<usize>, Option<Phases>)],
-    tables: &mut [Vec<[f64; 3]>],
+    table: &mut Vec<f64>,
     steps: Range<usize>,
 ) {
-    tables.iter_mut().for_each(Vec::clear);
+    // (every value is written below: the runs take every column)
+    table.resize(3 * worlds.len() * steps.len(), 0.0);
+    let mut out = Columns {
+        values: table,
+        width: worlds.len(),
+    };
+    let mut motions: Vec<&PlateMotion> = Vec::with_capacity(worlds.len());
     for (run, own) in runs {
         let phases = own
             .as_ref()
             .or(shared[worlds[run.start].timing].as_ref())
             .expect("a timing's samples, shared or its own");
-        for (w, table) in worlds[run.clone()].iter().zip(&mut tables[run.clone()]) {
-            phases.extend_steps(w.motion, steps.clone(), table);
-        }
+        motions.clear();
+        motions.extend(worlds[run.clone()].iter().map(|w| w.motion));
+        phases.extend_across(&motions, steps.clone(), &mut out, run.start);
     }
 }
 
 /// The state of one group's points, kept from block to block.
 pub(super) struct Group(Box<[[f64; LANES]; ARRAYS]>);
 
-/// Memory kept from run to run: group states and sets of tables given back by finished runs.
-/// Fresh memory costs a page fault per 4 KiB on every call once the allocator has returned it
-/// to the system: that was a fifth of a 2-step call of 500 worlds of 8 points.
-struct Spare {
-    states: Vec<Group>,
-    tables: Vec<Vec<Vec<[f64; 3]>>>,
+/// Group states kept from run to run: fresh memory costs a page fault per 4 KiB on every call
+/// once the allocator has returned it to the system (that was a fifth of a 2-step call of 500
+/// worlds of 8 points). At most [`SPARE_STATES`] (6 KiB each) are kept.
+static SPARE: Mutex<Vec<Group>> = Mutex::new(Vec::new());
+const SPARE_STATES: usize = 1024;
+
+fn spare() -> std::sync::MutexGuard<'static, Vec<Group>> {
+    SPARE.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// At most this many group states (6 KiB each) and sets of tables (one a thread at work: up to 8
-/// tables of [`PIECE`] rows, 24 KiB) are kept.
-const SPARE_STATES: usize = 1024;
-const SPARE_TABLES: usize = 64;
-
-fn spare() -> std::sync::MutexGuard<'static, Spare> {
-    static SPARE: Mutex<Spare> = Mutex::new(Spare {
-        states: Vec::new(),
-        tables: Vec::new(),
-    });
-    SPARE.lock().unwrap_or_else(|e| e.into_inner())
+std::thread_local! {
+    /// Each thread's table of plate velocity (up to 8 worlds' at [`PIECE`] steps, 24 KiB), kept
+    /// from group to group: no lock (two threads contending for a shared one waited in the
+    /// kernel) and no fresh memory.
+    static TABLE: std::cell::Cell<Vec<f64>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
 impl Group {
     /// `n` groups, in memory given back by earlier runs ([`Group::give_back`]) where there is
     /// some. Their state is cleared as their first block starts ([`Group::run`]).
-    pub(super) fn take(n: usize) -> Vec<Group> {
+    fn take(n: usize) -> Vec<Group> {
         let mut out = {
             let mut spare = spare();
-            let keep = spare.states.len().saturating_sub(n);
-            spare.states.split_off(keep)
+            let keep = spare.len().saturating_sub(n);
+            spare.split_off(keep)
         };
         out.resize_with(n, || Group(zeroed()));
         out
     }
 
     /// Keeps `groups` for the next run (within [`SPARE_STATES`]).
-    pub(super) fn give_back(groups: Vec<Group>) {
+    fn give_back(groups: Vec<Group>) {
         let mut spare = spare();
-        let room = SPARE_STATES.saturating_sub(spare.states.len());
-        spare.states.extend(groups.into_iter().take(room));
-    }
-
-    /// Room for `n` tables of plate velocity, empty: a set given back by an earlier group when
-    /// one is kept.
-    fn tables(n: usize) -> Vec<Vec<[f64; 3]>> {
-        let mut t = spare().tables.pop().unwrap_or_default();
-        t.resize_with(n, Vec::new);
-        t.iter_mut().for_each(Vec::clear);
-        t
+        let room = SPARE_STATES.saturating_sub(spare.len());
+        spare.extend(groups.into_iter().take(room));
     }
 
     /// Advances the point parts of `worlds` through the block of `steps`, recording as
     /// [`Points::run`] does; `shared` holds the samples of the timings that span groups
     /// ([`shared_phases`]).
-    pub(super) fn run(
+    fn run(
         &mut self,
-        worlds: &mut [World],
+        worlds: &[Member],
         shared: &[Option<Phases>],
         steps: Range<usize>,
         cfg: &Config,
+        start: &Start,
     ) {
         let first = steps.start;
-        let mut tables = Group::tables(worlds.len());
+        let mut table = TABLE.take();
         let runs = runs(worlds, shared, steps.clone(), cfg.dt);
-        let m = worlds[0].points.len();
+        let m = start.parts.len();
         let stride = stride(m);
         let lanes = stride * worlds.len();
         assert!(lanes <= LANES, "a group of {lanes} lanes");
@@ -216,8 +289,12 @@ impl Group {
             unsafe { std::ptr::write_bytes(&mut *self.0, 0, 1) };
         }
         let base = Base::local(&mut self.0);
-        for (w, world) in worlds.iter_mut().enumerate() {
-            if let Some(src) = world.points.take_source() {
+        if first == 0 {
+            for (w, world) in worlds.iter().enumerate() {
+                let own = start.friction.map(|f| f.world(start.parts, world.b));
+                let parts = own.as_ref().unwrap_or(start.parts);
+                let u0 = world.motion.velocity(0.0);
+                let src = Source::new(parts, None, cfg, u0, start.not_finite);
                 // SAFETY: the world's lanes are within the group's buffer, which this call
                 // alone addresses.
                 unsafe { src.fill(&base, w * stride, 0, m, false) };
@@ -227,23 +304,21 @@ impl Group {
             }
         }
         let rec = worlds[0].rec;
-        // Through the block a piece at a time: the piece's tables stay in the core's L1 cache
-        // while the kernel reads them.
+        // Through the block a piece at a time: the piece's table stays in the core's L1 cache
+        // while the kernel reads it.
         for piece in (first..steps.end).step_by(PIECE) {
             let piece = piece..(piece + PIECE).min(steps.end);
-            tabulate(worlds, shared, &runs, &mut tables, piece.clone());
+            tabulate(worlds, shared, &runs, &mut table, piece.clone());
+            let row = 3 * worlds.len(); // values a step
             let mut done = piece.start;
             while done < piece.end {
                 let end = rec.next_after(done).min(piece.end);
-                let rows: Vec<&[[f64; 3]]> = tables[..worlds.len()]
-                    .iter()
-                    .map(|t| &t[done - piece.start..end - piece.start])
-                    .collect();
+                let rows = &table[(done - piece.start) * row..(end - piece.start) * row];
                 // SAFETY: every world's lanes are written (above, or by an earlier block), and
                 // the padding is zero; nothing else addresses the buffer while `all` lives.
                 let (mut all, _) = unsafe { base.chunk(0, lanes, false) };
                 kernel::run(
-                    Plate::worlds(&rows, stride),
+                    Plate::worlds(rows, worlds.len(), stride),
                     done,
                     cfg.dt,
                     half_side(cfg),
@@ -267,9 +342,6 @@ impl Group {
                 Points::ended(&l, None, 0, None, &world.rec, cfg.dt);
             }
         }
-        let mut spare = spare();
-        if spare.tables.len() < SPARE_TABLES {
-            spare.tables.push(tables);
-        }
+        TABLE.set(table);
     }
 }

@@ -208,8 +208,6 @@ struct World<'a> {
     table: Vec<[f64; 3]>,
     /// Whether the motion leaves the plane (read once: the block loop asks every block).
     spatial: bool,
-    /// Its motion's timing among the batch's (see [`group::by_timing`]; 0 outside a group).
-    timing: usize,
     /// The out-of-plane accelerations of the block's steps (empty for a planar motion).
     normals: Vec<[f64; 3]>,
 }
@@ -429,15 +427,13 @@ where
         record::Turning::All
     };
     let mut recorder = Recorder::new(motions.len(), rows, m, turning, flying)?;
-    // Grouped worlds with the same timing are neighbours: a group turns their phasors once.
-    let order = if grouped {
-        group::by_timing(motions)
-    } else {
-        (0..motions.len()).map(|b| (0, b)).collect()
-    };
-    let recs: Vec<(usize, usize, Rec)> = order
-        .into_iter()
-        .map(|(timing, b)| (timing, b, recorder.rec(b, steps, cfg.record_every)))
+    if grouped {
+        return group::simulate(
+            motions, parts, cfg, friction, steps, block, recorder, between,
+        );
+    }
+    let recs: Vec<Rec> = (0..motions.len())
+        .map(|b| recorder.rec(b, steps, cfg.record_every))
         .collect();
     // Each world set up on the thread that takes it (a batch of many small worlds); the polygons'
     // steppers built once, per distinct shape.
@@ -445,7 +441,8 @@ where
     let not_finite = &not_finite;
     let mut worlds: Vec<World> = recs
         .into_par_iter()
-        .map(|(timing, b, rec)| {
+        .enumerate()
+        .map(|(b, rec)| {
             let motion = motions[b];
             let u0 = motion.velocity(0.0);
             let own = friction.map(|f| f.world(parts, b));
@@ -468,7 +465,7 @@ where
                     cfg,
                     u0,
                     spatial[b],
-                    grouped || steps <= block,
+                    steps <= block,
                     not_finite,
                 ),
                 contact: contacts
@@ -476,10 +473,9 @@ where
                 disks,
                 polygons: shapes,
                 rec,
-                // (reserved as the first block is tabulated: a world run in a group never is)
+                // (reserved as the first block is tabulated)
                 table: Vec::new(),
                 spatial: spatial[b],
-                timing,
                 normals: Vec::with_capacity(if spatial[b] { block } else { 0 }),
             }
         })
@@ -494,49 +490,35 @@ where
             p.record(0, &w.rec);
         }
     });
-    let per_group = group::worlds_per_group(m);
-    let mut groups = if grouped {
-        group::Group::take(motions.len().div_ceil(per_group))
-    } else {
-        Vec::new()
-    };
     let mut first = 0;
     while first < steps {
         let end = (first + block).min(steps);
-        if grouped {
-            let shared = group::shared_phases(&worlds, per_group, first..end, cfg.dt);
-            worlds
-                .par_chunks_mut(per_group)
-                .zip(groups.par_iter_mut())
-                .for_each(|(ws, g)| g.run(ws, &shared, first..end, cfg));
-        } else {
-            worlds.par_iter_mut().try_for_each(|w| {
-                w.table.clear();
-                // Sampled a hair before each step's end (see `velocities_into`).
-                w.motion.velocities_into(first..end, cfg.dt, &mut w.table);
-                if w.spatial {
-                    w.normals.clear();
-                    w.motion.normals_into(first..end, cfg.dt, &mut w.normals);
-                }
-                let (table, normals, rec) = (&w.table, &w.normals, &w.rec);
-                let (points, disks, contact) = (&mut w.points, &mut w.disks, &mut w.contact);
-                let shapes = &mut w.polygons;
-                let ((), rest) = rayon::join(
-                    || points.run(table, normals, first, cfg, rec, index),
-                    || match contact {
-                        Some(c) => c.run(disks, shapes, table, first, cfg, rec),
-                        None => {
-                            let (_, polygons) = rayon::join(
-                                || run_disks(disks, table, normals, first, cfg, rec),
-                                || polygons::run(shapes, table, normals, first, cfg, rec),
-                            );
-                            polygons
-                        }
-                    },
-                );
-                rest
-            })?;
-        }
+        worlds.par_iter_mut().try_for_each(|w| {
+            w.table.clear();
+            // Sampled a hair before each step's end (see `velocities_into`).
+            w.motion.velocities_into(first..end, cfg.dt, &mut w.table);
+            if w.spatial {
+                w.normals.clear();
+                w.motion.normals_into(first..end, cfg.dt, &mut w.normals);
+            }
+            let (table, normals, rec) = (&w.table, &w.normals, &w.rec);
+            let (points, disks, contact) = (&mut w.points, &mut w.disks, &mut w.contact);
+            let shapes = &mut w.polygons;
+            let ((), rest) = rayon::join(
+                || points.run(table, normals, first, cfg, rec, index),
+                || match contact {
+                    Some(c) => c.run(disks, shapes, table, first, cfg, rec),
+                    None => {
+                        let (_, polygons) = rayon::join(
+                            || run_disks(disks, table, normals, first, cfg, rec),
+                            || polygons::run(shapes, table, normals, first, cfg, rec),
+                        );
+                        polygons
+                    }
+                },
+            );
+            rest
+        })?;
         if first == 0 && not_finite.load(Ordering::Relaxed) {
             parts.check()?; // names the first part whose state is not finite
         }
@@ -544,7 +526,6 @@ where
         between(end)?;
         first = end;
     }
-    group::Group::give_back(groups);
     // The points recorded their times of leaving the plate and of flight as their last block
     // ended; the disks and polygons record theirs now.
     for w in &worlds {

@@ -151,27 +151,8 @@ impl<'p> Points<'p> {
             n,
             spatial,
             once,
-            source: Some(Source {
-                parts: *parts,
-                index,
-                u0,
-                half: half_side(cfg),
-                scale: cfg.g * cfg.dt,
-                not_finite,
-            }),
+            source: Some(Source::new(parts, index, cfg, u0, not_finite)),
         }
-    }
-
-    /// The number of points.
-    pub(super) fn len(&self) -> usize {
-        self.n
-    }
-
-    /// The source of the initial state, taken by a caller that keeps the state itself (a
-    /// [`super::group::Group`]); the points keep no array then.
-    pub(super) fn take_source(&mut self) -> Option<Source<'p>> {
-        assert!(self.once, "the points' arrays would be left unwritten");
-        self.source.take()
     }
 
     /// Records when the points of `l` (from the world's point `start` on) left the plate and how
@@ -290,7 +271,7 @@ impl<'p> Points<'p> {
                 let end = (rec.next_after(first + done) - first).min(table.len());
                 let (t, dt) = (&table[done..end], cfg.dt);
                 match air.as_mut() {
-                    None => kernel::run(Plate::shared(&t), first + done, dt, half, &mut l),
+                    None => kernel::run(Plate::shared(t), first + done, dt, half, &mut l),
                     Some(a) => {
                         let steps = lift::Steps {
                             u: t,
@@ -319,7 +300,26 @@ impl<'p> Points<'p> {
     }
 }
 
-impl Source<'_> {
+impl<'p> Source<'p> {
+    /// The points of `parts` (at `index` among them; `None`: every part) on a plate whose
+    /// velocity at the start is `u0`; `not_finite` is set if a state read is not finite.
+    pub(super) fn new(
+        parts: &PartsView<'p>,
+        index: Option<&'p [usize]>,
+        cfg: &Config,
+        u0: [f64; 3],
+        not_finite: &'p AtomicBool,
+    ) -> Self {
+        Source {
+            parts: *parts,
+            index,
+            u0,
+            half: half_side(cfg),
+            scale: cfg.g * cfg.dt,
+            not_finite,
+        }
+    }
+
     /// Writes the initial state of the points `start .. start + k` at `at ..` of `base`'s arrays.
     ///
     /// # Safety
@@ -361,11 +361,16 @@ impl Source<'_> {
         let [x, y, vx, vy, stuck, active, left, slide, hold]: [&mut [MaybeUninit<f64>]; 9] =
             std::array::from_fn(out);
         let ix = |q: usize| self.index.map_or(start + q, |ix| ix[start + q]);
+        // Whether every value read is finite, found as it is copied (reading the lanes back
+        // with vectors right after the scalar stores would wait for the stores to complete).
+        let finite = |a: f64, b: f64| a.is_finite() & b.is_finite();
+        let mut ok = true;
         match self.index {
             None => {
                 for (q, &[a, b]) in p.position[start..start + k].iter().enumerate() {
                     x[q].write(a);
                     y[q].write(b);
+                    ok &= finite(a, b);
                 }
             }
             Some(_) => {
@@ -373,6 +378,7 @@ impl Source<'_> {
                     let [a, b] = p.position[ix(q)];
                     x[q].write(a);
                     y[q].write(b);
+                    ok &= finite(a, b);
                 }
             }
         }
@@ -385,6 +391,7 @@ impl Source<'_> {
                 for (q, &[a, b]) in v[start..start + k].iter().enumerate() {
                     vx[q].write(a);
                     vy[q].write(b);
+                    ok &= finite(a, b);
                 }
             }
             (Some(_), Some(v)) => {
@@ -392,14 +399,13 @@ impl Source<'_> {
                     let [a, b] = v[ix(q)];
                     vx[q].write(a);
                     vy[q].write(b);
+                    ok &= finite(a, b);
                 }
             }
         }
         let [x, y, vx, vy] =
             [x, y, vx, vy].map(|a| &*(a as *const [MaybeUninit<f64>] as *const [f64]));
-        let finite = |a: &[f64]| a.iter().fold(true, |ok, v| ok & v.is_finite());
-        let moving = p.velocity.is_some();
-        if !(finite(x) && finite(y) && (!moving || (finite(vx) && finite(vy)))) {
+        if !ok {
             self.not_finite.store(true, Ordering::Relaxed);
         }
         let (u0, half) = (self.u0, self.half);

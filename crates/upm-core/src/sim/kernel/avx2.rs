@@ -85,7 +85,7 @@ pub(in crate::sim) fn mark_left(bits: i32, left: &mut [f64], at: usize, step: us
 /// # Safety
 /// The CPU must support AVX2 and FMA.
 #[target_feature(enable = "avx2,fma")]
-pub(super) unsafe fn run<const EDGE: bool>(
+pub(super) unsafe fn run<const EDGE: bool, const WORLDS: bool>(
     plate: Plate,
     first: usize,
     dt: f64,
@@ -100,10 +100,10 @@ pub(super) unsafe fn run<const EDGE: bool>(
         // not pay for a full tile)
         let vectors = (n - start).div_ceil(4);
         start += 4 * match vectors {
-            1 => tile::<EDGE, 1>(plate, first, dt, half, s, start),
-            2 => tile::<EDGE, 2>(plate, first, dt, half, s, start),
-            3 | 4 => tile::<EDGE, 4>(plate, first, dt, half, s, start),
-            _ => tile::<EDGE, TILE>(plate, first, dt, half, s, start),
+            1 => tile::<EDGE, WORLDS, 1>(plate, first, dt, half, s, start),
+            2 => tile::<EDGE, WORLDS, 2>(plate, first, dt, half, s, start),
+            3 | 4 => tile::<EDGE, WORLDS, 4>(plate, first, dt, half, s, start),
+            _ => tile::<EDGE, WORLDS, TILE>(plate, first, dt, half, s, start),
         };
     }
 }
@@ -112,7 +112,7 @@ pub(super) unsafe fn run<const EDGE: bool>(
 /// step of `plate`; returns `T`.
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-unsafe fn tile<const EDGE: bool, const T: usize>(
+unsafe fn tile<const EDGE: bool, const WORLDS: bool, const T: usize>(
     plate: Plate,
     first: usize,
     dt: f64,
@@ -152,18 +152,19 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
         };
         v.s2 = _mm256_mul_pd(v.slide, v.slide);
     }
-    // Each vector's table (one for all, or its world's); every table has `steps` rows.
-    // (one table for all without a call per vector: a call a tile was 2 % of a 2-step call)
-    let mut rows: [&[[f64; 3]]; T] = [plate.tables[0]; T];
-    if plate.tables.len() > 1 {
-        for (j, r) in rows.iter_mut().enumerate() {
-            *r = plate.row(at(j));
+    // Each vector's column (one table for all, or its world's), and the table's width: the
+    // constant 1 for one table, so that its loads are the table's own.
+    let width = if WORLDS { plate.width() } else { 1 };
+    let mut cols = [0; T];
+    if WORLDS {
+        for (j, col) in cols.iter_mut().enumerate() {
+            *col = plate.column(at(j));
         }
     }
     for k in 0..plate.steps() {
         for j in 0..T {
-            // SAFETY: k < steps, the length of every table (`Plate`).
-            let off = step::<EDGE>(&mut v[j], *rows[j].get_unchecked(k), &c);
+            // SAFETY: k < steps, every column is below the width, which is the plate's.
+            let off = step::<EDGE>(&mut v[j], plate.at(width, cols[j], k), &c);
             if EDGE {
                 let bits = _mm256_movemask_pd(off);
                 if bits != 0 {

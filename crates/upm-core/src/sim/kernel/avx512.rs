@@ -71,7 +71,7 @@ pub(in crate::sim) fn mark_left(off: __mmask8, left: &mut [f64], at: usize, step
 /// # Safety
 /// The CPU must support AVX-512F.
 #[target_feature(enable = "avx512f")]
-pub(super) unsafe fn run<const EDGE: bool>(
+pub(super) unsafe fn run<const EDGE: bool, const WORLDS: bool>(
     plate: Plate,
     first: usize,
     dt: f64,
@@ -84,14 +84,14 @@ pub(super) unsafe fn run<const EDGE: bool>(
     while start < n {
         let vectors = tile_width((n - start).div_ceil(8));
         start += 8 * match vectors {
-            1 => tile::<EDGE, 1>(plate, first, dt, half, s, start),
-            2 => tile::<EDGE, 2>(plate, first, dt, half, s, start),
-            3 => tile::<EDGE, 3>(plate, first, dt, half, s, start),
-            4 => tile::<EDGE, 4>(plate, first, dt, half, s, start),
-            5 => tile::<EDGE, 5>(plate, first, dt, half, s, start),
-            6 => tile::<EDGE, 6>(plate, first, dt, half, s, start),
-            7 => tile::<EDGE, 7>(plate, first, dt, half, s, start),
-            _ => tile::<EDGE, TILE>(plate, first, dt, half, s, start),
+            1 => tile::<EDGE, WORLDS, 1>(plate, first, dt, half, s, start),
+            2 => tile::<EDGE, WORLDS, 2>(plate, first, dt, half, s, start),
+            3 => tile::<EDGE, WORLDS, 3>(plate, first, dt, half, s, start),
+            4 => tile::<EDGE, WORLDS, 4>(plate, first, dt, half, s, start),
+            5 => tile::<EDGE, WORLDS, 5>(plate, first, dt, half, s, start),
+            6 => tile::<EDGE, WORLDS, 6>(plate, first, dt, half, s, start),
+            7 => tile::<EDGE, WORLDS, 7>(plate, first, dt, half, s, start),
+            _ => tile::<EDGE, WORLDS, TILE>(plate, first, dt, half, s, start),
         };
     }
 }
@@ -100,7 +100,7 @@ pub(super) unsafe fn run<const EDGE: bool>(
 /// step of `plate`; returns `T`.
 #[target_feature(enable = "avx512f")]
 #[inline]
-unsafe fn tile<const EDGE: bool, const T: usize>(
+unsafe fn tile<const EDGE: bool, const WORLDS: bool, const T: usize>(
     plate: Plate,
     first: usize,
     dt: f64,
@@ -139,17 +139,19 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
             h2: _mm512_mul_pd(hold, hold),
         };
     }
-    // Each vector's table (one for all, or its world's); every table has `steps` rows.
-    let mut rows: [&[[f64; 3]]; T] = [plate.tables[0]; T];
-    if plate.tables.len() > 1 {
-        for (j, r) in rows.iter_mut().enumerate() {
-            *r = plate.row(at(j));
+    // Each vector's column (one table for all, or its world's), and the table's width: the
+    // constant 1 for one table, so that its loads are the table's own.
+    let width = if WORLDS { plate.width() } else { 1 };
+    let mut cols = [0; T];
+    if WORLDS {
+        for (j, col) in cols.iter_mut().enumerate() {
+            *col = plate.column(at(j));
         }
     }
     for k in 0..plate.steps() {
         for j in 0..T {
-            // SAFETY: k < steps, the length of every table (`Plate`).
-            let off = step::<EDGE>(&mut v[j], *rows[j].get_unchecked(k), &c);
+            // SAFETY: k < steps, every column is below the width, which is the plate's.
+            let off = step::<EDGE>(&mut v[j], plate.at(width, cols[j], k), &c);
             if EDGE && off != 0 {
                 mark_left(off, s.left, at(j), first + k + 1);
             }

@@ -118,50 +118,82 @@ pub fn simd() -> Simd {
 }
 
 /// The plate's velocity at the end of each step of a segment, for the parts of a chunk: one
-/// table for every part, or (small worlds of a batch run side by side) one table per world,
+/// table for every part, or (small worlds of a batch run side by side) one column per world,
 /// world `w` in the lanes `w * stride .. (w + 1) * stride`.
 #[derive(Clone, Copy)]
 pub(super) struct Plate<'t> {
-    tables: &'t [&'t [[f64; 3]]],
+    /// Step after step, each component's row of `width` columns: component `c` of column `w`
+    /// at step `k` is `values[(3 k + c) width + w]` (one table: `[u1, u2, u3]` a step).
+    values: &'t [f64],
+    width: usize,
+    /// Lanes per column (`usize::MAX` for one table).
     stride: usize,
 }
 
 impl<'t> Plate<'t> {
     /// One table for every part.
-    pub(super) fn shared(table: &'t &'t [[f64; 3]]) -> Self {
+    pub(super) fn shared(table: &'t [[f64; 3]]) -> Self {
         Plate {
-            tables: std::slice::from_ref(table),
+            values: table.as_flattened(),
+            width: 1,
             stride: usize::MAX,
         }
     }
 
-    /// One table per world of `stride` lanes (a multiple of every vector's width); the tables
-    /// must have one length (checked).
-    pub(super) fn worlds(tables: &'t [&'t [[f64; 3]]], stride: usize) -> Self {
+    /// One column per world of `stride` lanes (a multiple of every vector's width), `width`
+    /// worlds side by side in `values` (see [`Plate`]; whole steps, checked).
+    pub(super) fn worlds(values: &'t [f64], width: usize, stride: usize) -> Self {
         assert!(
-            !tables.is_empty() && stride.is_multiple_of(8),
-            "tables of worlds"
+            width > 0 && stride.is_multiple_of(8) && values.len().is_multiple_of(3 * width),
+            "columns of worlds"
         );
-        assert!(
-            tables.iter().all(|t| t.len() == tables[0].len()),
-            "tables of unequal length"
-        );
-        Plate { tables, stride }
+        Plate {
+            values,
+            width,
+            stride,
+        }
     }
 
     /// The number of steps.
     pub(super) fn steps(&self) -> usize {
-        self.tables[0].len()
+        self.values.len() / (3 * self.width)
     }
 
-    /// The table of the part in `lane` (the last world's for lanes past every world: they hold
+    /// Columns side by side.
+    #[inline]
+    pub(super) fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Whether every part reads one table.
+    #[inline]
+    pub(super) fn is_shared(&self) -> bool {
+        self.width == 1
+    }
+
+    /// The column of the part in `lane` (the last world's for lanes past every world: they hold
     /// no part).
     #[inline]
-    pub(super) fn row(&self, lane: usize) -> &'t [[f64; 3]] {
-        if self.tables.len() == 1 {
-            self.tables[0]
+    pub(super) fn column(&self, lane: usize) -> usize {
+        if self.width == 1 {
+            0
         } else {
-            self.tables[(lane / self.stride).min(self.tables.len() - 1)]
+            (lane / self.stride).min(self.width - 1)
+        }
+    }
+
+    /// The velocity of column `col` at step `k`, from a table of `width` columns (the caller's
+    /// constant 1 for one table: its loads then are the table's own).
+    ///
+    /// # Safety
+    /// `k < self.steps()`, `col < width` and `width == self.width`.
+    #[inline(always)]
+    pub(super) unsafe fn at(&self, width: usize, col: usize, k: usize) -> [f64; 3] {
+        debug_assert!(k < self.steps() && col < width && width == self.width);
+        // SAFETY: (3 k + c) width + col < 3 width steps = the length (the caller's promise).
+        unsafe {
+            let p = self.values.as_ptr().add(3 * width * k + col);
+            [*p, *p.add(width), *p.add(2 * width)]
         }
     }
 }
@@ -197,18 +229,20 @@ unsafe fn dispatch(simd: Simd, table: Plate, first: usize, dt: f64, half: f64, s
         // SAFETY: the CPU has the build's features (the caller's promise).
         #[cfg(target_arch = "x86_64")]
         Simd::Avx512 => unsafe {
-            if edge {
-                avx512::run::<true>(table, first, dt, half, s)
-            } else {
-                avx512::run::<false>(table, first, dt, half, s)
+            match (edge, table.is_shared()) {
+                (true, true) => avx512::run::<true, false>(table, first, dt, half, s),
+                (true, false) => avx512::run::<true, true>(table, first, dt, half, s),
+                (false, true) => avx512::run::<false, false>(table, first, dt, half, s),
+                (false, false) => avx512::run::<false, true>(table, first, dt, half, s),
             }
         },
         #[cfg(target_arch = "x86_64")]
         Simd::Avx2 => unsafe {
-            if edge {
-                avx2::run::<true>(table, first, dt, half, s)
-            } else {
-                avx2::run::<false>(table, first, dt, half, s)
+            match (edge, table.is_shared()) {
+                (true, true) => avx2::run::<true, false>(table, first, dt, half, s),
+                (true, false) => avx2::run::<true, true>(table, first, dt, half, s),
+                (false, true) => avx2::run::<false, false>(table, first, dt, half, s),
+                (false, false) => avx2::run::<false, true>(table, first, dt, half, s),
             }
         },
         #[cfg(not(target_arch = "x86_64"))]
@@ -220,17 +254,12 @@ unsafe fn dispatch(simd: Simd, table: Plate, first: usize, dt: f64, half: f64, s
 fn run_portable(plate: Plate, first: usize, dt: f64, half: f64, s: &mut Lanes) {
     s.check();
     let n = s.x.len();
-    let shared = plate.tables.len() == 1;
+    let width = plate.width;
     for k in 0..plate.steps() {
-        if shared {
-            let u = plate.tables[0][k];
-            for i in 0..n {
-                portable_step(s, i, u, first + k, dt, half);
-            }
-        } else {
-            for i in 0..n {
-                portable_step(s, i, plate.row(i)[k], first + k, dt, half);
-            }
+        for i in 0..n {
+            // SAFETY: k < steps, and every column is below the width.
+            let u = unsafe { plate.at(width, plate.column(i), k) };
+            portable_step(s, i, u, first + k, dt, half);
         }
     }
 }
@@ -325,7 +354,7 @@ mod tests {
                 slide,
                 hold,
             };
-            run_with(simd, Plate::shared(&table), 0, 1e-4, half, &mut lanes);
+            run_with(simd, Plate::shared(table), 0, 1e-4, half, &mut lanes);
         }
     }
 
