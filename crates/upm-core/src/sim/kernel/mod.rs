@@ -255,10 +255,11 @@ fn run_portable(plate: Plate, first: usize, dt: f64, half: f64, s: &mut Lanes) {
     s.check();
     let n = s.x.len();
     let width = plate.width;
+    let cols: Vec<usize> = (0..n).map(|i| plate.column(i)).collect();
     for k in 0..plate.steps() {
-        for i in 0..n {
+        for (i, &col) in cols.iter().enumerate() {
             // SAFETY: k < steps, and every column is below the width.
-            let u = unsafe { plate.at(width, plate.column(i), k) };
+            let u = unsafe { plate.at(width, col, k) };
             portable_step(s, i, u, first + k, dt, half);
         }
     }
