@@ -124,22 +124,14 @@ impl Phases {
         out: &mut Columns,
         col: usize,
     ) {
-        let base = self.steps.start;
-        for st in &self.stints {
-            let (lo, hi) = (
-                st.at.first.max(steps.start),
-                (st.at.first + st.len).min(steps.end),
-            );
-            if lo < hi {
-                let samples = &self.samples[lo - base..hi - base];
-                for (k, some) in motions.chunks(LANES).enumerate() {
-                    let at = Place {
-                        row: lo - steps.start,
-                        col: col + k * LANES,
-                        first: lo,
-                    };
-                    stint(st, some, samples, out, at);
-                }
+        for (st, first, samples) in self.pieces(steps.clone()) {
+            for (k, some) in motions.chunks(LANES).enumerate() {
+                let at = Place {
+                    row: first - steps.start,
+                    col: col + k * LANES,
+                    first,
+                };
+                stint(st, some, samples, out, at);
             }
         }
     }

@@ -463,18 +463,24 @@ impl Phases {
     #[inline(always)]
     fn extend_with(&self, motion: &PlateMotion, steps: Range<usize>, out: &mut Vec<[f64; 3]>) {
         out.reserve(steps.len());
+        for (st, first, piece) in self.pieces(steps) {
+            let at = At { first, ..st.at };
+            at.extend(&motion.items[st.item].segment, st.stretch, piece, out);
+        }
+    }
+
+    /// The stints that overlap `steps` (within the block), each with its first step among them
+    /// and its samples over them, in order.
+    #[inline(always)]
+    fn pieces(&self, steps: Range<usize>) -> impl Iterator<Item = (&Stint, usize, &[Sample])> {
         let base = self.steps.start;
-        for st in &self.stints {
+        self.stints.iter().filter_map(move |st| {
             let (lo, hi) = (
                 st.at.first.max(steps.start),
                 (st.at.first + st.len).min(steps.end),
             );
-            if lo < hi {
-                let at = At { first: lo, ..st.at };
-                let piece = &self.samples[lo - base..hi - base];
-                at.extend(&motion.items[st.item].segment, st.stretch, piece, out);
-            }
-        }
+            (lo < hi).then(|| (st, lo, &self.samples[lo - base..hi - base]))
+        })
     }
 }
 

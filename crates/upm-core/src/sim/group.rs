@@ -38,7 +38,7 @@ fn worlds_per_group(m: usize) -> usize {
 /// A world of a batch run in a group: its motion, its timing's number among the batch's (see
 /// [`by_timing`]), its place in the batch and where it records. (No more: a batch of many small
 /// worlds pays for what each world carries.)
-pub(super) struct Member<'a> {
+struct Member<'a> {
     motion: &'a PlateMotion,
     timing: usize,
     b: usize,
@@ -224,7 +224,7 @@ fn tabulate(
 }
 
 /// The state of one group's points, kept from block to block.
-pub(super) struct Group(Box<[[f64; LANES]; ARRAYS]>);
+struct Group(Box<[[f64; LANES]; ARRAYS]>);
 
 /// Group states kept from run to run: fresh memory costs a page fault per 4 KiB on every call
 /// once the allocator has returned it to the system (that was a fifth of a 2-step call of 500
@@ -264,8 +264,8 @@ impl Group {
     }
 
     /// Advances the point parts of `worlds` through the block of `steps`, recording as
-    /// [`Points::run`] does; `shared` holds the samples of the timings that span groups
-    /// ([`shared_phases`]).
+    /// [`Points::run`] does (their initial state read from `start` as the first block starts);
+    /// `shared` holds the samples of the timings that span groups ([`shared_phases`]).
     fn run(
         &mut self,
         worlds: &[Member],
