@@ -36,6 +36,9 @@ impl Columns<'_> {
         samples: &[Sample],
         u: impl Fn(&Sample) -> [[f64; LANES]; 3],
     ) {
+        if samples.is_empty() {
+            return;
+        }
         let width = self.width;
         // one past the last value written (component 2 of the last row, column at.col + n - 1)
         let end = (3 * (at.row + samples.len()) - 1) * width + at.col + n;
