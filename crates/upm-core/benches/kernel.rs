@@ -15,7 +15,7 @@
 use std::hint::black_box;
 use std::time::Instant;
 
-use upm_core::buffer::recycle;
+use upm_core::buffer::{recycle, recycle_flags};
 use upm_core::motion::PlateMotion;
 use upm_core::sim::{simulate, simulate_stacked, Config, Parts, PartsView};
 use upm_core::{Harmonics, Waveform};
@@ -163,6 +163,8 @@ fn per_call(motion: &PlateMotion, n: usize, dt: f64) -> f64 {
         recycle(run.positions.into_flattened());
         recycle(run.velocities.into_flattened());
         recycle(run.left);
+        recycle_flags(run.stuck);
+        recycle_flags(run.left_plate);
         first
     };
     let t = one.install(|| best_of(5, call));

@@ -55,36 +55,80 @@ const SPARE_FROM: usize = 1 << 16;
 const SPARES: usize = 36;
 const SPARE_BYTES: usize = 1 << 30;
 
-fn spares() -> &'static std::sync::Mutex<Vec<Vec<f64>>> {
-    static SPARE: std::sync::OnceLock<std::sync::Mutex<Vec<Vec<f64>>>> = std::sync::OnceLock::new();
-    SPARE.get_or_init(Default::default)
+/// Spare buffers of one element type, kept by [`recycle`] and [`recycle_flags`].
+struct Pool<T>(std::sync::Mutex<Vec<Vec<T>>>);
+
+/// Spare buffers of values (state, positions, velocities, times) and of flags (stuck, left).
+static VALUES: Pool<f64> = Pool::new();
+static FLAGS: Pool<bool> = Pool::new();
+
+impl<T> Pool<T> {
+    const fn new() -> Self {
+        Pool(std::sync::Mutex::new(Vec::new()))
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Vec<Vec<T>>> {
+        self.0.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// A spare buffer with room for `n` (at most 4n) elements, if one is kept (with an even
+    /// capacity if `even`).
+    fn take(&self, n: usize, even: bool) -> Option<Vec<T>> {
+        if n < SPARE_FROM {
+            return None;
+        }
+        let mut spare = self.lock();
+        let fit = spare
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| v.capacity() >= n && v.capacity() <= 4 * n)
+            .filter(|(_, v)| !even || v.capacity().is_multiple_of(2))
+            .min_by_key(|(_, v)| v.capacity())
+            .map(|(i, _)| i)?;
+        Some(spare.swap_remove(fit))
+    }
+
+    /// A spare buffer with room for `n` elements (an even capacity if `even`), or a new one
+    /// reserved fallibly; `what` names the result in the error.
+    fn taken(&self, n: usize, even: bool, what: &str) -> Result<Vec<T>> {
+        match self.take(n, even) {
+            Some(v) => Ok(v),
+            None => {
+                let mut v = Vec::new();
+                reserve(&mut v, n, what)?;
+                Ok(v)
+            }
+        }
+    }
+
+    /// Keeps `v` for reuse (the largest are kept, within [`SPARES`] buffers and
+    /// [`SPARE_BYTES`]).
+    fn give(&self, mut v: Vec<T>) {
+        let size = std::mem::size_of::<T>();
+        if v.capacity() < SPARE_FROM || v.capacity() > SPARE_BYTES / size {
+            return;
+        }
+        v.clear();
+        let mut spare = self.lock();
+        spare.push(v);
+        let bytes = |s: &Vec<Vec<T>>| s.iter().map(|v| v.capacity() * size).sum::<usize>();
+        while spare.len() > SPARES || bytes(&spare) > SPARE_BYTES {
+            let smallest = (0..spare.len())
+                .min_by_key(|&i| spare[i].capacity())
+                .unwrap_or(0);
+            spare.swap_remove(smallest);
+        }
+    }
 }
 
 /// An empty buffer with room for `n` elements, for state that lives only during a call: a buffer
 /// [`recycle`]d by an earlier call when one fits (its pages are already mapped, so a simulation
 /// called again and again pays no page faults for its state), else a new one.
 pub fn scratch(n: usize) -> Vec<f64> {
-    if let Some(v) = spare(n, false) {
+    if let Some(v) = VALUES.take(n, false) {
         return v;
     }
     Vec::with_capacity(n)
-}
-
-/// A spare buffer with room for `n` (at most 4n) elements, if one is kept (with an even capacity
-/// if `even`).
-fn spare(n: usize, even: bool) -> Option<Vec<f64>> {
-    if n < SPARE_FROM {
-        return None;
-    }
-    let mut spare = spares().lock().unwrap_or_else(|e| e.into_inner());
-    let fit = spare
-        .iter()
-        .enumerate()
-        .filter(|(_, v)| v.capacity() >= n && v.capacity() <= 4 * n)
-        .filter(|(_, v)| !even || v.capacity().is_multiple_of(2))
-        .min_by_key(|(_, v)| v.capacity())
-        .map(|(i, _)| i)?;
-    Some(spare.swap_remove(fit))
 }
 
 /// An empty buffer with room for `n` values, for a result: a [`recycle`]d buffer when one fits
@@ -92,7 +136,7 @@ fn spare(n: usize, even: bool) -> Option<Vec<f64>> {
 /// so a caller that simulates again and again pays no page faults for its results), else one
 /// reserved fallibly; `what` names the result in the error.
 pub fn result(n: usize, what: &str) -> Result<Vec<f64>> {
-    taken(n, false, what)
+    VALUES.taken(n, false, what)
 }
 
 /// [`result`] for `n` pairs.
@@ -100,20 +144,7 @@ pub fn result_pairs(n: usize, what: &str) -> Result<Vec<[f64; 2]>> {
     let twice = n
         .checked_mul(2)
         .ok_or_else(|| too_big(n as f64 * 16.0, what))?;
-    Ok(pairs(taken(twice, true, what)?))
-}
-
-/// A [`spare`] buffer with room for `n` values (an even capacity if `even`), or a new one
-/// reserved fallibly.
-fn taken(n: usize, even: bool, what: &str) -> Result<Vec<f64>> {
-    match spare(n, even) {
-        Some(v) => Ok(v),
-        None => {
-            let mut v = Vec::new();
-            reserve(&mut v, n, what)?;
-            Ok(v)
-        }
-    }
+    Ok(pairs(VALUES.taken(twice, true, what)?))
 }
 
 /// An empty buffer of pairs over the allocation of `v` (an even capacity).
@@ -127,20 +158,19 @@ fn pairs(v: Vec<f64>) -> Vec<[f64; 2]> {
 
 /// Gives a [`scratch`] or result buffer back for reuse (the largest are kept, within
 /// [`SPARES`] buffers and [`SPARE_BYTES`]).
-pub fn recycle(mut v: Vec<f64>) {
-    if v.capacity() < SPARE_FROM || v.capacity() > SPARE_BYTES / 8 {
-        return;
-    }
-    v.clear();
-    let mut spare = spares().lock().unwrap_or_else(|e| e.into_inner());
-    spare.push(v);
-    let bytes = |s: &Vec<Vec<f64>>| s.iter().map(|v| v.capacity() * 8).sum::<usize>();
-    while spare.len() > SPARES || bytes(&spare) > SPARE_BYTES {
-        let smallest = (0..spare.len())
-            .min_by_key(|&i| spare[i].capacity())
-            .unwrap_or(0);
-        spare.swap_remove(smallest);
-    }
+pub fn recycle(v: Vec<f64>) {
+    VALUES.give(v);
+}
+
+/// [`result`] for `n` flags (stuck, left the plate): a buffer of flags handed back by
+/// [`recycle_flags`] when one fits, else one reserved fallibly.
+pub fn result_flags(n: usize, what: &str) -> Result<Vec<bool>> {
+    FLAGS.taken(n, false, what)
+}
+
+/// [`recycle`] for a buffer of flags.
+pub fn recycle_flags(v: Vec<bool>) {
+    FLAGS.give(v);
 }
 
 #[cfg(test)]
@@ -165,6 +195,29 @@ mod tests {
     }
 
     #[test]
+    fn flags_given_back_are_reused_and_kept_apart_from_values() {
+        // (a size no other test asks for: the pools are the process's)
+        let n = 3_000_017;
+        let mut f = result_flags(n, "the stuck flags").unwrap();
+        assert!(f.is_empty() && f.capacity() >= n);
+        f.resize(n, true);
+        let at = f.as_ptr();
+        recycle_flags(f);
+        let g = result_flags(n, "the stuck flags").unwrap();
+        assert!(g.is_empty() && g.capacity() >= n);
+        assert_eq!(
+            g.as_ptr(),
+            at,
+            "the flags handed back are the ones taken next"
+        );
+        assert!(VALUES
+            .lock()
+            .iter()
+            .all(|v| v.as_ptr().cast::<bool>() != at));
+        assert!(result_flags(usize::MAX / 2, "the stuck flags").is_err());
+    }
+
+    #[test]
     fn a_result_given_back_is_reused_as_pairs_and_the_pool_is_bounded() {
         let mut p = result_pairs(1 << 18, "the positions").unwrap();
         assert!(p.is_empty() && p.capacity() >= 1 << 18);
@@ -174,7 +227,7 @@ mod tests {
         assert!(q.is_empty() && q.capacity() >= 1 << 18);
         // Too large to keep: dropped, not pooled.
         recycle(Vec::with_capacity(SPARE_BYTES / 8 + 1));
-        let spare = spares().lock().unwrap_or_else(|e| e.into_inner());
+        let spare = VALUES.lock();
         assert!(spare.len() <= SPARES);
         assert!(spare.iter().map(|v| v.capacity() * 8).sum::<usize>() <= SPARE_BYTES);
         assert!(spare.iter().all(Vec::is_empty));

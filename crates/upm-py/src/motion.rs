@@ -182,26 +182,50 @@ impl PlateMotion {
 }
 
 /// The owner of a result buffer behind a NumPy array (the array's base): when the array goes,
-/// the buffer goes back to the core's pool for the next result ([`upm_core::buffer::recycle`]),
-/// so a caller simulating again and again writes into memory already mapped.
+/// the buffer goes back to the core's pool for the next result ([`upm_core::buffer::recycle`],
+/// [`upm_core::buffer::recycle_flags`]), so a caller simulating again and again writes into
+/// memory already mapped.
 #[pyclass(frozen, module = "upm._core")]
 struct Recycled {
     /// The buffer's raw parts (pointer as an address: NumPy writes through it, Rust never reads).
     ptr: usize,
     len: usize,
     capacity: usize,
+    /// A buffer of flags (`bool`), else of values (`f64`).
+    flags: bool,
 }
 
 impl Drop for Recycled {
     fn drop(&mut self) {
-        // SAFETY: the raw parts come from one `Vec<f64>` taken apart in `recycled`, rebuilt once.
-        let v = unsafe { Vec::from_raw_parts(self.ptr as *mut f64, self.len, self.capacity) };
-        upm_core::buffer::recycle(v);
+        // SAFETY: the raw parts come from one `Vec` of the element type `flags` names, taken apart
+        // in `recycled`, rebuilt once.
+        unsafe {
+            if self.flags {
+                let v = Vec::from_raw_parts(self.ptr as *mut bool, self.len, self.capacity);
+                upm_core::buffer::recycle_flags(v);
+            } else {
+                let v = Vec::from_raw_parts(self.ptr as *mut f64, self.len, self.capacity);
+                upm_core::buffer::recycle(v);
+            }
+        }
     }
 }
 
+/// An element of the result buffers the core's pools keep: values or flags.
+trait Pooled: numpy::Element {
+    const FLAGS: bool;
+}
+
+impl Pooled for f64 {
+    const FLAGS: bool = false;
+}
+
+impl Pooled for bool {
+    const FLAGS: bool = true;
+}
+
 /// `v` as a 1-D NumPy array over the same memory, recycled when the array goes.
-fn recycled(py: Python<'_>, v: Vec<f64>) -> PyResult<Bound<'_, PyArray1<f64>>> {
+fn recycled<T: Pooled>(py: Python<'_>, v: Vec<T>) -> PyResult<Bound<'_, PyArray1<T>>> {
     let mut v = std::mem::ManuallyDrop::new(v);
     let (ptr, len, capacity) = (v.as_mut_ptr(), v.len(), v.capacity());
     let owner = Bound::new(
@@ -210,10 +234,11 @@ fn recycled(py: Python<'_>, v: Vec<f64>) -> PyResult<Bound<'_, PyArray1<f64>>> {
             ptr: ptr as usize,
             len,
             capacity,
+            flags: T::FLAGS,
         },
     )?;
-    // SAFETY: `len` initialised f64 at `ptr`, owned by `owner`, which the array keeps alive as its
-    // base and which frees (recycles) them only when the array is gone.
+    // SAFETY: `len` initialised elements at `ptr`, owned by `owner`, which the array keeps alive
+    // as its base and which frees (recycles) them only when the array is gone.
     unsafe {
         let view = numpy::ndarray::ArrayView1::from_shape_ptr(len, ptr.cast_const());
         Ok(PyArray1::borrow_from_array(&view, owner.into_any()))
@@ -253,11 +278,11 @@ fn to_arrays<'py>(
     let t = PyArray1::from_vec(py, run.t);
     let pos = recycled(py, run.positions.into_flattened())?.reshape([b, rows, m, 2])?;
     let vel = recycled(py, run.velocities.into_flattened())?.reshape([b, rows, m, 2])?;
-    let stuck = PyArray1::from_vec(py, run.stuck).reshape([b, rows, m])?;
+    let stuck = recycled(py, run.stuck)?.reshape([b, rows, m])?;
     let angles = or_zeros(py, run.angles, &[b, rows, m])?;
     let spins = or_zeros(py, run.spins, &[b, rows, m])?;
     let left = recycled(py, run.left)?.reshape([b, m])?;
-    let left_plate = PyArray1::from_vec(py, run.left_plate).reshape([b, m])?;
+    let left_plate = recycled(py, run.left_plate)?.reshape([b, m])?;
     let flight = or_zeros(py, run.flight, &[b, m])?;
     PyTuple::new(
         py,

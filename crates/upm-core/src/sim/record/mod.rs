@@ -2,8 +2,8 @@
 //! integrator into the buffers that become the result (and, through the binding, the NumPy
 //! arrays), with no per-row staging and no copy.
 //!
-//! Positions, velocities and stuck flags are reserved uninitialised (positions and velocities in
-//! buffers handed back by earlier results when they fit: see [`buffer::result_pairs`]) and written
+//! Positions, velocities and stuck flags are reserved uninitialised (in buffers handed back by
+//! earlier results when they fit: see [`buffer::result_pairs`], [`buffer::result_flags`]) and written
 //! exactly once per `(row, part)`; angles and spins only when some part turns (a run of point
 //! parts leaves them empty: see [`super::simulate_stacked`]), allocated zeroed when some parts
 //! are points (their cells are never written), else reserved like the positions ([`Turning`]).
@@ -154,11 +154,11 @@ impl Recorder {
             t: Vec::new(),
             positions: buffer::result_pairs(cells, "the positions")?,
             velocities: buffer::result_pairs(cells, "the velocities")?,
-            stuck: Vec::new(),
+            stuck: buffer::result_flags(cells, "the stuck flags")?,
             angles: turning.buffer(cells, "the angles")?,
             spins: turning.buffer(cells, "the spins")?,
             left: buffer::scratch(worlds * m),
-            left_plate: Vec::new(),
+            left_plate: buffer::result_flags(worlds * m, "the flags of leaving")?,
             flight: if flying {
                 buffer::scratch(worlds * m)
             } else {
@@ -166,8 +166,6 @@ impl Recorder {
             },
         };
         buffer::reserve(&mut out.t, rows, "the recorded times")?;
-        buffer::reserve(&mut out.stuck, cells, "the stuck flags")?;
-        buffer::reserve(&mut out.left_plate, worlds * m, "the flags of leaving")?;
         Ok(Recorder {
             out,
             flying,
