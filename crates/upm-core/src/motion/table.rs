@@ -4,7 +4,7 @@
 //! the same angle every step. Evaluating each afresh (`sin_cos` and friends) cost more than the
 //! integrator's whole step for a world of a few parts (the planner's batches: about 60 % of the
 //! time in `libm`). Here each such phase is a unit phasor turned by one complex multiplication a
-//! step, and evaluated exactly again at every `RESEED`-th step and wherever a step enters a new
+//! step (`phasors.rs`), and evaluated exactly again at every `RESEED`-th step and wherever a step enters a new
 //! stretch of the program (another item, or another part of an envelope), so the rounding it
 //! gathers stays within a few units in the last place of the amplitude. Where each phasor is
 //! seeded depends on the step's index alone, never on how the steps are split into calls, so
@@ -19,10 +19,9 @@
 //! The velocity formulas of a translation, a rotation and a jet, and the stretches of an item's
 //! envelope, live here once for both this table and [`PlateMotion::velocity`].
 
-use std::f64::consts::PI;
 use std::ops::Range;
 
-use super::{Item, PlateMotion, Segment};
+use super::{PlateMotion, Segment};
 use crate::waveform::Waveform;
 
 /// Steps between exact evaluations of every phasor.
@@ -66,135 +65,6 @@ pub(super) fn jet(c: &[f64; 2], (tx, ty): (f64, f64), g: f64, w: f64) -> [f64; 3
     [tx * g + w * c[1], ty * g - w * c[0], w]
 }
 
-/// `e^{i x}` for a phase `x` that grows by `step` every time step.
-#[derive(Debug, Clone, Copy, Default)]
-struct Turn {
-    c: f64,
-    s: f64,
-    cd: f64,
-    sd: f64,
-}
-
-impl Turn {
-    fn new(step: f64) -> Self {
-        let (sd, cd) = step.sin_cos();
-        Turn {
-            c: 1.0,
-            s: 0.0,
-            cd,
-            sd,
-        }
-    }
-
-    #[inline]
-    fn seed(&mut self, x: f64) {
-        (self.s, self.c) = x.sin_cos();
-    }
-
-    #[inline]
-    fn advance(&mut self) {
-        let c = self.c * self.cd - self.s * self.sd;
-        self.s = self.s * self.cd + self.c * self.sd;
-        self.c = c;
-    }
-}
-
-/// The phasors of one stretch: the segment's phase, a jet's `2/3` phase, the envelope's ramp
-/// (each turned only where the stretch reads it).
-#[derive(Debug, Clone, Copy, Default)]
-struct Phasors {
-    wave: Turn,
-    slow: Turn,
-    ramp: Turn,
-    /// Which of `wave`, `slow` and `ramp` the stretch reads.
-    used: [bool; 3],
-}
-
-impl Phasors {
-    /// Phasors for `item` in `stretch` on steps of `dt` [s] (the angles they turn by each step).
-    fn new(item: &Item, stretch: Stretch, dt: f64) -> Self {
-        let mut out = Phasors::default();
-        match &item.segment {
-            Segment::Translation {
-                wave: Waveform::Harmonics(h),
-                ..
-            }
-            | Segment::Rotation {
-                wave: Waveform::Harmonics(h),
-                ..
-            } => {
-                out.wave = Turn::new(h.omega_scale().0 * dt);
-                out.used[0] = true;
-            }
-            Segment::Jet { omega, .. } => {
-                out.wave = Turn::new(omega * dt);
-                out.slow = Turn::new(2.0 * omega * dt / 3.0);
-                out.used[..2].fill(true);
-            }
-            _ => {}
-        }
-        if let Some(env) = item.envelope {
-            match stretch {
-                Stretch::Attack => out.ramp = Turn::new(PI * dt / env.attack),
-                Stretch::Decay => out.ramp = Turn::new(-PI * dt / env.decay),
-                Stretch::Off | Stretch::Hold => {}
-            }
-            out.used[2] = matches!(stretch, Stretch::Attack | Stretch::Decay);
-        }
-        if stretch == Stretch::Off {
-            out.used = [false; 3]; // the plate rests: nothing is read
-        }
-        out
-    }
-
-    /// Every phasor evaluated exactly at local time `local` [s] (the same expressions as
-    /// [`Segment::velocity`] and the envelope's value).
-    fn seed(&mut self, item: &Item, stretch: Stretch, local: f64) {
-        if stretch == Stretch::Off {
-            return;
-        }
-        match &item.segment {
-            Segment::Translation {
-                wave: Waveform::Harmonics(h),
-                ..
-            }
-            | Segment::Rotation {
-                wave: Waveform::Harmonics(h),
-                ..
-            } => {
-                self.wave.seed(h.omega_scale().0 * local);
-            }
-            Segment::Jet { omega, .. } => {
-                let x = omega * local;
-                self.wave.seed(x);
-                self.slow.seed(2.0 * x / 3.0);
-            }
-            _ => {}
-        }
-        if let Some(env) = item.envelope {
-            match stretch {
-                Stretch::Attack => self.ramp.seed(PI * local / env.attack),
-                Stretch::Decay => self.ramp.seed(PI * (env.duration() - local) / env.decay),
-                Stretch::Off | Stretch::Hold => {}
-            }
-        }
-    }
-
-    #[inline]
-    fn advance(&mut self) {
-        let [wave, slow, ramp] = self.used;
-        if wave {
-            self.wave.advance();
-        }
-        if slow {
-            self.slow.advance();
-        }
-        if ramp {
-            self.ramp.advance();
-        }
-    }
-}
-
 /// The sample time of step `s`: a hair before the step's end.
 #[inline]
 pub(super) fn sample_time(s: usize, dt: f64) -> f64 {
@@ -224,36 +94,6 @@ impl PlateMotion {
         let t = sample_time(s, dt);
         let i = self.item_at(t);
         (i, self.stretch(i, t))
-    }
-}
-
-/// What every motion of one timing reads at one step: the segment's phase (`c`, `s`), the
-/// envelope's factor (exactly 1 outside its ramps), and for a jet its feeding profile and the
-/// sine of its `2/3` phase, each times the envelope's factor.
-#[derive(Debug, Clone, Copy, Default)]
-struct Sample {
-    c: f64,
-    s: f64,
-    env: f64,
-    feed: f64,
-    spin: f64,
-}
-
-impl Phasors {
-    #[inline]
-    fn sample(&self, stretch: Stretch) -> Sample {
-        // (only an item with an envelope has ramps; times 1 leaves every value as it is)
-        let env = match stretch {
-            Stretch::Attack | Stretch::Decay => 0.5 - 0.5 * self.ramp.c,
-            Stretch::Off | Stretch::Hold => 1.0,
-        };
-        Sample {
-            c: self.wave.c,
-            s: self.wave.s,
-            env,
-            feed: feed(self.wave.c, self.wave.s) * env,
-            spin: self.slow.s * env,
-        }
     }
 }
 
@@ -596,6 +436,9 @@ impl Run<'_> {
 #[path = "across.rs"]
 mod across;
 pub(crate) use across::Columns;
+#[path = "phasors.rs"]
+mod phasors;
+use phasors::{Phasors, Sample};
 
 #[cfg(test)]
 #[path = "table_tests.rs"]

@@ -1,4 +1,6 @@
 //! Tests of the velocity table ([`super`]).
+use std::f64::consts::PI;
+
 use super::*;
 use crate::waveform::{BangBang, Harmonics};
 

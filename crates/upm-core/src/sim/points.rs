@@ -54,12 +54,12 @@ pub(super) struct Points<'p> {
     spatial: bool,
     /// The parts to read the state from, until the first block has read it.
     source: Option<Source<'p>>,
-    /// The run is one block, or a group keeps the state: each chunk's state lives in its task's
-    /// own buffer (in the core's cache) or the group's, and no array is kept.
+    /// The run is one block: each chunk's state lives in its task's own buffer (in the core's
+    /// cache), and no array is kept.
     once: bool,
 }
 
-/// One chunk's state in a run of one block, or a group's (see [`Points::once`]).
+/// One chunk's state in a run of one block (see [`Points::once`]).
 pub(super) type Local = [[f64; CHUNK_PARTS]; ARRAYS];
 
 /// A zeroed buffer of `N` lanes of each array (a [`Local`] with `CHUNK_PARTS`) on the heap,
@@ -129,7 +129,7 @@ impl Base {
 impl<'p> Points<'p> {
     /// The parts `index` of `parts` (all of them with `None`), under the plate velocity `u0` at
     /// the start: room for their state, read from `parts` later, chunk by chunk; `once`: the
-    /// whole run is one block, or a [`super::group::Group`] keeps the state (no array is kept).
+    /// whole run is one block (no array is kept).
     pub(super) fn new(
         parts: &PartsView<'p>,
         index: Option<&'p [usize]>,

@@ -165,12 +165,6 @@ impl<'t> Plate<'t> {
         self.width
     }
 
-    /// Whether every part reads one table.
-    #[inline]
-    pub(super) fn is_shared(&self) -> bool {
-        self.width == 1
-    }
-
     /// The column of the part in `lane` (the last world's for lanes past every world: they hold
     /// no part).
     #[inline]
@@ -229,7 +223,7 @@ unsafe fn dispatch(simd: Simd, table: Plate, first: usize, dt: f64, half: f64, s
         // SAFETY: the CPU has the build's features (the caller's promise).
         #[cfg(target_arch = "x86_64")]
         Simd::Avx512 => unsafe {
-            match (edge, table.is_shared()) {
+            match (edge, table.width() == 1) {
                 (true, true) => avx512::run::<true, false>(table, first, dt, half, s),
                 (true, false) => avx512::run::<true, true>(table, first, dt, half, s),
                 (false, true) => avx512::run::<false, false>(table, first, dt, half, s),
@@ -238,7 +232,7 @@ unsafe fn dispatch(simd: Simd, table: Plate, first: usize, dt: f64, half: f64, s
         },
         #[cfg(target_arch = "x86_64")]
         Simd::Avx2 => unsafe {
-            match (edge, table.is_shared()) {
+            match (edge, table.width() == 1) {
                 (true, true) => avx2::run::<true, false>(table, first, dt, half, s),
                 (true, false) => avx2::run::<true, true>(table, first, dt, half, s),
                 (false, true) => avx2::run::<false, false>(table, first, dt, half, s),
