@@ -102,11 +102,63 @@ def test_ctrl_c_interrupts_a_simulation_on_its_own_pool():
     # this process's CPU time (the work done, not the machine's load), with a 10x margin.
     motion = upm.PlateMotion.translation((1, 0), upm.TwoHarmonic(0.5, 1.0, amplitude=0.02, frequency=35.0))
     parts = np.zeros((20_000, 2))
+    # (as many threads as the global pool has run on it, from this thread: one more than the cores)
     run = lambda: upm.simulate_batch([motion, motion], parts, duration=70.0, dt=7e-5, mu=0.3,  # noqa: E731
-                                     record_every=10**6, threads=2)  # fmt: skip
+                                     record_every=10**6, threads=(os.cpu_count() or 1) + 1)  # fmt: skip
     cpu = time.process_time()
     assert _calls_completed_before_ctrl_c(run) == 0
     assert time.process_time() - cpu < 8.0
+
+
+def test_ctrl_c_interrupts_a_simulation_on_one_thread():
+    # One thread runs on the calling thread itself (no pool), which checks for signals between
+    # blocks as the global pool's caller does.
+    motion = upm.PlateMotion.translation((1, 0), upm.TwoHarmonic(0.5, 1.0, amplitude=0.02, frequency=35.0))
+    parts = np.zeros((20_000, 2))
+    run = lambda: upm.simulate(motion, parts, duration=70.0, dt=7e-5, mu=0.3, record_every=10**6,  # noqa: E731
+                               threads=1)  # fmt: skip
+    cpu = time.process_time()
+    assert _calls_completed_before_ctrl_c(run) == 0
+    assert time.process_time() - cpu < 8.0
+
+
+ONE_THREAD = """
+import os, numpy as np, upm
+
+def others():  # CPU ticks of every thread but this one
+    ticks = 0
+    for tid in os.listdir("/proc/self/task"):
+        if int(tid) != os.getpid():
+            with open(f"/proc/self/task/{tid}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+            ticks += int(fields[11]) + int(fields[12])
+    return ticks
+
+spin = upm.PlateMotion.rotation((0.0, 0.0), upm.Harmonics([2.0, -1.0], frequency=35.0))
+parts = [upm.Disk((0.01 * i, 0.0), 0.002) for i in range(40)]
+parts += [upm.Polygon.regular(6, 0.01, position=(0.0, 0.05 + 0.001 * i)) for i in range(20)]
+parts += [upm.Point(tuple(p)) for p in np.random.default_rng(3).uniform(-0.1, 0.1, (20_000, 2))]
+calls = (lambda t: upm.simulate(spin, parts, duration=0.02, dt=1e-4, mu=0.3, threads=t),
+         lambda t: upm.simulate_batch([spin] * 300, parts[-8:], duration=0.2, dt=1e-4, mu=0.3, threads=t),
+         lambda t: upm.feed_rate(upm.TwoHarmonic(np.linspace(0.1, 1.0, 300), np.pi / 2), threads=t))
+before = others()
+for call in calls:
+    call(1)
+alone = others()
+for call in calls:
+    call(None)
+print(alone - before, others() - alone)
+"""
+
+
+def test_one_thread_runs_on_the_calling_thread():
+    # threads=1 runs every parallel section on the calling thread: no pool, no hand-off to wait
+    # for. The global pool's threads do the same calls' work with threads=None.
+    run = subprocess.run([sys.executable, "-c", ONE_THREAD], capture_output=True, text=True, check=True,
+                         env=dict(os.environ, RAYON_NUM_THREADS="3"))  # fmt: skip
+    alone, pooled = map(int, run.stdout.split())
+    assert alone <= 1
+    assert pooled >= 10
 
 
 def test_ctrl_c_stops_many_disks_on_a_rotating_plate_within_a_block():

@@ -3,8 +3,75 @@
 //! Items are computed independently and written to their own slot, so results are bitwise
 //! identical for any number of threads. Batches are processed in fixed chunks so a caller (the
 //! Python binding) can check for interrupts between chunks.
+//!
+//! Every parallel section of the core splits its items no finer than [`min_len`] and joins
+//! through [`join`], so that a call made in [`serial`] runs on its caller's thread alone: one
+//! thread without a pool, whose hand-off (the job queued, a worker woken, the caller woken when it
+//! is done) costs tens of microseconds on a busy machine, a small call's whole cost several times
+//! over.
+
+use std::cell::Cell;
 
 use rayon::prelude::*;
+
+thread_local! {
+    static SERIAL: Cell<bool> = const { Cell::new(false) };
+}
+
+/// `work()` on this thread with every parallel section of the core in it run in order on this
+/// thread (the same results, bit for bit, as on a pool of any size).
+pub fn serial<T>(work: impl FnOnce() -> T) -> T {
+    /// Restores the flag as `work` ends, also by a panic.
+    struct Restore(bool);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            SERIAL.with(|s| s.set(self.0));
+        }
+    }
+    let _restore = Restore(SERIAL.with(|s| s.replace(true)));
+    work()
+}
+
+/// Whether this thread runs in [`serial`].
+pub fn is_serial() -> bool {
+    SERIAL.with(Cell::get)
+}
+
+/// The fewest items a parallel section gives one task: every item in [`serial`] (so the section
+/// runs on this thread, never handed to a pool), one otherwise.
+pub fn min_len() -> usize {
+    if is_serial() {
+        usize::MAX
+    } else {
+        1
+    }
+}
+
+/// The threads a parallel section may spread over: one in [`serial`], the current pool's
+/// otherwise.
+pub fn threads() -> usize {
+    if is_serial() {
+        1
+    } else {
+        rayon::current_num_threads()
+    }
+}
+
+/// `(a(), b())`: side by side on the current pool ([`rayon::join`]), or in order on this thread
+/// in [`serial`].
+pub fn join<A, B, RA, RB>(a: A, b: B) -> (RA, RB)
+where
+    A: FnOnce() -> RA + Send,
+    B: FnOnce() -> RB + Send,
+    RA: Send,
+    RB: Send,
+{
+    if is_serial() {
+        (a(), b())
+    } else {
+        rayon::join(a, b)
+    }
+}
 
 use crate::error::Result;
 
@@ -18,7 +85,11 @@ where
     T: Send,
     F: Fn(usize) -> Result<T> + Sync + Send,
 {
-    let results: Vec<Result<T>> = range.into_par_iter().with_min_len(16).map(&f).collect();
+    let results: Vec<Result<T>> = range
+        .into_par_iter()
+        .with_min_len(min_len().max(16))
+        .map(&f)
+        .collect();
     let mut out = Vec::with_capacity(results.len());
     for r in results {
         out.push(r?);
@@ -80,6 +151,33 @@ mod tests {
         let a: Vec<f64> = one.install(|| try_map(0..10_000, f)).unwrap();
         let b: Vec<f64> = two.install(|| try_map(0..10_000, f)).unwrap();
         assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+    }
+
+    /// A serial call runs every section on its caller's thread (without it, a pool's workers
+    /// take some of the items), with the same results; the flag ends with it, also by a panic.
+    #[test]
+    fn serial_runs_on_the_calling_thread() {
+        let me = std::thread::current().id();
+        let f = |i: usize| Ok((((i as f64) * 0.37).sin(), std::thread::current().id()));
+        let spread = pool(2).unwrap().install(|| try_map(0..50_000, f)).unwrap();
+        assert!(spread.iter().any(|(_, id)| *id != me));
+        let (alone, inner) = serial(|| join(|| try_map(0..50_000, f).unwrap(), threads));
+        assert!(alone.iter().all(|(_, id)| *id == me));
+        assert_eq!(inner, 1);
+        let bits = |v: &[(f64, std::thread::ThreadId)]| {
+            v.iter().map(|x| x.0.to_bits()).collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&alone), bits(&spread));
+        let ones = serial(|| {
+            let mut v = vec![(0usize, me); 10_000];
+            v.par_chunks_mut(7)
+                .with_min_len(min_len())
+                .for_each(|c| c.fill((1, std::thread::current().id())));
+            v
+        });
+        assert!(ones.iter().all(|&(one, id)| one == 1 && id == me));
+        assert!(std::panic::catch_unwind(|| serial(|| panic!("in serial"))).is_err());
+        assert!(!is_serial() && min_len() == 1);
     }
 
     #[test]

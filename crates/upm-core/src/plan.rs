@@ -81,6 +81,7 @@ pub fn apply_rays(
     let interval = |r: f64| radii.partition_point(|&x| x <= r).clamp(1, n - 1) - 1;
     out.par_chunks_mut(k * m)
         .zip(q.par_chunks(m))
+        .with_min_len(crate::parallel::min_len())
         .for_each(|(o, layout)| {
             for (c, &[cx, cy]) in tables.centres.iter().enumerate() {
                 let row = &tables.turn[c * n..(c + 1) * n];
@@ -151,6 +152,7 @@ pub fn edge_penalty(edges: &Edges, q: &[[f64; 2]], m: usize, out: &mut [f64]) ->
     let (inner, outer, keep) = (half - band, half - 0.5 * band, half - guard);
     out.par_iter_mut()
         .zip(q.par_chunks(m))
+        .with_min_len(crate::parallel::min_len())
         .for_each(|(o, layout)| {
             let (mut gone, mut over) = (0.0, 0.0);
             for p in layout {

@@ -149,6 +149,7 @@ pub fn drift(
     let inv_g = 1.0 / cfg.g;
     Ok(points
         .par_iter()
+        .with_min_len(crate::parallel::min_len())
         .map(|&p| {
             let normal: Vec<f64> = cycle.nz.iter().map(|nz| cfg.g + normal_at(nz, p)).collect();
             let mut s = State {
@@ -204,6 +205,7 @@ pub fn asymptotic(
     let cycle = Cycle::new(motion, samples)?;
     Ok(points
         .par_iter()
+        .with_min_len(crate::parallel::min_len())
         .map(|&p| {
             let [x, y] = p;
             let hodo: Vec<[f64; 2]> = cycle

@@ -239,6 +239,7 @@ pub fn corner_excursions(
             w_re.par_chunks(H * A * GROUP)
                 .zip(w_im.par_chunks(H * A * GROUP)),
         )
+        .with_min_len(crate::parallel::min_len())
         .for_each(|(out, (wr, wi))| {
             farthest(wr, wi, g, corners, false, out);
             // a pulse that turns the plate beyond the series' range: again with `sin_cos`

@@ -101,8 +101,10 @@ pub fn interrupted(_done: usize) -> Result<(), Failure> {
     Python::attach(|py| py.check_signals()).map_err(Failure::from)
 }
 
-/// `work(between)` on a pool of `threads` threads, or on this thread with rayon's global pool
-/// (`None`); `between` is the Ctrl-C check `work` runs between its blocks.
+/// `work(between)` on a pool of `threads` threads, or on this thread: with rayon's global pool
+/// (`None`, or as many threads as it has), or alone (one thread: [`upm_core::parallel::serial`],
+/// no pool to hand the work to and wait for); `between` is the Ctrl-C check `work` runs between
+/// its blocks.
 ///
 /// CPython acts on signals only on its main thread, and `work` runs as a job on a worker of the
 /// pool (one kept for this thread, [`pool_of`]), so with a pool this thread waits for `work` and
@@ -118,14 +120,13 @@ where
     // forked child (multiprocessing's default start method) that used it would wait forever.
     // Such a child runs on a pool of its own, of the same size.
     static GLOBAL_POOL_PID: std::sync::OnceLock<u32> = std::sync::OnceLock::new();
-    let threads = match threads {
-        None if *GLOBAL_POOL_PID.get_or_init(std::process::id) != std::process::id() => {
-            Some(rayon::current_num_threads())
-        }
-        t => t,
-    };
-    let Some(n) = threads else {
-        return work(&interrupted);
+    let forked = *GLOBAL_POOL_PID.get_or_init(std::process::id) != std::process::id();
+    let n = match threads {
+        Some(1) => return upm_core::parallel::serial(|| work(&interrupted)),
+        None if !forked => return work(&interrupted),
+        Some(n) if !forked && n == rayon::current_num_threads() => return work(&interrupted),
+        Some(n) => n,
+        None => rayon::current_num_threads(),
     };
     let pool = pool_of(n)?;
     let signal: Mutex<Option<PyErr>> = Mutex::new(None);

@@ -162,14 +162,17 @@ pub(super) fn run_disks(
     if !normals.is_empty() {
         return lift::run_disks(disks, table, normals, first, cfg, rec);
     }
-    disks.par_chunks_mut(DISK_GROUP).for_each(|group| {
-        for (k, &u) in table.iter().enumerate() {
-            step_group(group, u, first + k, cfg);
-            for d in group.iter() {
-                d.record_step(Some(first + k), rec);
+    disks
+        .par_chunks_mut(DISK_GROUP)
+        .with_min_len(crate::parallel::min_len())
+        .for_each(|group| {
+            for (k, &u) in table.iter().enumerate() {
+                step_group(group, u, first + k, cfg);
+                for d in group.iter() {
+                    d.record_step(Some(first + k), rec);
+                }
             }
-        }
-    });
+        });
 }
 
 /// Step `s` (0-based) of the group's disks still on the plate under the plate velocity `u`, as

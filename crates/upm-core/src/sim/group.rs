@@ -90,6 +90,7 @@ where
         members
             .par_chunks(per_group)
             .zip(groups.par_iter_mut())
+            .with_min_len(crate::parallel::min_len())
             .for_each(|(ws, g)| g.run(ws, &shared, first..end, cfg, &first_block));
         if first == 0 && not_finite.load(Ordering::Relaxed) {
             parts.check()?; // names the first part whose state is not finite
@@ -157,6 +158,7 @@ fn shared_phases(
     }
     leads
         .into_par_iter()
+        .with_min_len(crate::parallel::min_len())
         .map(|(lead, count)| {
             lead.filter(|_| count > per_group)
                 .map(|m| Phases::of(m, steps.clone(), dt))

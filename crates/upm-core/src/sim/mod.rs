@@ -46,6 +46,7 @@ use rayon::prelude::*;
 
 use crate::error::{positive, Error, Result};
 use crate::motion::PlateMotion;
+use crate::parallel;
 pub use contact::Contacts;
 use disks::{run_disks, DiskState};
 pub use kernel::{simd, Simd};
@@ -441,6 +442,7 @@ where
     let not_finite = &not_finite;
     let mut worlds: Vec<World> = recs
         .into_par_iter()
+        .with_min_len(parallel::min_len())
         .enumerate()
         .map(|(b, rec)| {
             let motion = motions[b];
@@ -482,43 +484,62 @@ where
         .collect();
     recorder.times(0, 0, steps, cfg.record_every, cfg.dt);
     // (the points record their initial state as their first block reads them)
-    worlds.par_iter_mut().for_each(|w| {
-        for d in &w.disks {
-            d.record_step(None, &w.rec);
-        }
-        for p in &w.polygons {
-            p.record(0, &w.rec);
-        }
-    });
+    worlds
+        .par_iter_mut()
+        .with_min_len(parallel::min_len())
+        .for_each(|w| {
+            for d in &w.disks {
+                d.record_step(None, &w.rec);
+            }
+            for p in &w.polygons {
+                p.record(0, &w.rec);
+            }
+        });
     let mut first = 0;
     while first < steps {
         let end = (first + block).min(steps);
-        worlds.par_iter_mut().try_for_each(|w| {
-            w.table.clear();
-            // Sampled a hair before each step's end (see `velocities_into`).
-            w.motion.velocities_into(first..end, cfg.dt, &mut w.table);
-            if w.spatial {
-                w.normals.clear();
-                w.motion.normals_into(first..end, cfg.dt, &mut w.normals);
-            }
-            let (table, normals, rec) = (&w.table, &w.normals, &w.rec);
-            let (points, disks, contact) = (&mut w.points, &mut w.disks, &mut w.contact);
-            let shapes = &mut w.polygons;
-            let ((), rest) = rayon::join(
-                || points.run(table, normals, first, cfg, rec, index),
-                || match contact {
+        worlds
+            .par_iter_mut()
+            .with_min_len(parallel::min_len())
+            .try_for_each(|w| {
+                w.table.clear();
+                // Sampled a hair before each step's end (see `velocities_into`).
+                w.motion.velocities_into(first..end, cfg.dt, &mut w.table);
+                if w.spatial {
+                    w.normals.clear();
+                    w.motion.normals_into(first..end, cfg.dt, &mut w.normals);
+                }
+                let (table, normals, rec) = (&w.table, &w.normals, &w.rec);
+                let (points, disks, contact) = (&mut w.points, &mut w.disks, &mut w.contact);
+                let shapes = &mut w.polygons;
+                // The kinds of parts run side by side only when two have work: a join called
+                // from outside the pool hands its work to the pool's threads and waits for one to
+                // wake, a small call's whole cost several times over.
+                let alone = points.is_empty()
+                    || (disks.is_empty() && shapes.is_empty() && contact.is_none());
+                let apart = disks.is_empty() || shapes.is_empty();
+                let mut points_run = || points.run(table, normals, first, cfg, rec, index);
+                let mut rest = || match contact {
                     Some(c) => c.run(disks, shapes, table, first, cfg, rec),
+                    None if apart => {
+                        run_disks(disks, table, normals, first, cfg, rec);
+                        polygons::run(shapes, table, normals, first, cfg, rec)
+                    }
                     None => {
-                        let (_, polygons) = rayon::join(
+                        parallel::join(
                             || run_disks(disks, table, normals, first, cfg, rec),
                             || polygons::run(shapes, table, normals, first, cfg, rec),
-                        );
-                        polygons
+                        )
+                        .1
                     }
-                },
-            );
-            rest
-        })?;
+                };
+                if alone {
+                    points_run();
+                    rest()
+                } else {
+                    parallel::join(points_run, rest).1
+                }
+            })?;
         if first == 0 && not_finite.load(Ordering::Relaxed) {
             parts.check()?; // names the first part whose state is not finite
         }

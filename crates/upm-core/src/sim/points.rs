@@ -203,6 +203,11 @@ impl<'p> Points<'p> {
         self.source = None;
     }
 
+    /// Whether the world has no points.
+    pub(super) fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
     /// Advances every point through one block: `table[k]` is the plate velocity at the end of
     /// step `first + k` (0-based) and `normals[k]` its out-of-plane acceleration (empty for a
     /// plate that stays in its plane). The kernel runs each chunk through the block in segments
@@ -293,7 +298,10 @@ impl<'p> Points<'p> {
                 Points::ended(&l, air.as_ref(), start, index, rec, cfg.dt);
             }
         };
-        self.chunks().into_par_iter().for_each_init(|| None, task);
+        self.chunks()
+            .into_par_iter()
+            .with_min_len(crate::parallel::min_len())
+            .for_each_init(|| None, task);
         if source.is_some() {
             self.written();
         }

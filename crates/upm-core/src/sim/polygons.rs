@@ -415,20 +415,24 @@ pub(super) fn run(
         // each of more. (A slice ends with lanes idle while its last parts finish the block: four
         // slices on one thread cost 174-176 ns per part-step for the kernel bench's hexagons,
         // one 159-162.)
-        let threads = rayon::current_num_threads();
+        let threads = crate::parallel::threads();
         let slices = if threads == 1 { 1 } else { 2 * threads };
         let slice = polygons.len().div_ceil(slices).max(EIGHT);
         return polygons
             .par_chunks_mut(slice)
+            .with_min_len(crate::parallel::min_len())
             .try_for_each(|parts| run_lanes(parts, table, first, cfg, rec));
     }
-    polygons.par_iter_mut().try_for_each(|p| {
-        for (k, (&u, nz)) in table.iter().zip(normals).enumerate() {
-            p.step_spatial(u, nz, first + k, cfg)?;
-            p.record(first + k + 1, rec);
-        }
-        Ok(())
-    })
+    polygons
+        .par_iter_mut()
+        .with_min_len(crate::parallel::min_len())
+        .try_for_each(|p| {
+            for (k, (&u, nz)) in table.iter().zip(normals).enumerate() {
+                p.step_spatial(u, nz, first + k, cfg)?;
+                p.record(first + k + 1, rec);
+            }
+            Ok(())
+        })
 }
 
 /// [`run`] for `parts` on a planar plate, eight at a time in lanes: each lane takes a part

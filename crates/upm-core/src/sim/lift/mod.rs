@@ -296,12 +296,15 @@ pub(super) fn run_disks(
     rec: &super::Rec,
 ) {
     use rayon::prelude::*;
-    disks.par_iter_mut().for_each(|d| {
-        for (k, (&u, nz)) in table.iter().zip(normals).enumerate() {
-            d.step_spatial(u, nz, first + k, cfg);
-            d.record_step(Some(first + k), rec);
-        }
-    });
+    disks
+        .par_iter_mut()
+        .with_min_len(crate::parallel::min_len())
+        .for_each(|d| {
+            for (k, (&u, nz)) in table.iter().zip(normals).enumerate() {
+                d.step_spatial(u, nz, first + k, cfg);
+                d.record_step(Some(first + k), rec);
+            }
+        });
 }
 
 #[cfg(test)]
