@@ -199,43 +199,40 @@ def _walls(walls: Any, plate_size: float | None) -> np.ndarray | None:
     return np.ascontiguousarray(w.reshape(-1, 4))
 
 
+def _positions(name: str, value: Any) -> np.ndarray:
+    """``value`` as an ``(M, 2)`` float64 array of positions (M >= 1), contiguous. (The core checks
+    that every position is finite and names the first part that is not.)"""
+    pos = as_float(name, value, finite=False)
+    if pos.ndim != 2 or pos.shape[1] != 2 or pos.shape[0] == 0:
+        allowed = "an (M, 2) array of positions or a list of upm.Point/upm.Disk/upm.Polygon"
+        raise ShapeError(f"parts must be {allowed}; got shape {pos.shape}")
+    return np.ascontiguousarray(pos)
+
+
 def _parts(parts: Any) -> tuple[Any, ...]:
     """Positions, velocities (M, 2) and radius, angle, spin (M,) of points, disks and polygons,
     and the polygons as ``[(part, vertices (K, 2), feet (3, 2) or None)]`` (None without any); for an array of
     positions (point parts at rest) the others are None (zero, never built)."""
-    vel: np.ndarray | None
-    radius: np.ndarray | None
-    angle: np.ndarray | None
-    spin: np.ndarray | None
-    polygons: list[tuple[int, np.ndarray, np.ndarray | None]] | None = None
+    if isinstance(parts, np.ndarray):  # (the common small call, first)
+        return _positions("parts", parts), None, None, None, None, None
     from .polygon import Polygon
 
     kinds = (Point, Disk, Polygon)
-    if isinstance(parts, (list, tuple)) and parts and all(isinstance(p, kinds) for p in parts):
-        turning = (Disk, Polygon)
-        pos = as_float("parts[i].position", [p.position for p in parts])
-        vel = as_float("parts[i].velocity", [p.velocity for p in parts])
-        radius = as_float("parts[i].radius", [p.radius if isinstance(p, Disk) else 0.0 for p in parts])
-        angle = as_float("parts[i].angle", [p.angle if isinstance(p, turning) else 0.0 for p in parts])
-        spin = as_float("parts[i].spin", [p.spin if isinstance(p, turning) else 0.0 for p in parts])
-        bad = [i for i, p in enumerate(parts) if isinstance(p, Disk) and not p.radius > 0]
-        if bad:
-            raise ParameterError(
-                f"radius must be > 0 for a Disk; got {parts[bad[0]].radius} for part {bad[0]}"
-            )
-        polygons = [(i, p.vertices, p.support) for i, p in enumerate(parts) if isinstance(p, Polygon)] or None
-    else:
-        # The core checks that every position is finite and names the first part that is not.
-        pos = as_float("parts", parts, finite=False)
-        vel = radius = angle = spin = None
-    if pos.ndim != 2 or pos.shape[1] != 2 or pos.shape[0] == 0:
-        allowed = "an (M, 2) array of positions or a list of upm.Point/upm.Disk/upm.Polygon"
-        raise ShapeError(f"parts must be {allowed}; got shape {pos.shape}")
-    if vel is not None and vel.shape != pos.shape:
+    if not (isinstance(parts, (list, tuple)) and parts and all(isinstance(p, kinds) for p in parts)):
+        return _positions("parts", parts), None, None, None, None, None
+    turning = (Disk, Polygon)
+    pos = _positions("parts[i].position", [p.position for p in parts])
+    vel = as_float("parts[i].velocity", [p.velocity for p in parts])
+    if vel.shape != pos.shape:
         raise ShapeError(f"part velocities must have shape {pos.shape}; got {vel.shape}")
-    arrays = tuple(None if a is None else np.ascontiguousarray(a, dtype=np.float64)
-                   for a in (pos, vel, radius, angle, spin))  # fmt: skip
-    return (*arrays, polygons)
+    radius = as_float("parts[i].radius", [p.radius if isinstance(p, Disk) else 0.0 for p in parts])
+    angle = as_float("parts[i].angle", [p.angle if isinstance(p, turning) else 0.0 for p in parts])
+    spin = as_float("parts[i].spin", [p.spin if isinstance(p, turning) else 0.0 for p in parts])
+    bad = [i for i, p in enumerate(parts) if isinstance(p, Disk) and not p.radius > 0]
+    if bad:
+        raise ParameterError(f"radius must be > 0 for a Disk; got {parts[bad[0]].radius} for part {bad[0]}")
+    polygons = [(i, p.vertices, p.support) for i, p in enumerate(parts) if isinstance(p, Polygon)] or None
+    return pos, vel, radius, angle, spin, polygons
 
 
 def _per_part(name: str, value: ArrayLike, m: int) -> np.ndarray:
