@@ -463,7 +463,8 @@ def simulate(
     contact_iterations : int
         rapier solver iterations per step.
     threads : int, optional
-        Run on a pool of this many threads (default: one per core, or ``RAYON_NUM_THREADS``).
+        Run on a pool of this many threads (default: one per core, or ``RAYON_NUM_THREADS``);
+        ``1`` runs on the calling thread alone, with no pool to hand the work to.
     progress : callable, optional
         Called with the fraction of the run done (0 to 1) at most about every 0.17 s of one
         core's work, on the thread running the simulation; an exception it raises stops the run
@@ -508,8 +509,8 @@ def simulate_batch(
 
     Every array of the result but ``t`` gains a leading axis ``B``. Results are bitwise identical
     to ``B`` separate calls and to any thread count. ``threads``: run on a pool of that many
-    threads (default: rayon's global pool, one thread per core); :func:`upm.sweep` runs each
-    chunk on one and parallelises over chunks (``RAYON_NUM_THREADS`` sets the global pool's
+    threads (default: rayon's global pool, one thread per core; ``1``: the calling thread alone);
+    :func:`upm.sweep` runs each chunk on one and parallelises over chunks (``RAYON_NUM_THREADS`` sets the global pool's
     size). The contact and ``progress`` arguments are :func:`simulate`'s.
 
     ``mu`` and ``mu_s`` may differ from world to world (a friction sweep): shape ``(B, M)``, or

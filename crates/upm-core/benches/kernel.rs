@@ -173,7 +173,8 @@ fn per_call(motion: &PlateMotion, n: usize, dt: f64) -> f64 {
 
 /// The fixed cost of a small call, as a control loop or a planner makes many: 8 parts at rest,
 /// 100 steps, recording the last, as the binding calls the core; on rayon's global pool (every
-/// core) and on one thread, microseconds per call (the steps themselves take about 2 us).
+/// core) and on one thread as the binding's `threads=1` runs (the calling thread alone,
+/// [`upm_core::parallel::serial`]), microseconds per call (the steps take about 2 us).
 fn small_calls(motion: &PlateMotion, dt: f64) {
     let position = spread(8);
     let parts = at_rest(&position);
@@ -185,8 +186,7 @@ fn small_calls(motion: &PlateMotion, dt: f64) {
         })
     };
     let global = best_of(5, || many(calls)) * 1e6 / calls as f64;
-    let one = one_thread();
-    let single = one.install(|| best_of(5, || many(calls))) * 1e6 / calls as f64;
+    let single = upm_core::parallel::serial(|| best_of(5, || many(calls))) * 1e6 / calls as f64;
     println!(
         "a call of 8 parts x 100 steps: {global:.1} us on every core, {single:.1} us on one thread"
     );
