@@ -316,6 +316,8 @@ def main() -> None:
         ns = 1e9 / (n * steps)
         ours = {}
         for th in (1, cores):
+            # (once before timing: a pool's fresh threads take a few calls to come up to speed)
+            upm.simulate(motion, pos, threads=th, **kw)
             ours[th] = best_of(lambda th=th, pos=pos, kw=kw: upm.simulate(motion, pos, threads=th, **kw)) * ns
         run = upm.simulate(motion, pos, **kw)
         start = time.perf_counter()
