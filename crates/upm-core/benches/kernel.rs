@@ -20,6 +20,10 @@ use upm_core::motion::PlateMotion;
 use upm_core::sim::{simulate, simulate_stacked, Config, Parts, PartsView};
 use upm_core::{Harmonics, Waveform};
 
+/// As the Python extension allocates: large results on cache lines.
+#[global_allocator]
+static ALLOCATOR: upm_core::aligned::LineAligned = upm_core::aligned::LineAligned;
+
 fn best_of<T>(runs: usize, mut f: impl FnMut() -> T) -> f64 {
     (0..runs)
         .map(|_| {

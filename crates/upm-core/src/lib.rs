@@ -27,6 +27,7 @@
 #![deny(missing_docs)]
 
 pub mod actuation;
+pub mod aligned;
 pub mod buffer;
 pub mod centroid;
 pub mod disk;

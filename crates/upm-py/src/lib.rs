@@ -21,6 +21,11 @@ use upm_core::{friction, theory, BangBang, Harmonics, Waveform};
 
 use errors::{batch, batch_on, core, shape_error};
 
+/// Large blocks on cache lines: results streamed to memory a line at a time (see
+/// `upm_core::aligned`).
+#[global_allocator]
+static ALLOCATOR: upm_core::aligned::LineAligned = upm_core::aligned::LineAligned;
+
 /// A batch of validated periodic plate velocities (one per row), built once and reused.
 #[pyclass(frozen, module = "upm._core")]
 pub struct WaveformBatch {
