@@ -102,9 +102,8 @@ pub fn interrupted(_done: usize) -> Result<(), Failure> {
 }
 
 /// `work(between)` on a pool of `threads` threads, or on this thread: with rayon's global pool
-/// (`None`, or as many threads as it has), or alone (one thread: [`upm_core::parallel::serial`],
-/// no pool to hand the work to and wait for); `between` is the Ctrl-C check `work` runs between
-/// its blocks.
+/// (`None`), or alone (one thread: [`upm_core::parallel::serial`], no pool to hand the work to and
+/// wait for); `between` is the Ctrl-C check `work` runs between its blocks.
 ///
 /// CPython acts on signals only on its main thread, and `work` runs as a job on a worker of the
 /// pool (one kept for this thread, [`pool_of`]), so with a pool this thread waits for `work` and
@@ -124,7 +123,6 @@ where
     let n = match threads {
         Some(1) => return upm_core::parallel::serial(|| work(&interrupted)),
         None if !forked => return work(&interrupted),
-        Some(n) if !forked && n == rayon::current_num_threads() => return work(&interrupted),
         Some(n) => n,
         None => rayon::current_num_threads(),
     };
