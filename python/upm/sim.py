@@ -199,10 +199,11 @@ def _walls(walls: Any, plate_size: float | None) -> np.ndarray | None:
     return np.ascontiguousarray(w.reshape(-1, 4))
 
 
-def _positions(name: str, value: Any) -> np.ndarray:
-    """``value`` as an ``(M, 2)`` float64 array of positions (M >= 1), contiguous. (The core checks
-    that every position is finite and names the first part that is not.)"""
-    pos = as_float(name, value, finite=False)
+def _positions(name: str, value: Any, *, finite: bool = False) -> np.ndarray:
+    """``value`` as an ``(M, 2)`` float64 array of positions (M >= 1), contiguous; finite if
+    ``finite`` (else the core checks that every position is finite and names the first part that
+    is not)."""
+    pos = as_float(name, value, finite=finite)
     if pos.ndim != 2 or pos.shape[1] != 2 or pos.shape[0] == 0:
         allowed = "an (M, 2) array of positions or a list of upm.Point/upm.Disk/upm.Polygon"
         raise ShapeError(f"parts must be {allowed}; got shape {pos.shape}")
@@ -221,7 +222,7 @@ def _parts(parts: Any) -> tuple[Any, ...]:
     if not (isinstance(parts, (list, tuple)) and parts and all(isinstance(p, kinds) for p in parts)):
         return _positions("parts", parts), None, None, None, None, None
     turning = (Disk, Polygon)
-    pos = _positions("parts[i].position", [p.position for p in parts])
+    pos = _positions("parts[i].position", [p.position for p in parts], finite=True)
     vel = as_float("parts[i].velocity", [p.velocity for p in parts])
     if vel.shape != pos.shape:
         raise ShapeError(f"part velocities must have shape {pos.shape}; got {vel.shape}")
@@ -510,8 +511,8 @@ def simulate_batch(
     Every array of the result but ``t`` gains a leading axis ``B``. Results are bitwise identical
     to ``B`` separate calls and to any thread count. ``threads``: run on a pool of that many
     threads (default: rayon's global pool, one thread per core; ``1``: the calling thread alone);
-    :func:`upm.sweep` runs each chunk on one and parallelises over chunks (``RAYON_NUM_THREADS`` sets the global pool's
-    size). The contact and ``progress`` arguments are :func:`simulate`'s.
+    :func:`upm.sweep` runs each chunk on one and parallelises over chunks (``RAYON_NUM_THREADS``
+    sets the global pool's size). The contact and ``progress`` arguments are :func:`simulate`'s.
 
     ``mu`` and ``mu_s`` may differ from world to world (a friction sweep): shape ``(B, M)``, or
     ``(B, 1)`` for one value per world; all the worlds still run in one parallel call.
