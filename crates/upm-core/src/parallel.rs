@@ -14,6 +14,8 @@ use std::cell::Cell;
 
 use rayon::prelude::*;
 
+use crate::error::Result;
+
 thread_local! {
     static SERIAL: Cell<bool> = const { Cell::new(false) };
 }
@@ -72,8 +74,6 @@ where
         rayon::join(a, b)
     }
 }
-
-use crate::error::Result;
 
 /// Items per chunk: large enough to amortise scheduling, small enough to react to Ctrl-C quickly.
 pub const CHUNK: usize = 4096;
