@@ -121,7 +121,7 @@ def test_ctrl_c_interrupts_a_simulation_on_one_thread():
     assert time.process_time() - cpu < 8.0
 
 
-ONE_THREAD = """
+OTHERS = """
 import os, numpy as np, upm
 
 def others():  # CPU ticks of every thread but this one
@@ -132,7 +132,11 @@ def others():  # CPU ticks of every thread but this one
                 fields = f.read().rsplit(")", 1)[1].split()
             ticks += int(fields[11]) + int(fields[12])
     return ticks
+"""
 
+ONE_THREAD = (
+    OTHERS
+    + """
 spin = upm.PlateMotion.rotation((0.0, 0.0), upm.Harmonics([2.0, -1.0], frequency=35.0))
 parts = [upm.Disk((0.01 * i, 0.0), 0.002) for i in range(40)]
 parts += [upm.Polygon.regular(6, 0.01, position=(0.0, 0.05 + 0.001 * i)) for i in range(20)]
@@ -148,6 +152,7 @@ for call in calls:
     call(None)
 print(alone - before, others() - alone)
 """
+)
 
 
 def test_one_thread_runs_on_the_calling_thread():
@@ -158,6 +163,35 @@ def test_one_thread_runs_on_the_calling_thread():
     alone, pooled = map(int, run.stdout.split())
     assert alone <= 1
     assert pooled >= 10
+
+
+LITTLE = (
+    OTHERS
+    + """
+spin = upm.PlateMotion.rotation((0.0, 0.0), upm.Harmonics([2.0, -1.0], frequency=35.0))
+small = np.random.default_rng(4).uniform(-0.1, 0.1, (8, 2))
+upm.simulate(spin, small, duration=0.01, dt=1e-4, mu=0.3)  # (the global pool started)
+before = others()
+for _ in range(3000):
+    upm.simulate_batch([spin] * 20, small, duration=0.01, dt=1e-4, mu=0.3, record_every=100)
+little = others() - before
+before = others()
+upm.simulate(spin, np.random.default_rng(5).uniform(-0.1, 0.1, (20_000, 2)), duration=0.5, dt=1e-4, mu=0.3,
+             record_every=5000)
+print(little, others() - before)
+"""
+)
+
+
+def test_little_work_runs_on_the_calling_thread():
+    # A run of little work (20 worlds of 8 points through 100 steps) stays on the calling thread
+    # on the global pool too: handing it to the pool's threads cost more than they saved. A large
+    # run still spreads over them.
+    run = subprocess.run([sys.executable, "-c", LITTLE], capture_output=True, text=True, check=True,
+                         env=dict(os.environ, RAYON_NUM_THREADS="2"))  # fmt: skip
+    little, large = map(int, run.stdout.split())
+    assert little <= 1
+    assert large >= 2
 
 
 def test_ctrl_c_stops_many_disks_on_a_rotating_plate_within_a_block():

@@ -23,15 +23,27 @@ thread_local! {
 /// `work()` on this thread with every parallel section of the core in it run in order on this
 /// thread (the same results, bit for bit, as on a pool of any size).
 pub fn serial<T>(work: impl FnOnce() -> T) -> T {
-    /// Restores the flag as `work` ends, also by a panic.
-    struct Restore(bool);
-    impl Drop for Restore {
-        fn drop(&mut self) {
-            SERIAL.with(|s| s.set(self.0));
-        }
-    }
-    let _restore = Restore(SERIAL.with(|s| s.replace(true)));
+    let _alone = Alone::when(true);
     work()
+}
+
+/// While it lives (from [`Alone::when`] with `true`), this thread's parallel sections run in
+/// order on it, as in [`serial`]; the thread's earlier state comes back when it is dropped (also
+/// by a panic).
+#[must_use = "the sections run alone only while it lives"]
+pub struct Alone(bool);
+
+impl Alone {
+    /// This thread's sections alone from now on if `alone` (as they were otherwise).
+    pub fn when(alone: bool) -> Self {
+        Alone(SERIAL.with(|s| s.replace(alone || s.get())))
+    }
+}
+
+impl Drop for Alone {
+    fn drop(&mut self) {
+        SERIAL.with(|s| s.set(self.0));
+    }
 }
 
 /// Whether this thread runs in [`serial`].
@@ -178,6 +190,24 @@ mod tests {
         assert!(ones.iter().all(|&(one, id)| one == 1 && id == me));
         assert!(std::panic::catch_unwind(|| serial(|| panic!("in serial"))).is_err());
         assert!(!is_serial() && min_len() == 1);
+    }
+
+    /// `Alone::when(false)` leaves the thread as it was (alone inside `serial`), `when(true)`
+    /// makes it alone until dropped, nested or not.
+    #[test]
+    fn alone_lasts_while_it_lives_and_nests() {
+        {
+            let _not = Alone::when(false);
+            assert!(!is_serial());
+            let _alone = Alone::when(true);
+            assert!(is_serial() && threads() == 1);
+        }
+        assert!(!is_serial());
+        serial(|| {
+            let _not = Alone::when(false);
+            assert!(is_serial());
+        });
+        assert!(!is_serial());
     }
 
     #[test]
