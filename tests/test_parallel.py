@@ -134,9 +134,7 @@ def others():  # CPU ticks of every thread but this one
     return ticks
 """
 
-ONE_THREAD = (
-    OTHERS
-    + """
+ONE_THREAD = """
 spin = upm.PlateMotion.rotation((0.0, 0.0), upm.Harmonics([2.0, -1.0], frequency=35.0))
 parts = [upm.Disk((0.01 * i, 0.0), 0.002) for i in range(40)]
 parts += [upm.Polygon.regular(6, 0.01, position=(0.0, 0.05 + 0.001 * i)) for i in range(20)]
@@ -152,22 +150,27 @@ for call in calls:
     call(None)
 print(alone - before, others() - alone)
 """
-)
+
+
+def _other_threads(script: str, pool: int) -> list[int]:
+    """The CPU ticks of threads other than its own that ``script`` prints (after ``OTHERS``), run
+    in a fresh process whose global pool has ``pool`` threads."""
+    env = dict(os.environ, RAYON_NUM_THREADS=str(pool))
+    run = subprocess.run(
+        [sys.executable, "-c", OTHERS + script], capture_output=True, text=True, check=True, env=env
+    )
+    return [int(t) for t in run.stdout.split()]
 
 
 def test_one_thread_runs_on_the_calling_thread():
     # threads=1 runs every parallel section on the calling thread: no pool, no hand-off to wait
     # for. The global pool's threads do the same calls' work with threads=None.
-    run = subprocess.run([sys.executable, "-c", ONE_THREAD], capture_output=True, text=True, check=True,
-                         env=dict(os.environ, RAYON_NUM_THREADS="3"))  # fmt: skip
-    alone, pooled = map(int, run.stdout.split())
+    alone, pooled = _other_threads(ONE_THREAD, 3)
     assert alone <= 1
     assert pooled >= 10
 
 
-LITTLE = (
-    OTHERS
-    + """
+LITTLE = """
 spin = upm.PlateMotion.rotation((0.0, 0.0), upm.Harmonics([2.0, -1.0], frequency=35.0))
 small = np.random.default_rng(4).uniform(-0.1, 0.1, (8, 2))
 upm.simulate(spin, small, duration=0.01, dt=1e-4, mu=0.3)  # (the global pool started)
@@ -180,16 +183,13 @@ upm.simulate(spin, np.random.default_rng(5).uniform(-0.1, 0.1, (20_000, 2)), dur
              record_every=5000)
 print(little, others() - before)
 """
-)
 
 
 def test_little_work_runs_on_the_calling_thread():
     # A run of little work (20 worlds of 8 points through 100 steps) stays on the calling thread
     # on the global pool too: handing it to the pool's threads cost more than they saved. A large
     # run still spreads over them.
-    run = subprocess.run([sys.executable, "-c", LITTLE], capture_output=True, text=True, check=True,
-                         env=dict(os.environ, RAYON_NUM_THREADS="2"))  # fmt: skip
-    little, large = map(int, run.stdout.split())
+    little, large = _other_threads(LITTLE, 2)
     assert little <= 1
     assert large >= 2
 

@@ -45,8 +45,14 @@ fn outer(size: usize) -> Option<Layout> {
     Layout::from_size_align(size.checked_add(EXTRA)?, 16).ok()
 }
 
-/// The first line at least 8 bytes into the system block `base` (null stays null), with `base`
-/// noted in the 8 bytes before it.
+/// How far into the system block `base` its placed block starts: the first line at least 8
+/// bytes in.
+fn offset(base: *mut u8) -> usize {
+    (base as usize + 8).next_multiple_of(LINE) - base as usize
+}
+
+/// The placed block of the system block `base` (null stays null), with `base` noted in the 8
+/// bytes before it.
 ///
 /// # Safety
 /// `base` is null or a system block of an [`outer`] layout.
@@ -54,8 +60,7 @@ unsafe fn place(base: *mut u8) -> *mut u8 {
     if base.is_null() {
         return base;
     }
-    let offset = (base as usize + 8).next_multiple_of(LINE) - base as usize;
-    let start = base.add(offset);
+    let start = base.add(offset(base));
     start.cast::<*mut u8>().sub(1).write(base);
     start
 }
@@ -113,13 +118,9 @@ unsafe impl GlobalAlloc for LineAligned {
                 if moved.is_null() {
                     return moved;
                 }
-                let offset = (moved as usize + 8).next_multiple_of(LINE) - moved as usize;
-                if offset != at {
-                    std::ptr::copy(
-                        moved.add(at),
-                        moved.add(offset),
-                        layout.size().min(new_size),
-                    );
+                let line = offset(moved);
+                if line != at {
+                    std::ptr::copy(moved.add(at), moved.add(line), layout.size().min(new_size));
                 }
                 place(moved)
             }

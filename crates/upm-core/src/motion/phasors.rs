@@ -42,6 +42,27 @@ impl Turn {
     }
 }
 
+/// The segment's phase at time `t` [s] and a jet's `2/3` phase (`None`: a segment with no
+/// phase); at `t = dt`, the angles the phasors turn by each step. (The same expressions as
+/// [`Segment::velocity`]'s.)
+fn phases(item: &Item, t: f64) -> Option<(f64, Option<f64>)> {
+    match &item.segment {
+        Segment::Translation {
+            wave: Waveform::Harmonics(h),
+            ..
+        }
+        | Segment::Rotation {
+            wave: Waveform::Harmonics(h),
+            ..
+        } => Some((h.omega_scale().0 * t, None)),
+        Segment::Jet { omega, .. } => {
+            let x = omega * t;
+            Some((x, Some(2.0 * x / 3.0)))
+        }
+        _ => None,
+    }
+}
+
 /// The phasors of one stretch: the segment's phase, a jet's `2/3` phase, the envelope's ramp
 /// (each turned only where the stretch reads it).
 #[derive(Debug, Clone, Copy, Default)]
@@ -57,24 +78,13 @@ impl Phasors {
     /// Phasors for `item` in `stretch` on steps of `dt` [s] (the angles they turn by each step).
     pub(super) fn new(item: &Item, stretch: Stretch, dt: f64) -> Self {
         let mut out = Phasors::default();
-        match &item.segment {
-            Segment::Translation {
-                wave: Waveform::Harmonics(h),
-                ..
+        if let Some((wave, slow)) = phases(item, dt) {
+            out.wave = Turn::new(wave);
+            out.used[0] = true;
+            if let Some(slow) = slow {
+                out.slow = Turn::new(slow);
+                out.used[1] = true;
             }
-            | Segment::Rotation {
-                wave: Waveform::Harmonics(h),
-                ..
-            } => {
-                out.wave = Turn::new(h.omega_scale().0 * dt);
-                out.used[0] = true;
-            }
-            Segment::Jet { omega, .. } => {
-                out.wave = Turn::new(omega * dt);
-                out.slow = Turn::new(2.0 * omega * dt / 3.0);
-                out.used[..2].fill(true);
-            }
-            _ => {}
         }
         if let Some(env) = item.envelope {
             match stretch {
@@ -96,23 +106,11 @@ impl Phasors {
         if stretch == Stretch::Off {
             return;
         }
-        match &item.segment {
-            Segment::Translation {
-                wave: Waveform::Harmonics(h),
-                ..
+        if let Some((wave, slow)) = phases(item, local) {
+            self.wave.seed(wave);
+            if let Some(slow) = slow {
+                self.slow.seed(slow);
             }
-            | Segment::Rotation {
-                wave: Waveform::Harmonics(h),
-                ..
-            } => {
-                self.wave.seed(h.omega_scale().0 * local);
-            }
-            Segment::Jet { omega, .. } => {
-                let x = omega * local;
-                self.wave.seed(x);
-                self.slow.seed(2.0 * x / 3.0);
-            }
-            _ => {}
         }
         if let Some(env) = item.envelope {
             match stretch {
