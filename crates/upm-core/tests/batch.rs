@@ -2,7 +2,9 @@
 //! same worlds simulated one at a time: bitwise the same.
 
 use upm_core::motion::PlateMotion;
-use upm_core::sim::{simulate, simulate_batch, simulate_stacked, Config, Parts, WorldFriction};
+use upm_core::sim::{
+    little_work, simulate, simulate_batch, simulate_stacked, Config, Parts, WorldFriction,
+};
 use upm_core::{Error, Harmonics, Waveform};
 
 /// Deterministic numbers in [-1, 1).
@@ -230,4 +232,54 @@ fn a_result_larger_than_the_caches_holds_what_a_small_run_of_its_parts_gives() {
         }
         assert_eq!(all.left_plate[range], small.left_plate[..]);
     }
+}
+
+#[test]
+fn little_work_counts_point_steps_with_a_disk_as_64_points_and_a_polygon_as_ten_disks() {
+    // Under 65,536 point-steps is little work (run on the calling thread alone).
+    let cfg = |steps: usize| Config {
+        dt: 1e-4,
+        duration: steps as f64 * 1e-4,
+        g: 9.81,
+        plate_size: None,
+        record_every: 1,
+    };
+    let points = |m: usize| {
+        Parts::points(
+            vec![[0.0; 2]; m],
+            vec![[0.0; 2]; m],
+            vec![0.3; m],
+            vec![0.4; m],
+        )
+    };
+    let little = |worlds: usize, parts: &Parts, steps: usize| {
+        little_work(worlds, &parts.view(), &cfg(steps))
+    };
+    assert!(little(20, &points(8), 100)); // 16,000
+    assert!(little(1, &points(65), 1000)); // 65,000
+    assert!(!little(1, &points(66), 1000)); // 66,000
+    assert!(!little(20, &points(8), 1000)); // 160,000
+    let mut disks = points(3);
+    disks.radius = vec![0.005, 0.0, 0.0]; // one disk and two points: 66 a step
+    assert!(little(1, &disks, 990)); // 65,340
+    assert!(!little(1, &disks, 1000)); // 66,000
+    let mut polygon = points(1);
+    let square = [
+        [-0.005, -0.005],
+        [0.005, -0.005],
+        [0.005, 0.005],
+        [-0.005, 0.005],
+    ];
+    polygon.polygons = vec![(
+        0,
+        upm_core::polygon::Polygon::new("square", &square).unwrap(),
+    )];
+    assert!(little(1, &polygon, 100)); // 64,000
+    assert!(!little(1, &polygon, 103)); // 65,920
+                                        // Settings a run rejects count as little (the run fails at once).
+    let mut bad = cfg(100);
+    bad.dt = f64::NAN;
+    assert!(little_work(1, &points(8).view(), &bad));
+    bad.dt = 0.0;
+    assert!(little_work(1, &points(8).view(), &bad));
 }

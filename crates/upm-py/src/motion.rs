@@ -434,6 +434,12 @@ pub fn simulate<'py>(
         mu_s,
         width: *width,
     });
+    // A run of little work runs on this thread (the core keeps it there on any pool; a pool of
+    // `threads` would only add its hand-off).
+    let threads = match sim::little_work(motions.len(), &parts, &cfg) {
+        true => Some(1),
+        false => threads,
+    };
     let run = detached(py, || {
         // Every world advances one block at a time; Ctrl-C is honoured between blocks.
         // `progress(steps_done)` after each block too; an exception from it stops the run.

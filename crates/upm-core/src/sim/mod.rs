@@ -84,6 +84,30 @@ const LITTLE_WORK: f64 = 65_536.0;
 /// Largest number of recorded values (rows x parts) a simulation may allocate.
 const MAX_RECORDED: usize = 1 << 30;
 
+/// Whether `worlds` worlds of `points` point parts and `heavy` disks (a polygon counted as
+/// [`POLYGON_DISKS`]) through `steps` steps are little work: fewer than [`LITTLE_WORK`]
+/// point-steps, a disk counted as [`DISK_POINTS`] points.
+fn little(worlds: usize, steps: usize, points: usize, heavy: usize) -> bool {
+    (worlds as f64) * (steps as f64) * ((points + DISK_POINTS * heavy) as f64) < LITTLE_WORK
+}
+
+/// Whether a run of `worlds` worlds of `parts` with `cfg` is little work, which runs on the
+/// calling thread alone whatever the pool. A caller about to hand such a run to a pool of
+/// threads (the Python binding's `threads=n`) runs it on its own thread instead: the hand-off
+/// and the wait for a pool thread to wake cost more than the run (about 90 us against 17 for 8
+/// points through 100 steps). Settings the run would reject count as little: it fails at once.
+pub fn little_work(worlds: usize, parts: &PartsView, cfg: &Config) -> bool {
+    let steps = cfg.step_count();
+    if !(steps.is_finite() && steps <= 1e12) {
+        return true;
+    }
+    let steps = steps as usize;
+    let disks = (0..parts.len()).filter(|&i| parts.radius(i) > 0.0).count();
+    let polygons = parts.polygons.len();
+    let points = parts.len().saturating_sub(disks + polygons);
+    little(worlds, steps, points, disks + POLYGON_DISKS * polygons)
+}
+
 /// Integration settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Config {
@@ -122,6 +146,11 @@ pub struct Trajectory {
 }
 
 impl Config {
+    /// The number of steps `duration` takes (at least one; not checked).
+    fn step_count(&self) -> f64 {
+        (self.duration / self.dt - 1e-9).ceil().max(1.0)
+    }
+
     /// Number of steps, after checking every setting against the motion.
     pub fn steps(&self, motion: &PlateMotion, parts: usize) -> Result<usize> {
         positive("dt", self.dt)?;
@@ -145,7 +174,7 @@ impl Config {
                 ),
             ));
         }
-        let steps = (self.duration / self.dt - 1e-9).ceil().max(1.0);
+        let steps = self.step_count();
         if steps > 1e12 {
             return Err(Error::parameter(
                 "dt",
@@ -421,8 +450,7 @@ where
     // A run of little work goes on this thread alone: handing it to the pool's threads and
     // waiting for one to wake cost more than they saved (20 worlds of 8 points through 100 steps
     // took 156 us on two threads, median, and 31 on one; Intel Xeon, a shared VM).
-    let work = (motions.len() as f64) * (steps as f64) * (n_points + DISK_POINTS * heavy) as f64;
-    let _alone = parallel::Alone::when(work < LITTLE_WORK);
+    let _alone = parallel::Alone::when(little(motions.len(), steps, n_points, heavy));
     // Small worlds of point parts alone run side by side, several to a register tile.
     let grouped = motions.len() > 1
         && n_points == m
