@@ -172,6 +172,43 @@ fn another_frequency_envelope_or_duration_is_another_timing() {
 }
 
 #[test]
+fn comparing_timings_word_by_word_is_comparing_their_keys() {
+    let jet = |f: f64, attack: f64| {
+        PlateMotion::jet([0.0; 2], [1.0, 0.0], 0.06, 0.3, f)
+            .unwrap()
+            .with_envelope(attack, 0.1, 0.1)
+            .unwrap()
+    };
+    let spin = PlateMotion::rotation(
+        [0.0; 2],
+        Harmonics::new(vec![1.0], vec![0.0], 50.0).unwrap().into(),
+    )
+    .unwrap();
+    let motions = [
+        jet(50.0, 0.1),
+        jet(50.0, 0.1),
+        jet(40.0, 0.1),
+        jet(50.0, 0.12),
+        jet(50.0, 0.1).for_duration(0.2).unwrap(),
+        spin.clone(),
+        spin.with_envelope(0.1, 0.1, 0.1).unwrap(),
+        program(),
+        moved(0.01),
+        PlateMotion::sequence(vec![jet(50.0, 0.1), jet(50.0, 0.1)]).unwrap(),
+        PlateMotion::rest(0.013).unwrap(),
+    ];
+    let mut alike = 0;
+    for a in &motions {
+        for b in &motions {
+            let same = a.timing() == b.timing();
+            assert_eq!(a.same_timing(b), same, "{a:?} and {b:?}");
+            alike += usize::from(same);
+        }
+    }
+    assert_eq!(alike, motions.len() + 4, "each with itself, the two jets and program/moved");
+}
+
+#[test]
 fn steps_before_the_program_and_empty_ranges() {
     let m = program();
     let mut out = Vec::new();

@@ -126,7 +126,7 @@ fn by_timing(motions: &[&PlateMotion]) -> Vec<(usize, usize)> {
         .enumerate()
         .map(|(b, m)| {
             let class = match last {
-                Some((prev, class)) if prev.timing_words().eq(m.timing_words()) => class,
+                Some((prev, class)) if prev.same_timing(m) => class,
                 _ => {
                     let next = classes.len();
                     *classes.entry(m.timing()).or_insert(next)
