@@ -283,3 +283,33 @@ fn little_work_counts_point_steps_with_a_disk_as_64_points_and_a_polygon_as_ten_
     bad.dt = 0.0;
     assert!(little_work(1, &points(8).view(), &bad));
 }
+
+#[test]
+fn worlds_beyond_a_group_share_their_timings_samples_bitwise() {
+    // Worlds of 40 points (more than a group takes), and worlds of points and disks, run one by
+    // one; those of one timing evaluate their plate velocity from samples taken once for them
+    // all, block by block (two blocks here). Pulses of four timings interleaved with harmonic
+    // rotations and translations of a fifth.
+    let cfg = Config {
+        dt: 1.0 / 50.0 / 48.0,
+        duration: 5000.0 / 2400.0,
+        g: 9.81,
+        plate_size: Some(0.2),
+        record_every: 9,
+    };
+    let mut motions = pulses(12);
+    motions.extend(self::motions(6));
+    let mut mixed = parts(9);
+    mixed.radius = (0..9)
+        .map(|i| if i % 3 == 0 { 0.004 } else { 0.0 })
+        .collect();
+    mixed.angle = vec![0.0; 9];
+    mixed.spin = (0..9).map(|i| 3.0 * (i as f64 - 4.0)).collect();
+    for parts in [parts(40), mixed] {
+        let batch = simulate_batch(&motions, &parts, &cfg).unwrap();
+        for (w, motion) in motions.iter().enumerate() {
+            let alone = simulate(motion, &parts, &cfg).unwrap();
+            assert_eq!(batch[w], alone, "{} parts, world {w}", parts.position.len());
+        }
+    }
+}

@@ -205,7 +205,11 @@ fn comparing_timings_word_by_word_is_comparing_their_keys() {
             alike += usize::from(same);
         }
     }
-    assert_eq!(alike, motions.len() + 4, "each with itself, the two jets and program/moved");
+    assert_eq!(
+        alike,
+        motions.len() + 4,
+        "each with itself, the two jets and program/moved"
+    );
 }
 
 #[test]

@@ -6,7 +6,6 @@
 //! velocity ([`Plate::worlds`]). Each lane does exactly what it does in a world run alone, so the
 //! results are bitwise the same.
 
-use std::collections::HashMap;
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
@@ -16,6 +15,7 @@ use rayon::prelude::*;
 use super::kernel::{self, Plate};
 use super::points::{write, zeroed, Base, Points, Source, ARRAYS};
 use super::record::{Rec, Recorder, Stacked};
+use super::timing::{self, by_timing};
 use super::{half_side, Config, Error, PartsView, WorldFriction};
 use crate::motion::{Columns, Phases, PlateMotion};
 
@@ -112,34 +112,6 @@ struct Start<'a, 'p> {
     not_finite: &'a AtomicBool,
 }
 
-/// The order in which to run `motions`, as `(timing, index)` pairs: those with the same timing
-/// (see `PlateMotion::timing`; numbered in the order each first appears) are neighbours, in their
-/// order within it. A group of neighbours turns its plate's phasors once (each world records
-/// into its own place, so the order is free).
-fn by_timing(motions: &[&PlateMotion]) -> Vec<(usize, usize)> {
-    let mut classes: HashMap<Vec<u64>, usize> = HashMap::new();
-    // (a motion of the previous one's timing, compared word by word, builds no key and skips
-    // the hash: a batch's rollouts mostly are)
-    let mut last: Option<(&PlateMotion, usize)> = None;
-    let mut order: Vec<(usize, usize)> = motions
-        .iter()
-        .enumerate()
-        .map(|(b, m)| {
-            let class = match last {
-                Some((prev, class)) if prev.same_timing(m) => class,
-                _ => {
-                    let next = classes.len();
-                    *classes.entry(m.timing()).or_insert(next)
-                }
-            };
-            last = Some((m, class));
-            (class, b)
-        })
-        .collect();
-    order.sort_unstable(); // by timing, then index
-    order
-}
-
 /// The phasor samples of the block `steps` for every timing whose worlds fill more than one
 /// group, taken once here instead of once per group (indexed by timing; `None` for the other
 /// timings, whose one group takes its own). `worlds` are in the order of [`by_timing`].
@@ -150,20 +122,8 @@ fn shared_phases(
     dt: f64,
 ) -> Vec<Option<Phases>> {
     let classes = worlds.last().map_or(0, |w| w.timing + 1);
-    let mut leads: Vec<(Option<&PlateMotion>, usize)> = vec![(None, 0); classes];
-    for w in worlds {
-        let (lead, count) = &mut leads[w.timing];
-        lead.get_or_insert(w.motion);
-        *count += 1;
-    }
-    leads
-        .into_par_iter()
-        .with_min_len(crate::parallel::min_len())
-        .map(|(lead, count)| {
-            lead.filter(|_| count > per_group)
-                .map(|m| Phases::of(m, steps.clone(), dt))
-        })
-        .collect()
+    let members = worlds.iter().map(|w| (w.timing, w.motion));
+    timing::shared(members, classes, per_group, steps, dt)
 }
 
 /// Steps whose plate velocities a group tabulates at a time: 8 worlds at 128 steps take

@@ -39,6 +39,8 @@ mod polygons;
 mod record;
 #[cfg(target_arch = "x86_64")]
 mod short;
+mod timing;
+mod work;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -54,59 +56,11 @@ pub use parts::{Parts, PartsView, WorldFriction};
 pub use points::CHUNK_PARTS;
 pub use record::Stacked;
 use record::{recorded_rows, Rec, Recorder};
+pub use work::little_work;
+use work::{block_steps, little, POLYGON_DISKS};
 
-/// Steps of plate velocity tabulated at a time, at most.
-const BLOCK_STEPS: usize = 4096;
-/// Work of one block, in point-steps and disk-steps: about 0.17 s on one core (a point-step
-/// costs about 0.62 ns), so that the caller's check between blocks (Ctrl-C) comes often enough
-/// whatever the number of parts, and the points' state goes through memory (72 bytes a part,
-/// each way) only once per block. A run of one block takes its points in one pass
-/// (`short`): 2^28 keeps 1e6 points x 200 steps in one (at 1.6e8 it was two blocks of 160 and
-/// 40 steps, 0.75 ns per point-step against 0.65 in one, Intel Xeon, one thread).
-const BLOCK_POINT_STEPS: usize = 1 << 28;
-const BLOCK_DISK_STEPS: usize = 200_000;
-
-/// A polygon's step costs about this many disks' (its sliding solve is a Newton iteration).
-const POLYGON_DISKS: usize = 10;
-
-/// Steps per block for `worlds` worlds of `points` points and `disks` disks (1..=BLOCK_STEPS).
-/// The block length changes only when the caller checks for signals, never the results.
-fn block_steps(worlds: usize, points: usize, disks: usize) -> usize {
-    let by_points = BLOCK_POINT_STEPS / (worlds * points).max(1);
-    let by_disks = BLOCK_DISK_STEPS / (worlds * disks).max(1);
-    by_points.min(by_disks).clamp(1, BLOCK_STEPS)
-}
-/// A disk's step costs about this many points' (the implicit stick-slip solve of its spin).
-const DISK_POINTS: usize = 64;
-/// Runs of fewer point-steps of work than this (about 40 us on one core, counting each disk as
-/// [`DISK_POINTS`] points) run on the calling thread alone ([`parallel::Alone`]).
-const LITTLE_WORK: f64 = 65_536.0;
 /// Largest number of recorded values (rows x parts) a simulation may allocate.
 const MAX_RECORDED: usize = 1 << 30;
-
-/// Whether `worlds` worlds of `points` point parts and `heavy` disks (a polygon counted as
-/// [`POLYGON_DISKS`]) through `steps` steps are little work: fewer than [`LITTLE_WORK`]
-/// point-steps, a disk counted as [`DISK_POINTS`] points.
-fn little(worlds: usize, steps: usize, points: usize, heavy: usize) -> bool {
-    (worlds as f64) * (steps as f64) * ((points + DISK_POINTS * heavy) as f64) < LITTLE_WORK
-}
-
-/// Whether a run of `worlds` worlds of `parts` with `cfg` is little work, which runs on the
-/// calling thread alone whatever the pool. A caller about to hand such a run to a pool of
-/// threads (the Python binding's `threads=n`) runs it on its own thread instead: the hand-off
-/// and the wait for a pool thread to wake cost more than the run (about 90 us against 17 for 8
-/// points through 100 steps). Settings the run would reject count as little: it fails at once.
-pub fn little_work(worlds: usize, parts: &PartsView, cfg: &Config) -> bool {
-    let steps = cfg.step_count();
-    if !(steps.is_finite() && steps <= 1e12) {
-        return true;
-    }
-    let steps = steps as usize;
-    let disks = (0..parts.len()).filter(|&i| parts.radius(i) > 0.0).count();
-    let polygons = parts.polygons.len();
-    let points = parts.len().saturating_sub(disks + polygons);
-    little(worlds, steps, points, disks + POLYGON_DISKS * polygons)
-}
 
 /// Integration settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -147,7 +101,7 @@ pub struct Trajectory {
 
 impl Config {
     /// The number of steps `duration` takes (at least one; not checked).
-    fn step_count(&self) -> f64 {
+    pub(super) fn step_count(&self) -> f64 {
         (self.duration / self.dt - 1e-9).ceil().max(1.0)
     }
 
@@ -240,11 +194,20 @@ struct World<'a> {
     /// Polygon parts.
     polygons: Vec<polygons::PolygonState>,
     rec: Rec,
-    table: Vec<[f64; 3]>,
+    /// The motion's timing class among the batch's ([`timing::classes`]).
+    timing: usize,
     /// Whether the motion leaves the plane (read once: the block loop asks every block).
     spatial: bool,
     /// The out-of-plane accelerations of the block's steps (empty for a planar motion).
     normals: Vec<[f64; 3]>,
+}
+
+std::thread_local! {
+    /// Each thread's table of plate velocity for the block of the world it runs, kept from world
+    /// to world and from call to call: a table a world, freed as the call ended, was fresh
+    /// memory again in the next (a page fault per 4 KiB; a batch of 63 worlds of 64 points spent
+    /// a tenth of its time there).
+    static TABLE: std::cell::Cell<Vec<[f64; 3]>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
 /// Simulates `parts` (points and disks) on a plate driven by `motion`.
@@ -477,6 +440,12 @@ where
     // Each world set up on the thread that takes it (a batch of many small worlds); the polygons'
     // steppers built once, per distinct shape.
     let steppers = polygons::steppers(parts.polygons);
+    // Worlds of one timing share each block's phasor samples (a batch's rollouts).
+    let classes = match motions.len() {
+        1 => vec![0],
+        _ => timing::classes(motions),
+    };
+    let count = classes.iter().max().map_or(0, |c| c + 1);
     let not_finite = &not_finite;
     let mut worlds: Vec<World> = recs
         .into_par_iter()
@@ -513,8 +482,7 @@ where
                 disks,
                 polygons: shapes,
                 rec,
-                // (reserved as the first block is tabulated)
-                table: Vec::new(),
+                timing: classes[b],
                 spatial: spatial[b],
                 normals: Vec::with_capacity(if spatial[b] { block } else { 0 }),
             }
@@ -536,18 +504,32 @@ where
     let mut first = 0;
     while first < steps {
         let end = (first + block).min(steps);
+        // (the planar worlds' samples: the out-of-plane ones take their own)
+        let planar = (worlds.iter()).filter(|w| !w.spatial);
+        let shared = timing::shared(
+            planar.map(|w| (w.timing, w.motion)),
+            count,
+            1,
+            first..end,
+            cfg.dt,
+        );
         worlds
             .par_iter_mut()
             .with_min_len(parallel::min_len())
             .try_for_each(|w| {
-                w.table.clear();
-                // Sampled a hair before each step's end (see `velocities_into`).
-                w.motion.velocities_into(first..end, cfg.dt, &mut w.table);
+                let mut own = TABLE.take();
+                own.clear();
+                // Sampled a hair before each step's end (see `velocities_into`); from the samples
+                // its timing shares with others, the same to the bit.
+                match &shared[w.timing] {
+                    Some(phases) if !w.spatial => phases.extend(w.motion, &mut own),
+                    _ => w.motion.velocities_into(first..end, cfg.dt, &mut own),
+                }
                 if w.spatial {
                     w.normals.clear();
                     w.motion.normals_into(first..end, cfg.dt, &mut w.normals);
                 }
-                let (table, normals, rec) = (&w.table, &w.normals, &w.rec);
+                let (table, normals, rec) = (&own, &w.normals, &w.rec);
                 let (points, disks, contact) = (&mut w.points, &mut w.disks, &mut w.contact);
                 let shapes = &mut w.polygons;
                 // The kinds of parts run side by side only when two have work: a join called
@@ -571,12 +553,14 @@ where
                         .1
                     }
                 };
-                if alone {
+                let done = if alone {
                     points_run();
                     rest()
                 } else {
                     parallel::join(points_run, rest).1
-                }
+                };
+                TABLE.set(own);
+                done
             })?;
         if first == 0 && not_finite.load(Ordering::Relaxed) {
             parts.check()?; // names the first part whose state is not finite
