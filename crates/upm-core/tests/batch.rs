@@ -313,3 +313,56 @@ fn worlds_beyond_a_group_share_their_timings_samples_bitwise() {
         }
     }
 }
+
+#[test]
+fn groups_of_whole_vectors_in_one_block_are_bitwise_each_world_alone() {
+    // Worlds of 8, 16 and 24 points (one, two and three whole vectors each) through one block,
+    // with friction per world, parts leaving the plate, every 7th step recorded.
+    let cfg = Config {
+        dt: 1.0 / 35.0 / 100.0,
+        duration: 0.6,
+        g: 9.81,
+        plate_size: Some(0.12),
+        record_every: 7,
+    };
+    for (m, b) in [(8, 11), (16, 7), (24, 5)] {
+        let (motions, parts) = (motions(b), parts(m));
+        let mu: Vec<f64> = (0..b * m).map(|k| 0.15 + 0.01 * (k % 13) as f64).collect();
+        let mu_s: Vec<f64> = mu.iter().map(|u| u * 1.3).collect();
+        let friction = WorldFriction {
+            mu: &mu,
+            mu_s: &mu_s,
+            width: m,
+        };
+        let all = simulate_stacked(&motions, &parts.view(), &cfg, None, Some(&friction), |_| {
+            Ok::<(), Error>(())
+        })
+        .unwrap();
+        let rows = all.t.len();
+        let mut left = 0;
+        for (w, motion) in motions.iter().enumerate() {
+            let own = Parts {
+                mu: mu[w * m..(w + 1) * m].to_vec(),
+                mu_s: mu_s[w * m..(w + 1) * m].to_vec(),
+                ..parts.clone()
+            };
+            let alone = simulate(motion, &own, &cfg).unwrap();
+            let cells = w * rows * m..(w + 1) * rows * m;
+            let at = format!("{m} points, world {w}");
+            assert_eq!(all.positions[cells.clone()], alone.positions[..], "{at}");
+            assert_eq!(all.velocities[cells.clone()], alone.velocities[..], "{at}");
+            assert_eq!(all.stuck[cells], alone.stuck[..], "{at}");
+            let gone: Vec<Option<f64>> = (0..m)
+                .map(|i| all.left_plate[w * m + i].then_some(all.left[w * m + i]))
+                .collect();
+            assert_eq!(gone, alone.left_plate, "{at}");
+            left += gone.iter().flatten().count();
+        }
+        assert!(left > 0, "{m} points: some leave the plate");
+    }
+    // A state that is not finite is named, as in any run.
+    let mut bad = parts(16);
+    bad.position[11][1] = f64::NAN;
+    let err = simulate_batch(&motions(3), &bad, &cfg).unwrap_err();
+    assert!(err.to_string().contains("11"), "{err}");
+}
