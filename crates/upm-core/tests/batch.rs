@@ -20,6 +20,18 @@ fn noise(seed: u64, n: usize) -> Vec<f64> {
         .collect()
 }
 
+/// Settings of a run: steps of `dt` through `duration`, on a plate of side `plate_size`,
+/// recording every `record_every`-th step.
+fn config(dt: f64, duration: f64, plate_size: Option<f64>, record_every: usize) -> Config {
+    Config {
+        dt,
+        duration,
+        g: 9.81,
+        plate_size,
+        record_every,
+    }
+}
+
 /// `b` different motions: rotations about scattered centres and translations, at 35 Hz.
 fn motions(b: usize) -> Vec<PlateMotion> {
     let r = noise(b as u64, 4 * b);
@@ -63,13 +75,7 @@ fn parts(m: usize) -> Parts {
 #[test]
 fn small_worlds_in_a_batch_are_bitwise_each_world_alone() {
     // 5000 steps: more than one block; parts leave a 0.17 m plate; every 7th step recorded.
-    let cfg = Config {
-        dt: 1.0 / 35.0 / 100.0,
-        duration: 5000.0 / 3500.0,
-        g: 9.81,
-        plate_size: Some(0.17),
-        record_every: 7,
-    };
+    let cfg = config(1.0 / 35.0 / 100.0, 5000.0 / 3500.0, Some(0.17), 7);
     for (m, b) in [(1, 3), (5, 9), (8, 17), (11, 5), (30, 3)] {
         let (motions, parts) = (motions(b), parts(m));
         let batch = simulate_batch(&motions, &parts, &cfg).unwrap();
@@ -128,13 +134,7 @@ fn pulses_sharing_their_timing_in_a_batch_are_bitwise_each_alone() {
     // phasors once; the others beside them keep their own. 35 worlds of 8 points: three timings
     // of 9 worlds span two groups of 8 each (their samples taken once for the batch), the fourth
     // (8 worlds) is sampled by its groups.
-    let cfg = Config {
-        dt: 1.0 / 50.0 / 48.0,
-        duration: 0.4,
-        g: 9.81,
-        plate_size: Some(0.2),
-        record_every: 5,
-    };
+    let cfg = config(1.0 / 50.0 / 48.0, 0.4, Some(0.2), 5);
     let (m, b) = (8, 35);
     let (motions, parts) = (pulses(b), parts(m));
     let batch = simulate_batch(&motions, &parts, &cfg).unwrap();
@@ -148,17 +148,11 @@ fn pulses_sharing_their_timing_in_a_batch_are_bitwise_each_alone() {
     assert!(moved, "every pulse moves the parts");
 }
 
-#[test]
-fn each_world_of_a_batch_keeps_its_own_friction() {
-    let cfg = Config {
-        dt: 1.0 / 35.0 / 100.0,
-        duration: 0.3,
-        g: 9.81,
-        plate_size: None,
-        record_every: 10,
-    };
-    let (m, b) = (6, 10);
-    let (motions, parts) = (motions(b), parts(m));
+/// Runs `motions` on `parts` in one batch, each world with its own friction (a row of `m`
+/// values each), and checks each world against it run alone with its row; returns how many of
+/// its parts left the plate.
+fn each_alone_with_its_friction(motions: &[PlateMotion], parts: &Parts, cfg: &Config) -> usize {
+    let (b, m) = (motions.len(), parts.position.len());
     let mu: Vec<f64> = (0..b * m).map(|k| 0.15 + 0.01 * (k % 13) as f64).collect();
     let mu_s: Vec<f64> = mu.iter().map(|u| u * 1.3).collect();
     let friction = WorldFriction {
@@ -166,44 +160,44 @@ fn each_world_of_a_batch_keeps_its_own_friction() {
         mu_s: &mu_s,
         width: m,
     };
-    let all = simulate_stacked(&motions, &parts.view(), &cfg, None, Some(&friction), |_| {
+    let all = simulate_stacked(motions, &parts.view(), cfg, None, Some(&friction), |_| {
         Ok::<(), Error>(())
     })
     .unwrap();
     let rows = all.t.len();
+    let mut left = 0;
     for (w, motion) in motions.iter().enumerate() {
         let own = Parts {
             mu: mu[w * m..(w + 1) * m].to_vec(),
             mu_s: mu_s[w * m..(w + 1) * m].to_vec(),
             ..parts.clone()
         };
-        let alone = simulate(motion, &own, &cfg).unwrap();
+        let alone = simulate(motion, &own, cfg).unwrap();
         let cells = w * rows * m..(w + 1) * rows * m;
-        assert_eq!(
-            all.positions[cells.clone()],
-            alone.positions[..],
-            "world {w}"
-        );
-        assert_eq!(
-            all.velocities[cells.clone()],
-            alone.velocities[..],
-            "world {w}"
-        );
-        assert_eq!(all.stuck[cells], alone.stuck[..], "world {w}");
+        let at = format!("{m} points, world {w}");
+        assert_eq!(all.positions[cells.clone()], alone.positions[..], "{at}");
+        assert_eq!(all.velocities[cells.clone()], alone.velocities[..], "{at}");
+        assert_eq!(all.stuck[cells], alone.stuck[..], "{at}");
+        let gone: Vec<Option<f64>> = (0..m)
+            .map(|i| all.left_plate[w * m + i].then_some(all.left[w * m + i]))
+            .collect();
+        assert_eq!(gone, alone.left_plate, "{at}");
+        left += gone.iter().flatten().count();
     }
+    left
+}
+
+#[test]
+fn each_world_of_a_batch_keeps_its_own_friction() {
+    let cfg = config(1.0 / 35.0 / 100.0, 0.3, None, 10);
+    each_alone_with_its_friction(&motions(10), &parts(6), &cfg);
 }
 
 #[test]
 fn a_result_larger_than_the_caches_holds_what_a_small_run_of_its_parts_gives() {
     // 300,000 parts x 3 rows: 29 MB of positions and velocities, written with non-temporal
     // stores; the first and last 500 parts alone make a small result, written plainly.
-    let cfg = Config {
-        dt: 1e-4,
-        duration: 4e-4,
-        g: 9.81,
-        plate_size: Some(0.3),
-        record_every: 2,
-    };
+    let cfg = config(1e-4, 4e-4, Some(0.3), 2);
     let motion = &motions(2)[0];
     let n = 300_000;
     let big = parts(n);
@@ -237,13 +231,7 @@ fn a_result_larger_than_the_caches_holds_what_a_small_run_of_its_parts_gives() {
 #[test]
 fn little_work_counts_point_steps_with_a_disk_as_64_points_and_a_polygon_as_ten_disks() {
     // Under 65,536 point-steps is little work (run on the calling thread alone).
-    let cfg = |steps: usize| Config {
-        dt: 1e-4,
-        duration: steps as f64 * 1e-4,
-        g: 9.81,
-        plate_size: None,
-        record_every: 1,
-    };
+    let cfg = |steps: usize| config(1e-4, steps as f64 * 1e-4, None, 1);
     let points = |m: usize| {
         Parts::points(
             vec![[0.0; 2]; m],
@@ -290,13 +278,7 @@ fn worlds_beyond_a_group_share_their_timings_samples_bitwise() {
     // one; those of one timing evaluate their plate velocity from samples taken once for them
     // all, block by block (two blocks here). Pulses of four timings interleaved with harmonic
     // rotations and translations of a fifth.
-    let cfg = Config {
-        dt: 1.0 / 50.0 / 48.0,
-        duration: 5000.0 / 2400.0,
-        g: 9.81,
-        plate_size: Some(0.2),
-        record_every: 9,
-    };
+    let cfg = config(1.0 / 50.0 / 48.0, 5000.0 / 2400.0, Some(0.2), 9);
     let mut motions = pulses(12);
     motions.extend(self::motions(6));
     let mut mixed = parts(9);
@@ -318,46 +300,9 @@ fn worlds_beyond_a_group_share_their_timings_samples_bitwise() {
 fn groups_of_whole_vectors_in_one_block_are_bitwise_each_world_alone() {
     // Worlds of 8, 16 and 24 points (one, two and three whole vectors each) through one block,
     // with friction per world, parts leaving the plate, every 7th step recorded.
-    let cfg = Config {
-        dt: 1.0 / 35.0 / 100.0,
-        duration: 0.6,
-        g: 9.81,
-        plate_size: Some(0.12),
-        record_every: 7,
-    };
+    let cfg = config(1.0 / 35.0 / 100.0, 0.6, Some(0.12), 7);
     for (m, b) in [(8, 11), (16, 7), (24, 5)] {
-        let (motions, parts) = (motions(b), parts(m));
-        let mu: Vec<f64> = (0..b * m).map(|k| 0.15 + 0.01 * (k % 13) as f64).collect();
-        let mu_s: Vec<f64> = mu.iter().map(|u| u * 1.3).collect();
-        let friction = WorldFriction {
-            mu: &mu,
-            mu_s: &mu_s,
-            width: m,
-        };
-        let all = simulate_stacked(&motions, &parts.view(), &cfg, None, Some(&friction), |_| {
-            Ok::<(), Error>(())
-        })
-        .unwrap();
-        let rows = all.t.len();
-        let mut left = 0;
-        for (w, motion) in motions.iter().enumerate() {
-            let own = Parts {
-                mu: mu[w * m..(w + 1) * m].to_vec(),
-                mu_s: mu_s[w * m..(w + 1) * m].to_vec(),
-                ..parts.clone()
-            };
-            let alone = simulate(motion, &own, &cfg).unwrap();
-            let cells = w * rows * m..(w + 1) * rows * m;
-            let at = format!("{m} points, world {w}");
-            assert_eq!(all.positions[cells.clone()], alone.positions[..], "{at}");
-            assert_eq!(all.velocities[cells.clone()], alone.velocities[..], "{at}");
-            assert_eq!(all.stuck[cells], alone.stuck[..], "{at}");
-            let gone: Vec<Option<f64>> = (0..m)
-                .map(|i| all.left_plate[w * m + i].then_some(all.left[w * m + i]))
-                .collect();
-            assert_eq!(gone, alone.left_plate, "{at}");
-            left += gone.iter().flatten().count();
-        }
+        let left = each_alone_with_its_friction(&motions(b), &parts(m), &cfg);
         assert!(left > 0, "{m} points: some leave the plate");
     }
     // A state that is not finite is named, as in any run.

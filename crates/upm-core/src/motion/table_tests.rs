@@ -148,14 +148,16 @@ fn motions_sharing_their_timing_share_the_phasors_bitwise() {
     }
 }
 
+/// A jet at `f` Hz with an envelope of attack `attack`.
+fn jet(f: f64, attack: f64) -> PlateMotion {
+    PlateMotion::jet([0.0; 2], [1.0, 0.0], 0.06, 0.3, f)
+        .unwrap()
+        .with_envelope(attack, 0.1, 0.1)
+        .unwrap()
+}
+
 #[test]
 fn another_frequency_envelope_or_duration_is_another_timing() {
-    let jet = |f: f64, attack: f64| {
-        PlateMotion::jet([0.0; 2], [1.0, 0.0], 0.06, 0.3, f)
-            .unwrap()
-            .with_envelope(attack, 0.1, 0.1)
-            .unwrap()
-    };
     let base = jet(50.0, 0.1).timing();
     assert_ne!(base, jet(40.0, 0.1).timing());
     assert_ne!(base, jet(50.0, 0.12).timing());
@@ -173,12 +175,6 @@ fn another_frequency_envelope_or_duration_is_another_timing() {
 
 #[test]
 fn comparing_timings_word_by_word_is_comparing_their_keys() {
-    let jet = |f: f64, attack: f64| {
-        PlateMotion::jet([0.0; 2], [1.0, 0.0], 0.06, 0.3, f)
-            .unwrap()
-            .with_envelope(attack, 0.1, 0.1)
-            .unwrap()
-    };
     let spin = PlateMotion::rotation(
         [0.0; 2],
         Harmonics::new(vec![1.0], vec![0.0], 50.0).unwrap().into(),
