@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from typing import Any
 
 import numpy as np
 
@@ -191,24 +192,36 @@ def small_calls(motion: upm.PlateMotion, dt: float) -> None:
 def batch_times(quick: bool) -> None:
     """Batches of small worlds (the predictive planner's rollouts: enveloped jets, 8 parts each)
     against one world of as many parts on the first of those motions, per part-step on every
-    core."""
+    core; then worlds of 8 to 256 parts on one thread (up to 32 points a world run side by side
+    in register tiles, larger worlds one by one)."""
     rng = np.random.default_rng(6)
-    b, m = (100, 8) if quick else (500, 8)
-    pulses = [
-        upm.Pulse.jet(tuple(rng.uniform(-0.1, 0.1, 2)), (0.6, 0.8), 0.06, 0.3, 50.0, 0.12, 0.11, 0.12)
-        for _ in range(b)
-    ]
-    motions = [p.motion(rest=False) for p in pulses]
-    pos = rng.uniform(-0.1, 0.1, (m, 2))
     dt, duration = 1 / (24 * 100), 0.35
     steps = round(duration / dt)
     kw = dict(duration=duration, dt=dt, mu=MU, record_every=2**40)
-    # (best of 15: a few ms each, and a shared machine's other work comes and goes)
-    batch = best_of(lambda: upm.simulate_batch(motions, pos, **kw), 15) * 1e9 / (b * m * steps)
-    one = rng.uniform(-0.1, 0.1, (b * m, 2))
-    world = best_of(lambda: upm.simulate(motions[0], one, **kw), 15) * 1e9 / (b * m * steps)
+
+    def ratio(b: int, m: int, **more: Any) -> tuple[float, float]:
+        pulses = [
+            upm.Pulse.jet(tuple(rng.uniform(-0.1, 0.1, 2)), (0.6, 0.8), 0.06, 0.3, 50.0, 0.12, 0.11, 0.12)
+            for _ in range(b)
+        ]
+        motions = [p.motion(rest=False) for p in pulses]
+        pos, one = rng.uniform(-0.1, 0.1, (m, 2)), rng.uniform(-0.1, 0.1, (b * m, 2))
+        # (best of 15: a few ms each, and a shared machine's other work comes and goes)
+        per = 1e9 / (b * m * steps)
+        batch = best_of(lambda: upm.simulate_batch(motions, pos, **kw, **more), 15) * per
+        world = best_of(lambda: upm.simulate(motions[0], one, **kw, **more), 15) * per
+        return batch, world
+
+    b, m = (100, 8) if quick else (500, 8)
+    batch, world = ratio(b, m)
     print(f"\n{b} worlds x {m} parts (enveloped jets), every core: {batch:.2f} ns per part-step; one world of"
           f" {b * m} parts: {world:.2f}; the batch costs {batch / world:.2f}x")  # fmt: skip
+    parts = 800 if quick else 4000
+    cells = []
+    for m in (8, 32, 64, 256):
+        batch, world = ratio(parts // m, m, threads=1)
+        cells.append(f"{parts // m} x {m}: {batch / world:.2f}x")
+    print(f"  one thread, worlds x parts, against one world of as many: {'; '.join(cells)}")
 
 
 def disk_times(dt: float, quick: bool) -> None:
