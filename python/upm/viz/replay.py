@@ -4,6 +4,7 @@ or write a screenshot of the web viewer (headless Chromium through Playwright) f
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import shutil
 import signal
@@ -122,7 +123,9 @@ def screenshot(
     path: str | Path, png: str | Path, *, size: tuple[int, int] = (1600, 900), wait: float = 12.0
 ) -> Path:
     """A picture of ``path`` in rerun's web viewer (its default layout, at the recording's end),
-    rendered by headless Chromium (WebGL in software) and written to ``png``."""
+    rendered by headless Chromium (WebGL in software) and written to ``png``: taken ``wait``
+    seconds after the viewer opened, or later, a second at a time (up to ``wait`` more), until
+    two pictures a second apart agree (a busy machine renders slower)."""
     from .._extras import need
 
     need("playwright.sync_api", "desk", "a screenshot of the viewer", "playwright")
@@ -139,7 +142,14 @@ def screenshot(
             page.goto(url + "&renderer=webgl")
             page.wait_for_selector("canvas", timeout=30_000)
             time.sleep(wait)  # the viewer streams the recording in, then lays it out
-            page.screenshot(path=str(png))
+            shot = page.screenshot()
+            for _ in range(max(1, math.ceil(wait))):
+                time.sleep(1.0)
+                again = page.screenshot()
+                if again == shot:
+                    break
+                shot = again
+            png.write_bytes(shot)
         finally:
             browser.close()
     return png
