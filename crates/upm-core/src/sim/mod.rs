@@ -504,15 +504,19 @@ where
     let mut first = 0;
     while first < steps {
         let end = (first + block).min(steps);
-        // (the planar worlds' samples: the out-of-plane ones take their own)
+        // (the planar worlds' samples: the out-of-plane ones take their own; none to share
+        // where every world has a timing of its own, as one world has)
         let planar = (worlds.iter()).filter(|w| !w.spatial);
-        let shared = timing::shared(
-            planar.map(|w| (w.timing, w.motion)),
-            count,
-            1,
-            first..end,
-            cfg.dt,
-        );
+        let shared = match count < worlds.len() {
+            true => timing::shared(
+                planar.map(|w| (w.timing, w.motion)),
+                count,
+                1,
+                first..end,
+                cfg.dt,
+            ),
+            false => Vec::new(),
+        };
         worlds
             .par_iter_mut()
             .with_min_len(parallel::min_len())
@@ -521,8 +525,8 @@ where
                 own.clear();
                 // Sampled a hair before each step's end (see `velocities_into`); from the samples
                 // its timing shares with others, the same to the bit.
-                match &shared[w.timing] {
-                    Some(phases) if !w.spatial => phases.extend(w.motion, &mut own),
+                match shared.get(w.timing) {
+                    Some(Some(phases)) if !w.spatial => phases.extend(w.motion, &mut own),
                     _ => w.motion.velocities_into(first..end, cfg.dt, &mut own),
                 }
                 if w.spatial {
