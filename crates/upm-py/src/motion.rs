@@ -434,11 +434,11 @@ pub fn simulate<'py>(
         mu_s,
         width: *width,
     });
-    // A run of little work runs on this thread (the core keeps it there on any pool; a pool of
-    // `threads` would only add its hand-off).
-    let threads = match sim::little_work(motions.len(), &parts, &cfg) {
-        true => Some(1),
-        false => threads,
+    // A run of little work runs on this thread (the core keeps it there on any pool; a kept pool
+    // of `threads` would only add its hand-off).
+    let threads = match threads {
+        Some(n) if n > 1 && sim::little_work(motions.len(), &parts, &cfg) => Some(1),
+        _ => threads,
     };
     let run = detached(py, || {
         // Every world advances one block at a time; Ctrl-C is honoured between blocks.

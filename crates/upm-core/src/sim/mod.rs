@@ -441,10 +441,7 @@ where
     // steppers built once, per distinct shape.
     let steppers = polygons::steppers(parts.polygons);
     // Worlds of one timing share each block's phasor samples (a batch's rollouts).
-    let classes = match motions.len() {
-        1 => vec![0],
-        _ => timing::classes(motions),
-    };
+    let classes = timing::classes(motions);
     let count = classes.iter().max().map_or(0, |c| c + 1);
     let not_finite = &not_finite;
     let mut worlds: Vec<World> = recs
@@ -504,19 +501,15 @@ where
     let mut first = 0;
     while first < steps {
         let end = (first + block).min(steps);
-        // (the planar worlds' samples: the out-of-plane ones take their own; none to share
-        // where every world has a timing of its own, as one world has)
+        // (the planar worlds' samples: the out-of-plane ones take their own)
         let planar = (worlds.iter()).filter(|w| !w.spatial);
-        let shared = match count < worlds.len() {
-            true => timing::shared(
-                planar.map(|w| (w.timing, w.motion)),
-                count,
-                1,
-                first..end,
-                cfg.dt,
-            ),
-            false => Vec::new(),
-        };
+        let shared = timing::shared(
+            planar.map(|w| (w.timing, w.motion)),
+            count,
+            1,
+            first..end,
+            cfg.dt,
+        );
         worlds
             .par_iter_mut()
             .with_min_len(parallel::min_len())
@@ -525,8 +518,8 @@ where
                 own.clear();
                 // Sampled a hair before each step's end (see `velocities_into`); from the samples
                 // its timing shares with others, the same to the bit.
-                match shared.get(w.timing) {
-                    Some(Some(phases)) if !w.spatial => phases.extend(w.motion, &mut own),
+                match &shared[w.timing] {
+                    Some(phases) if !w.spatial => phases.extend(w.motion, &mut own),
                     _ => w.motion.velocities_into(first..end, cfg.dt, &mut own),
                 }
                 if w.spatial {

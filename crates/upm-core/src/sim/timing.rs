@@ -13,6 +13,9 @@ use crate::motion::{Phases, PlateMotion};
 
 /// Each motion's timing class, numbered in the order each first appears.
 pub(super) fn classes(motions: &[&PlateMotion]) -> Vec<usize> {
+    if motions.len() == 1 {
+        return vec![0]; // (no key to build: a world alone)
+    }
     let mut numbers: HashMap<Vec<u64>, usize> = HashMap::new();
     // (a motion of the previous one's timing, compared word by word, builds no key and skips
     // the hash: a batch's rollouts mostly are)
@@ -47,7 +50,9 @@ pub(super) fn by_timing(motions: &[&PlateMotion]) -> Vec<(usize, usize)> {
 
 /// The phasor samples of the block `steps` for every timing class of more than `more_than` of
 /// `worlds` (`(class, motion)` pairs; classes numbered below `count`), indexed by class: `None`
-/// for the others, which take their own.
+/// for the others, which take their own. Where no class has that many, no parallel section
+/// runs (called from outside the pool, one hands its work to the pool's threads: every block of
+/// every call would pay for nothing).
 pub(super) fn shared<'m>(
     worlds: impl Iterator<Item = (usize, &'m PlateMotion)>,
     count: usize,
@@ -60,6 +65,9 @@ pub(super) fn shared<'m>(
         let (lead, n) = &mut leads[class];
         lead.get_or_insert(motion);
         *n += 1;
+    }
+    if leads.iter().all(|&(_, n)| n <= more_than) {
+        return (0..count).map(|_| None).collect();
     }
     leads
         .into_par_iter()
