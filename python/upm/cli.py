@@ -278,7 +278,10 @@ def _main(argv: list[str]) -> int:
         help="write a picture of the viewer (headless Chromium) and exit",
     )
     r.add_argument(
-        "--wait", type=float, default=20.0, help="with --screenshot: seconds to let the viewer load"
+        "--wait",
+        type=float,
+        default=20.0,
+        help="with --screenshot: seconds to let the viewer load (up to as many more until it holds still)",
     )
     k = commands.add_parser("desk", help="the live desk: steer parts by hand in a browser (upm[desk])")
     from .desk.cli import arguments as desk_arguments
