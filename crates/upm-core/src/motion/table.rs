@@ -131,8 +131,12 @@ impl PlateMotion {
                 .iter()
                 .zip(&other.starts)
                 .all(|(a, b)| bits(a, b))
-            && (self.items.iter().zip(&other.items))
-                .all(|(a, b)| timing_words(a) == timing_words(b))
+            && (self.items.iter().zip(&other.items)).all(|(a, b)| {
+                // (word by word into one: `==` on the arrays called `memcmp`, a twentieth of a
+                // 2-step call of 500 worlds)
+                let (a, b) = (timing_words(a), timing_words(b));
+                a.iter().zip(&b).fold(0, |d, (x, y)| d | (x ^ y)) == 0
+            })
     }
 }
 

@@ -116,18 +116,7 @@ impl Config {
         if self.record_every == 0 {
             return Err(Error::parameter("record_every", "must be >= 1; got 0"));
         }
-        let f_max = motion.max_frequency();
-        let dt_max = 1.0 / (20.0 * f_max);
-        if f_max > 0.0 && self.dt > dt_max {
-            return Err(Error::parameter(
-                "dt",
-                format!(
-                    "is too large for the motion's highest frequency {f_max:.6e} Hz: at least 20 steps per \
-                     period are needed, so dt <= {dt_max:.6e} s; got {}",
-                    self.dt
-                ),
-            ));
-        }
+        self.resolves(motion)?;
         let steps = self.step_count();
         if steps > 1e12 {
             return Err(Error::parameter(
@@ -151,6 +140,25 @@ impl Config {
             ));
         }
         Ok(steps)
+    }
+
+    /// Checks that the steps resolve `motion`'s highest frequency: the one check of
+    /// [`Config::steps`] that depends on the motion (a batch makes it for every world, and the
+    /// others once).
+    fn resolves(&self, motion: &PlateMotion) -> Result<()> {
+        let f_max = motion.max_frequency();
+        let dt_max = 1.0 / (20.0 * f_max);
+        if f_max > 0.0 && self.dt > dt_max {
+            return Err(Error::parameter(
+                "dt",
+                format!(
+                    "is too large for the motion's highest frequency {f_max:.6e} Hz: at least 20 steps per \
+                     period are needed, so dt <= {dt_max:.6e} s; got {}",
+                    self.dt
+                ),
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -361,15 +369,21 @@ where
                 .map_err(|e| e.with_context(&format!("world {b}")))?;
         }
     }
-    let mut steps = 0;
-    for (b, motion) in motions.iter().enumerate() {
-        steps = cfg.steps(motion, m).map_err(|e| {
+    let world = |b: usize| {
+        move |e: Error| {
             if motions.len() > 1 {
                 e.with_context(&format!("world {b}"))
             } else {
                 e
             }
-        })?;
+        }
+    };
+    let steps = match motions.first() {
+        Some(first) => cfg.steps(first, m).map_err(world(0))?,
+        None => 0,
+    };
+    for (b, motion) in motions.iter().enumerate().skip(1) {
+        cfg.resolves(motion).map_err(world(b))?;
     }
     let spatial = motions.iter().map(|m| m.is_spatial()).collect::<Vec<_>>();
     // Some world's plate leaves its plane (parts may fly).
