@@ -76,7 +76,18 @@ fn parts(m: usize) -> Parts {
 fn small_worlds_in_a_batch_are_bitwise_each_world_alone() {
     // 5000 steps: more than one block; parts leave a 0.17 m plate; every 7th step recorded.
     let cfg = config(1.0 / 35.0 / 100.0, 5000.0 / 3500.0, Some(0.17), 7);
-    for (m, b) in [(1, 3), (5, 9), (8, 17), (11, 5), (30, 3)] {
+    // (worlds of up to 4 points: several sets of eight worlds to a group, a tile's vectors
+    // reading different sets' velocities; the last group part empty)
+    for (m, b) in [
+        (1, 3),
+        (2, 33),
+        (3, 37),
+        (4, 18),
+        (5, 9),
+        (8, 17),
+        (11, 5),
+        (30, 3),
+    ] {
         let (motions, parts) = (motions(b), parts(m));
         let batch = simulate_batch(&motions, &parts, &cfg).unwrap();
         let mut left = 0;

@@ -1,10 +1,14 @@
 //! Batches of small worlds run side by side. A world of a few point parts fills only a fraction
 //! of a register tile, and one vector's steps form a dependency chain of some 60 cycles: run
 //! alone, a world of 8 parts cost 5x a large world per part-step (the planner's rollouts). Here
-//! the point parts of up to [`LANES`] / `stride` worlds share one tile, world `w` in the lanes
-//! `w * stride ..` (padded to whole vectors), each vector stepping under its own world's plate
-//! velocity ([`Plate::worlds`]). Each lane does exactly what it does in a world run alone, so the
-//! results are bitwise the same.
+//! the point parts of a group of worlds share the tiles, interleaved ([`Plate::interleaved`]):
+//! eight worlds to a vector, one a lane, vector `i` of a set of eight worlds holding their part
+//! `i`. A vector then reads its eight worlds' plate velocities with one load a component, and a
+//! tile of one set's vectors (worlds of 8 points or more) reads them once for all its vectors, as
+//! one world's tile reads its one table. Worlds of fewer points take several sets to a group
+//! (worlds of 3 points: two sets, 16 worlds in six vectors), so no lane is padding but the last
+//! group's. Each lane does exactly what it does in a world run alone, so the results are bitwise
+//! the same.
 
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -13,26 +17,72 @@ use std::sync::Mutex;
 use rayon::prelude::*;
 
 use super::kernel::{self, Plate};
-use super::points::{write, zeroed, Base, Points, Source, ARRAYS};
+use super::points::{write, Base, Points, Source, PLANAR};
 use super::record::{Rec, Recorder, Stacked};
 use super::timing::{self, by_timing};
 use super::{half_side, Config, Error, PartsView, WorldFriction};
 use crate::motion::{Columns, Phases, PlateMotion};
 
-/// Lanes of a group: one full register tile of the widest build.
-const LANES: usize = 64;
-
 /// Worlds with at most this many point parts (and nothing else) are run in groups.
 pub(super) const MAX_POINTS: usize = 32;
 
-/// The lanes a world of `m` points takes in a group: whole vectors of eight.
-fn stride(m: usize) -> usize {
-    m.div_ceil(8).max(1) * 8
+/// Sets of eight worlds a group of worlds of `m` points takes: as many as fill a tile of eight
+/// vectors (at least one).
+fn sets(m: usize) -> usize {
+    (8 / m.max(1)).max(1)
 }
 
-/// Worlds per group for worlds of `m` points.
+/// Worlds per group for worlds of `m` points (every set's eight, the last group's may be
+/// absent).
 fn worlds_per_group(m: usize) -> usize {
-    (LANES / stride(m)).max(1)
+    8 * sets(m)
+}
+
+/// The lanes of a group of worlds of `m` points.
+fn lanes(m: usize) -> usize {
+    8 * sets(m) * m
+}
+
+/// The lane of part `i` of world `w` of a group of worlds of `m` points (what [`interleave`]
+/// and [`Plate::column`] take it to be; the tests check them against it).
+#[cfg(test)]
+fn lane(m: usize, w: usize, i: usize) -> usize {
+    8 * (w / 8 * m + i) + w % 8
+}
+
+/// The [`PLANAR`] arrays of `lanes` lanes each of `plain` (world `w`'s part `i` in lane
+/// `w m + i`) into `state` at each part's lane `8 (w / 8 m + i) + w % 8` (worlds of `m`
+/// points; see [`Plate`]).
+fn interleave(plain: &[f64], state: &mut [f64], m: usize, lanes: usize) {
+    let (plain, state) = (&plain[..PLANAR * lanes], &mut state[..PLANAR * lanes]);
+    for (from, to) in plain.chunks_exact(lanes).zip(state.chunks_exact_mut(lanes)) {
+        // vector `g m + i`: part `i` of the eight worlds of set `g`, which start at `8 g m`
+        for (set, to) in from.chunks_exact(8 * m).zip(to.chunks_exact_mut(8 * m)) {
+            for (i, to) in to.chunks_exact_mut(8).enumerate() {
+                for (r, to) in to.iter_mut().enumerate() {
+                    *to = set[r * m + i];
+                }
+            }
+        }
+    }
+}
+
+/// What [`interleave`] does, undone, for the arrays a record reads: position, velocity, stuck
+/// and the step of leaving (not `active`, and not the friction, which do not change).
+fn deinterleave(state: &[f64], plain: &mut [f64], m: usize, lanes: usize) {
+    for a in [0, 1, 2, 3, 4, 6] {
+        let (from, to) = (
+            &state[a * lanes..(a + 1) * lanes],
+            &mut plain[a * lanes..(a + 1) * lanes],
+        );
+        for (from, set) in from.chunks_exact(8 * m).zip(to.chunks_exact_mut(8 * m)) {
+            for (i, from) in from.chunks_exact(8).enumerate() {
+                for (r, &x) in from.iter().enumerate() {
+                    set[r * m + i] = x;
+                }
+            }
+        }
+    }
 }
 
 /// A world of a batch run in a group: its motion, its timing's number among the batch's (see
@@ -126,9 +176,14 @@ fn shared_phases(
     timing::shared(members, classes, per_group, steps, dt)
 }
 
-/// Steps whose plate velocities a group tabulates at a time: 8 worlds at 128 steps take
-/// 24 KiB, within the L1 cache.
-const PIECE: usize = 128;
+/// Values of plate velocity a group tabulates at a time: 8 worlds at 128 steps, 24 KiB, within
+/// the L1 cache.
+const PIECE: usize = 3 * 8 * 128;
+
+/// Steps a group of `width` columns tabulates at a time ([`PIECE`] values, at least 16 steps).
+fn piece(width: usize) -> usize {
+    (PIECE / (3 * width)).max(16)
+}
 
 /// The runs of one timing among `worlds` (neighbours, sorted so by [`by_timing`]), each with the
 /// samples of the block `steps`: the batch's in `shared` where the timing spans groups (`None`
@@ -158,22 +213,26 @@ fn runs(
 }
 
 /// The plate velocity of each of `worlds` at each step of `steps` (within the block), from the
-/// samples of its timing ([`runs`]), into `table` (resized): world `w` in column `w` of a
-/// table of as many columns as worlds (see [`Plate`]); returns the table's values.
+/// samples of its timing ([`runs`]), into `table` (resized): world `w` in column `w` of a table
+/// of `width` columns (see [`Plate`]; columns past the worlds zero); returns the table's values.
 fn tabulate<'t>(
     worlds: &[Member],
+    width: usize,
     shared: &[Option<Phases>],
     runs: &[(Range<usize>, Option<Phases>)],
     table: &'t mut Vec<Line>,
     steps: Range<usize>,
 ) -> &'t [f64] {
-    // (every value is written below: the runs take every column)
-    let len = 3 * worlds.len() * steps.len();
+    // (every value is written below: the runs take every world's column)
+    let len = 3 * width * steps.len();
     table.resize(len.div_ceil(8), Line([0.0; 8]));
-    let mut out = Columns {
-        values: &mut Line::values_mut(table)[..len],
-        width: worlds.len(),
-    };
+    let values = &mut Line::values_mut(table)[..len];
+    if worlds.len() < width {
+        for row in values.chunks_exact_mut(width) {
+            row[worlds.len()..].fill(0.0);
+        }
+    }
+    let mut out = Columns { values, width };
     let mut motions: Vec<&PlateMotion> = Vec::with_capacity(worlds.len());
     for (run, own) in runs {
         let phases = own
@@ -202,12 +261,14 @@ impl Line {
     }
 }
 
-/// The state of one group's points, kept from block to block.
-struct Group(Box<[[f64; LANES]; ARRAYS]>);
+/// The state of one group's points, kept from block to block: the point arrays' first
+/// [`PLANAR`] (a group's points stay on the plane), each of as many lanes as the group has
+/// ([`lanes`]), one after the other.
+struct Group(Vec<f64>);
 
 /// Group states kept from run to run: fresh memory costs a page fault per 4 KiB on every call
 /// once the allocator has returned it to the system (that was a fifth of a 2-step call of 500
-/// worlds of 8 points). At most [`SPARE_STATES`] (6 KiB each) are kept.
+/// worlds of 8 points). At most [`SPARE_STATES`] (5 to 18 KiB each) are kept.
 static SPARE: Mutex<Vec<Group>> = Mutex::new(Vec::new());
 const SPARE_STATES: usize = 1024;
 
@@ -216,10 +277,13 @@ fn spare() -> std::sync::MutexGuard<'static, Vec<Group>> {
 }
 
 std::thread_local! {
-    /// Each thread's table of plate velocity (up to 8 worlds' at [`PIECE`] steps, 24 KiB), kept
+    /// Each thread's table of plate velocity ([`PIECE`] values, 24 KiB, or 16 steps'), kept
     /// from group to group: no lock (two threads contending for a shared one waited in the
     /// kernel) and no fresh memory.
     static TABLE: std::cell::Cell<Vec<Line>> = const { std::cell::Cell::new(Vec::new()) };
+    /// Each thread's room for a group's points laid out world by world (`m` lanes a world, as a
+    /// world run alone holds them), where they are read and recorded from.
+    static PLAIN: std::cell::Cell<Vec<f64>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
 impl Group {
@@ -231,7 +295,7 @@ impl Group {
             let keep = spare.len().saturating_sub(n);
             spare.split_off(keep)
         };
-        out.resize_with(n, || Group(zeroed()));
+        out.resize_with(n, || Group(Vec::new()));
         out
     }
 
@@ -257,70 +321,136 @@ impl Group {
         let mut table = TABLE.take();
         let runs = runs(worlds, shared, steps.clone(), cfg.dt);
         let m = start.parts.len();
-        let stride = stride(m);
-        let lanes = stride * worlds.len();
-        assert!(lanes <= LANES, "a group of {lanes} lanes");
-        if first == 0 {
-            // Zero lanes between worlds: no part, never recorded, and (inactive) frozen on a
-            // plate with an edge. The state may be an earlier run's: lanes are independent, so
-            // what it left there changes no result, but it could be NaN or subnormal (slow).
-            // SAFETY: every byte zero is every f64 0.0.
-            unsafe { std::ptr::write_bytes(&mut *self.0, 0, 1) };
+        let (lanes, width) = (lanes(m), worlds_per_group(m));
+        assert!(
+            m <= MAX_POINTS && worlds.len() <= width,
+            "a group of {} worlds of {m} points",
+            worlds.len()
+        );
+        let mut plain = PLAIN.take();
+        for buf in [&mut self.0, &mut plain] {
+            if buf.len() < PLANAR * lanes {
+                buf.resize(PLANAR * lanes, 0.0);
+            }
         }
-        let base = Base::local(&mut self.0);
         if first == 0 {
+            // Every world's points as a world run alone holds them, read and recorded there,
+            // then interleaved into the group's lanes. Absent worlds' lanes (the last group's)
+            // are zero: no part, never recorded, and (inactive) frozen on a plate with an edge.
+            // (What an earlier run left there would change no result, lanes being independent,
+            // but it could be NaN or subnormal: slow.)
+            for a in 0..PLANAR {
+                plain[a * lanes + worlds.len() * m..(a + 1) * lanes].fill(0.0);
+            }
+            let base = Base::planar(&mut plain, lanes);
             for (w, world) in worlds.iter().enumerate() {
                 let own = start.friction.map(|f| f.world(start.parts, world.b));
                 let parts = own.as_ref().unwrap_or(start.parts);
                 let u0 = world.motion.velocity(0.0);
                 let src = Source::new(parts, None, cfg, u0, start.not_finite);
-                // SAFETY: the world's lanes are within the group's buffer, which this call
-                // alone addresses.
-                unsafe { src.fill(&base, w * stride, 0, m, false) };
-                // SAFETY: just written.
-                let (l, _) = unsafe { base.chunk(w * stride, m, false) };
-                write(&l, 0, 0, &world.rec, None);
+                // SAFETY: the world's lanes are within the buffer, which nothing else
+                // addresses; then just written.
+                unsafe {
+                    src.fill(&base, w * m, 0, m, false);
+                    write(&base.chunk(w * m, m, false).0, 0, 0, &world.rec, None);
+                }
             }
+            interleave(&plain, &mut self.0, m, lanes);
         }
+        // Each world's state read back as a world run alone holds it, for its records (once
+        // for the last row and the times of leaving the plate).
+        let mut read = first == 0; // whether `plain` holds the state as it is
+        let plain_state = |state: &[f64], plain: &mut Vec<f64>, read: &mut bool| {
+            if !*read {
+                deinterleave(state, plain, m, lanes);
+                *read = true;
+            }
+            Base::planar(plain, lanes)
+        };
         let rec = worlds[0].rec;
         // Through the block a piece at a time: the piece's table stays in the core's L1 cache
         // while the kernel reads it.
-        for piece in (first..steps.end).step_by(PIECE) {
-            let piece = piece..(piece + PIECE).min(steps.end);
-            let values = tabulate(worlds, shared, &runs, &mut table, piece.clone());
-            let row = 3 * worlds.len(); // values a step
+        let len = piece(width);
+        for piece in (first..steps.end).step_by(len) {
+            let piece = piece..(piece + len).min(steps.end);
+            let values = tabulate(worlds, width, shared, &runs, &mut table, piece.clone());
+            let row = 3 * width; // values a step
             let mut done = piece.start;
             while done < piece.end {
                 let end = rec.next_after(done).min(piece.end);
                 let rows = &values[(done - piece.start) * row..(end - piece.start) * row];
-                // SAFETY: every world's lanes are written (above, or by an earlier block), and
-                // the padding is zero; nothing else addresses the buffer while `all` lives.
+                let base = Base::planar(&mut self.0, lanes);
+                // SAFETY: every lane is written (above, or by an earlier block); nothing else
+                // addresses the buffer while `all` lives.
                 let (mut all, _) = unsafe { base.chunk(0, lanes, false) };
                 kernel::run(
-                    Plate::worlds(rows, worlds.len(), stride),
+                    Plate::interleaved(rows, width, m),
                     done,
                     cfg.dt,
                     half_side(cfg),
                     &mut all,
                 );
+                read = false;
                 done = end;
                 if let Some(row) = rec.row(done) {
+                    let base = plain_state(&self.0, &mut plain, &mut read);
                     for (w, world) in worlds.iter().enumerate() {
-                        // SAFETY: as above (`all` is gone).
-                        let (l, _) = unsafe { base.chunk(w * stride, m, false) };
+                        // SAFETY: just written; nothing else addresses the buffer.
+                        let (l, _) = unsafe { base.chunk(w * m, m, false) };
                         write(&l, 0, row, &world.rec, None);
                     }
                 }
             }
         }
-        let steps = steps.len();
-        if rec.last(first, steps) {
+        if rec.last(first, steps.len()) {
+            let base = plain_state(&self.0, &mut plain, &mut read);
             for (w, world) in worlds.iter().enumerate() {
                 // SAFETY: as above.
-                let (l, _) = unsafe { base.chunk(w * stride, m, false) };
+                let (l, _) = unsafe { base.chunk(w * m, m, false) };
                 Points::ended(&l, None, 0, None, &world.rec, cfg.dt);
             }
         }
+        PLAIN.set(plain);
         TABLE.set(table);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each part of each world lands in its lane, whose column is its world's, and comes back.
+    #[test]
+    fn interleaving_puts_each_part_in_its_worlds_lane_and_back() {
+        for m in 1..=MAX_POINTS {
+            let (lanes, width) = (lanes(m), worlds_per_group(m));
+            assert!(
+                lanes <= 8 * 8 * 4 && lanes.is_multiple_of(8),
+                "{m} points: {lanes}"
+            );
+            let plain: Vec<f64> = (0..PLANAR * lanes).map(|k| k as f64).collect();
+            let mut state = vec![f64::NAN; PLANAR * lanes];
+            interleave(&plain, &mut state, m, lanes);
+            let table = vec![0.0; 3 * width];
+            let plate = Plate::interleaved(&table, width, m);
+            let mut seen = vec![false; lanes];
+            for w in 0..width {
+                for i in 0..m {
+                    let l = lane(m, w, i);
+                    assert!(!seen[l], "{m} points: lane {l} twice");
+                    seen[l] = true;
+                    assert_eq!(plate.column(l), w, "{m} points: world {w}, part {i}");
+                    for a in 0..PLANAR {
+                        assert_eq!(state[a * lanes + l], plain[a * lanes + w * m + i]);
+                    }
+                }
+            }
+            let mut back = vec![f64::NAN; PLANAR * lanes];
+            deinterleave(&state, &mut back, m, lanes);
+            for a in [0, 1, 2, 3, 4, 6] {
+                let arrays = a * lanes..(a + 1) * lanes;
+                assert_eq!(back[arrays.clone()], plain[arrays], "{m} points, array {a}");
+            }
+        }
     }
 }

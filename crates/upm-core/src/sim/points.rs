@@ -26,7 +26,7 @@ pub const CHUNK_PARTS: usize = 256;
 /// hold (`mu_s g dt`), and on a plate that moves out of its plane the height above the plate,
 /// its rate and the steps spent in flight.
 pub(super) const ARRAYS: usize = 12;
-const PLANAR: usize = 9;
+pub(super) const PLANAR: usize = 9;
 
 /// Where the points' initial state comes from, until every chunk has read it.
 #[derive(Clone, Copy)]
@@ -92,6 +92,25 @@ impl Base {
     /// A chunk's own buffer (or a group's, of `N` lanes).
     pub(super) fn local<const N: usize>(local: &mut [[f64; N]; ARRAYS]) -> Self {
         Base(std::array::from_fn(|i| local[i].as_mut_ptr()))
+    }
+
+    /// A group's buffer (`sim::group`): [`PLANAR`] arrays of `lanes` lanes each, one after the
+    /// other (a group's points stay on the plane: the arrays of the air point nowhere, and
+    /// [`Base::chunk`] must not be asked for them).
+    pub(super) fn planar(buf: &mut [f64], lanes: usize) -> Self {
+        assert!(
+            buf.len() >= PLANAR * lanes,
+            "a buffer of {PLANAR} x {lanes} lanes"
+        );
+        let p = buf.as_mut_ptr();
+        // SAFETY: within the buffer (checked).
+        Base(std::array::from_fn(|i| {
+            if i < PLANAR {
+                unsafe { p.add(i * lanes) }
+            } else {
+                std::ptr::null_mut()
+            }
+        }))
     }
 
     /// The lanes (and air state) of the `k` points from `at` on.

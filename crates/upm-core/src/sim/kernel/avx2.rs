@@ -152,19 +152,32 @@ unsafe fn tile<const EDGE: bool, const WORLDS: bool, const T: usize>(
         };
         v.s2 = _mm256_mul_pd(v.slide, v.slide);
     }
-    // Each vector's column (one table for all, or its world's), and the table's width: the
-    // constant 1 for one table, so that its loads are the table's own.
+    // Each vector's first column (one table for all, or its first world's: it reads four), and
+    // the table's width: the constant 1 for one table, so that its loads are the table's own.
     let width = if WORLDS { plate.width() } else { 1 };
     let mut cols = [0; T];
     if WORLDS {
         for (j, col) in cols.iter_mut().enumerate() {
-            *col = plate.column(at(j));
+            // (a vector past the parts holds none: it reads the first columns)
+            *col = if at(j) < n { plate.column(at(j)) } else { 0 };
+            assert!(*col + 4 <= width, "a vector's columns within the table");
         }
     }
     for k in 0..plate.steps() {
         for j in 0..T {
-            // SAFETY: k < steps, every column is below the width, which is the plate's.
-            let off = step::<EDGE>(&mut v[j], plate.at(width, cols[j], k), &c);
+            // SAFETY: k < steps, every vector's columns are within the width, which is the
+            // plate's (checked above).
+            let u = if WORLDS {
+                let p = plate.cell(width, cols[j], k);
+                [
+                    _mm256_loadu_pd(p),
+                    _mm256_loadu_pd(p.add(width)),
+                    _mm256_loadu_pd(p.add(2 * width)),
+                ]
+            } else {
+                splat(plate.at(1, 0, k))
+            };
+            let off = step::<EDGE>(&mut v[j], u, &c);
             if EDGE {
                 let bits = _mm256_movemask_pd(off);
                 if bits != 0 {
@@ -258,16 +271,21 @@ impl Consts {
     }
 }
 
-/// The exact implicit step of the vector `v` under the plate velocity `[u1, u2, u3]`, in place;
-/// with a plate edge (`EDGE`) the lanes that leave it are frozen: returns them (all ones; none
-/// without an edge).
+/// Each component of `u` in every lane.
+#[inline(always)]
+pub(in crate::sim) unsafe fn splat([u1, u2, u3]: [f64; 3]) -> [__m256d; 3] {
+    [_mm256_set1_pd(u1), _mm256_set1_pd(u2), _mm256_set1_pd(u3)]
+}
+
+/// The exact implicit step of the vector `v` under the plate velocity `[u1, u2, u3]` (each
+/// lane's own: [`splat`] for one plate), in place; with a plate edge (`EDGE`) the lanes that
+/// leave it are frozen: returns them (all ones; none without an edge).
 #[inline(always)]
 pub(in crate::sim) unsafe fn step<const EDGE: bool>(
     v: &mut Four,
-    [u1, u2, u3]: [f64; 3],
+    [u1, u2, u3]: [__m256d; 3],
     c: &Consts,
 ) -> __m256d {
-    let (u1, u2, u3) = (_mm256_set1_pd(u1), _mm256_set1_pd(u2), _mm256_set1_pd(u3));
     let sx = _mm256_fnmadd_pd(u3, v.y, u1);
     let sy = _mm256_fmadd_pd(u3, v.x, u2);
     let (wx, wy) = (_mm256_sub_pd(v.vx, sx), _mm256_sub_pd(v.vy, sy));

@@ -139,23 +139,39 @@ unsafe fn tile<const EDGE: bool, const WORLDS: bool, const T: usize>(
             h2: _mm512_mul_pd(hold, hold),
         };
     }
-    // Each vector's column (one table for all, or its world's), and the table's width: the
-    // constant 1 for one table, so that its loads are the table's own.
+    // Each vector's first column (one table for all, or its first world's: it reads eight), and
+    // the table's width: the constant 1 for one table, so that its loads are the table's own.
     let width = if WORLDS { plate.width() } else { 1 };
     let mut cols = [0; T];
     if WORLDS {
         for (j, col) in cols.iter_mut().enumerate() {
-            *col = plate.column(at(j));
+            // (a vector past the parts holds none: it reads the first columns)
+            *col = if at(j) < n { plate.column(at(j)) } else { 0 };
+            assert!(*col + 8 <= width, "a vector's columns within the table");
         }
     }
-    for k in 0..plate.steps() {
-        for j in 0..T {
-            // SAFETY: k < steps, every column is below the width, which is the plate's.
-            let off = step::<EDGE>(&mut v[j], plate.at(width, cols[j], k), &c);
-            if EDGE && off != 0 {
-                mark_left(off, s.left, at(j), first + k + 1);
+    // Every step of every vector under the velocity `u` of vector `j` at step `k`.
+    macro_rules! steps {
+        (|$j:ident, $k:ident| $u:expr) => {
+            for $k in 0..plate.steps() {
+                for $j in 0..T {
+                    let off = step::<EDGE>(&mut v[$j], $u, &c);
+                    if EDGE && off != 0 {
+                        mark_left(off, s.left, at($j), first + $k + 1);
+                    }
+                }
             }
-        }
+        };
+    }
+    // SAFETY (of each `cell`): k < steps, and every vector's columns are within the width,
+    // which is the plate's (checked above).
+    if !WORLDS {
+        steps!(|j, k| splat(plate.at(1, 0, k)));
+    } else if cols.iter().all(|&c| c == cols[0]) {
+        // (every vector reads the same eight worlds: one load a component serves the tile)
+        steps!(|j, k| columns(plate.cell(width, cols[0], k), width));
+    } else {
+        steps!(|j, k| columns(plate.cell(width, cols[j], k), width));
     }
     for (j, v) in v.iter().enumerate() {
         let k = live[j];
@@ -244,16 +260,32 @@ pub(in crate::sim) unsafe fn leaving(
         & active
 }
 
-/// The exact implicit step of the vector `v` under the plate velocity `[u1, u2, u3]`, in place;
-/// with a plate edge (`EDGE`) the lanes that leave it are frozen: returns them (none without an
-/// edge).
+/// Each component of `u` in every lane.
+#[inline(always)]
+pub(in crate::sim) unsafe fn splat([u1, u2, u3]: [f64; 3]) -> [__m512d; 3] {
+    [_mm512_set1_pd(u1), _mm512_set1_pd(u2), _mm512_set1_pd(u3)]
+}
+
+/// The three components of eight neighbouring columns from component 0's at `p`, in a table
+/// of `width` columns.
+#[inline(always)]
+unsafe fn columns(p: *const f64, width: usize) -> [__m512d; 3] {
+    [
+        _mm512_loadu_pd(p),
+        _mm512_loadu_pd(p.add(width)),
+        _mm512_loadu_pd(p.add(2 * width)),
+    ]
+}
+
+/// The exact implicit step of the vector `v` under the plate velocity `[u1, u2, u3]` (each
+/// lane's own: [`splat`] for one plate), in place; with a plate edge (`EDGE`) the lanes that
+/// leave it are frozen: returns them (none without an edge).
 #[inline(always)]
 pub(in crate::sim) unsafe fn step<const EDGE: bool>(
     v: &mut Eight,
-    [u1, u2, u3]: [f64; 3],
+    [u1, u2, u3]: [__m512d; 3],
     c: &Consts,
 ) -> __mmask8 {
-    let (u1, u2, u3) = (_mm512_set1_pd(u1), _mm512_set1_pd(u2), _mm512_set1_pd(u3));
     let sx = _mm512_fnmadd_pd(u3, v.y, u1);
     let sy = _mm512_fmadd_pd(u3, v.x, u2);
     let (wx, wy) = (_mm512_sub_pd(v.vx, sx), _mm512_sub_pd(v.vy, sy));

@@ -118,16 +118,19 @@ pub fn simd() -> Simd {
 }
 
 /// The plate's velocity at the end of each step of a segment, for the parts of a chunk: one
-/// table for every part, or (small worlds of a batch run side by side) one column per world,
-/// world `w` in the lanes `w * stride .. (w + 1) * stride`.
+/// table for every part, or (small worlds of a batch run side by side, `sim::group`) one column
+/// per world, the worlds interleaved: sets of eight worlds, each set a run of `parts` vectors of
+/// eight lanes, vector `i` of a set holding part `i` of its eight worlds, one world a lane. Lane
+/// `l` then holds world `8 (l / 8 / parts) + l % 8`, and a vector's lanes read eight neighbouring
+/// columns of one row: one load serves eight worlds.
 #[derive(Clone, Copy)]
 pub(super) struct Plate<'t> {
     /// Step after step, each component's row of `width` columns: component `c` of column `w`
     /// at step `k` is `values[(3 k + c) width + w]` (one table: `[u1, u2, u3]` a step).
     values: &'t [f64],
     width: usize,
-    /// Lanes per column (`usize::MAX` for one table).
-    stride: usize,
+    /// Parts per world (`usize::MAX` for one table).
+    parts: usize,
 }
 
 impl<'t> Plate<'t> {
@@ -136,21 +139,24 @@ impl<'t> Plate<'t> {
         Plate {
             values: table.as_flattened(),
             width: 1,
-            stride: usize::MAX,
+            parts: usize::MAX,
         }
     }
 
-    /// One column per world of `stride` lanes (a multiple of every vector's width), `width`
-    /// worlds side by side in `values` (see [`Plate`]; whole steps, checked).
-    pub(super) fn worlds(values: &'t [f64], width: usize, stride: usize) -> Self {
+    /// Worlds of `parts` parts interleaved (see [`Plate`]), `width` columns (a whole number of
+    /// sets of eight) side by side in `values` (whole steps; checked).
+    pub(super) fn interleaved(values: &'t [f64], width: usize, parts: usize) -> Self {
         assert!(
-            width > 0 && stride.is_multiple_of(8) && values.len().is_multiple_of(3 * width),
-            "columns of worlds"
+            width > 0
+                && width.is_multiple_of(8)
+                && parts > 0
+                && values.len().is_multiple_of(3 * width),
+            "columns of interleaved worlds"
         );
         Plate {
             values,
             width,
-            stride,
+            parts,
         }
     }
 
@@ -165,28 +171,40 @@ impl<'t> Plate<'t> {
         self.width
     }
 
-    /// The column of the part in `lane` (the last world's for lanes past every world: they hold
+    /// The column of the part in `lane` (the last column for lanes past every set: they hold
     /// no part).
     #[inline]
     pub(super) fn column(&self, lane: usize) -> usize {
         if self.width == 1 {
             0
         } else {
-            (lane / self.stride).min(self.width - 1)
+            (lane / 8 / self.parts * 8 + lane % 8).min(self.width - 1)
         }
     }
 
-    /// The velocity of column `col` at step `k`, from a table of `width` columns (the caller's
-    /// constant 1 for one table: its loads then are the table's own).
+    /// Component 0 of column `col` at step `k`, from a table of `width` columns (the caller's
+    /// constant 1 for one table: its loads then are the table's own); component `c` lies
+    /// `c * width` values further.
     ///
     /// # Safety
-    /// `k < self.steps()`, `col < width` and `width == self.width`.
+    /// `k < self.steps()`, `col < width` and `width == self.width`; whoever reads `n` columns
+    /// from it needs `col + n <= width`.
     #[inline(always)]
-    pub(super) unsafe fn at(&self, width: usize, col: usize, k: usize) -> [f64; 3] {
+    pub(super) unsafe fn cell(&self, width: usize, col: usize, k: usize) -> *const f64 {
         debug_assert!(k < self.steps() && col < width && width == self.width);
         // SAFETY: (3 k + c) width + col < 3 width steps = the length (the caller's promise).
+        unsafe { self.values.as_ptr().add(3 * width * k + col) }
+    }
+
+    /// The velocity of column `col` at step `k` (see [`Plate::cell`]).
+    ///
+    /// # Safety
+    /// As [`Plate::cell`].
+    #[inline(always)]
+    pub(super) unsafe fn at(&self, width: usize, col: usize, k: usize) -> [f64; 3] {
+        // SAFETY: the caller's promise.
         unsafe {
-            let p = self.values.as_ptr().add(3 * width * k + col);
+            let p = self.cell(width, col, k);
             [*p, *p.add(width), *p.add(2 * width)]
         }
     }

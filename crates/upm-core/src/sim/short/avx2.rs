@@ -4,7 +4,7 @@
 use std::arch::x86_64::*;
 use std::sync::atomic::Ordering;
 
-use crate::sim::kernel::avx2::{leaving, step, Consts, Four};
+use crate::sim::kernel::avx2::{leaving, splat, step, Consts, Four};
 use crate::sim::kernel::NEVER;
 use crate::sim::points::Source;
 use crate::sim::record::{cells, left_times, Rec, FLAG_BYTES};
@@ -112,6 +112,7 @@ impl Source<'_> {
         let c = Consts::new(dt, self.half);
         let mut next = rec.next_after(0);
         for (k, &u) in table.iter().enumerate() {
+            let u = splat(u);
             for j in 0..T {
                 let off = step::<EDGE>(&mut v[j], u, &c);
                 if EDGE {

@@ -7,7 +7,7 @@
 use std::arch::x86_64::*;
 use std::sync::atomic::Ordering;
 
-use crate::sim::kernel::avx512::{leaving, step, tile_width, Consts, Eight};
+use crate::sim::kernel::avx512::{leaving, splat, step, tile_width, Consts, Eight};
 use crate::sim::kernel::NEVER;
 use crate::sim::points::Source;
 use crate::sim::record::{Rec, FLAG_BYTES};
@@ -111,6 +111,7 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
     let c = Consts::new(dt, src.half);
     let mut next = rec.next_after(0);
     for (k, &u) in table.iter().enumerate() {
+        let u = splat(u);
         for j in 0..T {
             let off = step::<EDGE>(&mut v[j], u, &c);
             if EDGE {
