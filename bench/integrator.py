@@ -192,8 +192,8 @@ def small_calls(motion: upm.PlateMotion, dt: float) -> None:
 def batch_times(quick: bool) -> None:
     """Batches of small worlds (the predictive planner's rollouts: enveloped jets, 8 parts each)
     against one world of as many parts on the first of those motions, per part-step on every
-    core; then worlds of 8 to 256 parts on one thread (up to 32 points a world run side by side
-    in register tiles, larger worlds one by one)."""
+    core; then worlds of 1 to 256 parts on one thread (up to 32 points a world run side by side,
+    eight worlds to a vector, larger worlds one by one)."""
     rng = np.random.default_rng(6)
     dt, duration = 1 / (24 * 100), 0.35
     steps = round(duration / dt)
@@ -218,7 +218,7 @@ def batch_times(quick: bool) -> None:
           f" {b * m} parts: {world:.2f}; the batch costs {batch / world:.2f}x")  # fmt: skip
     parts = 800 if quick else 4000
     cells = []
-    for m in (8, 32, 64, 256):
+    for m in (1, 3, 8, 32, 64, 256):
         batch, world = ratio(parts // m, m, threads=1)
         cells.append(f"{parts // m} x {m}: {batch / world:.2f}x")
     print(f"  one thread, worlds x parts, against one world of as many: {'; '.join(cells)}")

@@ -10,7 +10,8 @@
 //! plate only (for a profile of one); `EVERY=k` makes every run record every `k`-th step instead
 //! of the last only (the cost of recording). `--batch` runs the batch bench alone (on one thread
 //! and on every core); `--batch-profile` then repeats its one-thread batch, and
-//! `--batch-fixed-profile` its 2-step call on every core, for a profiler.
+//! `--batch-fixed-profile` its 2-step call on every core, for a profiler; `--batch --batch-only`
+//! (`--world-only`) runs the batch (the one world) alone, 200 times, to compare their profiles.
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -337,6 +338,19 @@ fn batch() {
         vec![0.4; b * m],
     );
     let per = |t: f64| t * 1e9 / (b * m * steps) as f64;
+    // For comparing profiles of the two sides: one of them alone, 200 runs on this thread.
+    for (flag, batch) in [("--batch-only", true), ("--world-only", false)] {
+        if std::env::args().any(|a| a == flag) {
+            for _ in 0..200 {
+                if batch {
+                    black_box(stacked(steps));
+                } else {
+                    black_box(simulate(&motions[0], &large, &cfg(steps)).unwrap());
+                }
+            }
+            return;
+        }
+    }
     println!("batches, {b} enveloped jets x {m} parts x {steps} steps, ns per part-step:");
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     for threads in [1, cores] {
