@@ -312,6 +312,27 @@ def test_plate_motion_programs():
             upm.ParameterError,
             "rho must",
         ),
+        # a batch's motions: each checked, the first that is not one named
+        (
+            lambda m: upm.simulate_batch([m, m, 3], [[0, 0]], duration=0.01, dt=1e-4, mu=0.3),
+            upm.ParameterError,
+            r"motions\[2\] must be a upm.PlateMotion; got int",
+        ),
+        (
+            lambda m: upm.simulate_batch((m, m._inner), [[0, 0]], duration=0.01, dt=1e-4, mu=0.3),
+            upm.ParameterError,
+            r"motions\[1\] must be a upm.PlateMotion",
+        ),
+        (
+            lambda m: upm.simulate_batch([], [[0, 0]], duration=0.01, dt=1e-4, mu=0.3),
+            upm.ParameterError,
+            "at least one",
+        ),
+        (
+            lambda m: upm.simulate_batch(m, [[0, 0]], duration=0.01, dt=1e-4, mu=0.3),
+            upm.ParameterError,
+            "motions must be a sequence",
+        ),
     ],
 )
 def test_bad_input(call, error, match):
