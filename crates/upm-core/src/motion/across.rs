@@ -157,25 +157,7 @@ fn stint(st: &Stint, motions: &[&PlateMotion], samples: &[Sample], out: &mut Col
         out.fill(at, n, samples, |_| [[0.0; LANES]; 3]);
         return;
     }
-    // Jets: `k` = 2A/rho, `a` = A d, `c` the focus, as `At::extend` takes them.
-    let mut k = [0.0; LANES];
-    let [mut ax, mut ay, mut cx, mut cy] = [[0.0; LANES]; 4];
-    if (0..n).all(|j| {
-        let Segment::Jet {
-            center,
-            direction,
-            rho,
-            amplitude,
-            ..
-        } = segment(j)
-        else {
-            return false;
-        };
-        k[j] = 2.0 * amplitude / rho;
-        (ax[j], ay[j]) = (amplitude * direction[0], amplitude * direction[1]);
-        [cx[j], cy[j]] = *center;
-        true
-    }) {
+    if let Some([k, ax, ay, cx, cy]) = jets(motions, st.item) {
         out.fill(at, n, samples, |p| {
             // (a component at a time: each a plain loop over the lanes, one vector's work)
             let u = |j: usize| jet(&[cx[j], cy[j]], (ax[j], ay[j]), p.feed, k[j] * p.spin);
@@ -201,6 +183,69 @@ fn stint(st: &Stint, motions: &[&PlateMotion], samples: &[Sample], out: &mut Col
                 out.values[(3 * (at.row + r) + c) * out.width + at.col + j] = v;
             }
         }
+    }
+}
+
+/// The coefficients of item `item` of `motions` (at most [`LANES`]) if every one is a jet, lane
+/// by lane (zero past the motions): `k = 2A/rho`, `A d` and the focus `c`, as `At::extend` takes
+/// them; a jet's velocity at a sample `p` is then `[ax g + w cy, ay g - w cx, w]` with
+/// `g = p.feed` and `w = k p.spin` ([`jet`]).
+pub(crate) fn jets(motions: &[&PlateMotion], item: usize) -> Option<[[f64; LANES]; 5]> {
+    let [mut k, mut ax, mut ay, mut cx, mut cy] = [[0.0; LANES]; 5];
+    for (j, m) in motions.iter().enumerate().take(LANES) {
+        let Segment::Jet {
+            center,
+            direction,
+            rho,
+            amplitude,
+            ..
+        } = &m.items[item].segment
+        else {
+            return None;
+        };
+        k[j] = 2.0 * amplitude / rho;
+        (ax[j], ay[j]) = (amplitude * direction[0], amplitude * direction[1]);
+        [cx[j], cy[j]] = *center;
+    }
+    Some([k, ax, ay, cx, cy])
+}
+
+/// A stint of a piece of steps of jets (see [`Phases::jets`]): its steps, each step's sample,
+/// and the jets' coefficients ([`jets`]).
+pub(crate) struct JetStint<'a> {
+    pub steps: Range<usize>,
+    pub samples: &'a [Sample],
+    pub coef: [[f64; LANES]; 5],
+}
+
+impl Phases {
+    /// The stints of `steps` (within the block) for `motions` (at most [`LANES`], of the timing
+    /// these samples were taken for), if every motion plays a jet in each (and the plate rests
+    /// in none): what a kernel that evaluates the jets itself needs to give each lane the
+    /// velocity [`Phases::extend_across`] tabulates, to the bit. `None` otherwise.
+    pub(crate) fn jets(
+        &self,
+        motions: &[&PlateMotion],
+        steps: Range<usize>,
+    ) -> Option<Vec<JetStint<'_>>> {
+        assert!(
+            self.steps.start <= steps.start
+                && steps.end <= self.steps.end
+                && motions.len() <= LANES,
+            "steps {steps:?} outside the block {:?}, or {} motions",
+            self.steps,
+            motions.len()
+        );
+        self.pieces(steps)
+            .map(|(st, first, samples)| {
+                (st.stretch != Stretch::Off).then_some(())?;
+                Some(JetStint {
+                    steps: first..first + samples.len(),
+                    samples,
+                    coef: jets(motions, st.item)?,
+                })
+            })
+            .collect()
     }
 }
 

@@ -140,12 +140,12 @@ impl Phasors {
 /// envelope's factor (exactly 1 outside its ramps), and for a jet its feeding profile and the
 /// sine of its `2/3` phase, each times the envelope's factor.
 #[derive(Debug, Clone, Copy, Default)]
-pub(super) struct Sample {
+pub(crate) struct Sample {
     pub(super) c: f64,
     pub(super) s: f64,
     pub(super) env: f64,
-    pub(super) feed: f64,
-    pub(super) spin: f64,
+    pub(crate) feed: f64,
+    pub(crate) spin: f64,
 }
 
 impl Phasors {

@@ -461,7 +461,8 @@ mod across;
 pub(crate) use across::Columns;
 #[path = "phasors.rs"]
 mod phasors;
-use phasors::{Phasors, Sample};
+use phasors::Phasors;
+pub(crate) use phasors::Sample;
 
 #[cfg(test)]
 #[path = "table_tests.rs"]

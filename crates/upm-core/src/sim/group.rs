@@ -16,7 +16,7 @@ use std::sync::Mutex;
 
 use rayon::prelude::*;
 
-use super::kernel::{self, Plate};
+use super::kernel::{self, Jets, Plate};
 use super::points::{write, Base, Points, Source, PLANAR};
 use super::record::{Rec, Recorder, Stacked};
 use super::timing::{self, by_timing};
@@ -368,28 +368,58 @@ impl Group {
             Base::planar(plain, lanes)
         };
         let rec = worlds[0].rec;
+        // Jets the kernel evaluates itself, where it can (one set of worlds, of one timing, on
+        // the build that does): no table, and the same bits as the table's.
+        let fused =
+            (sets(m) == 1 && runs.len() == 1 && Plate::jets_built(kernel::simd())).then(|| {
+                let phases = runs[0].1.as_ref().or(shared[worlds[0].timing].as_ref());
+                let motions: Vec<&PlateMotion> = worlds.iter().map(|w| w.motion).collect();
+                (
+                    phases.expect("a timing's samples, shared or its own"),
+                    motions,
+                )
+            });
         // Through the block a piece at a time: the piece's table stays in the core's L1 cache
         // while the kernel reads it.
         let len = piece(width);
         for piece in (first..steps.end).step_by(len) {
             let piece = piece..(piece + len).min(steps.end);
-            let values = tabulate(worlds, width, shared, &runs, &mut table, piece.clone());
+            let stints = fused
+                .as_ref()
+                .and_then(|(phases, motions)| phases.jets(motions, piece.clone()));
+            let values = match stints {
+                Some(_) => &[][..],
+                None => tabulate(worlds, width, shared, &runs, &mut table, piece.clone()),
+            };
             let row = 3 * width; // values a step
             let mut done = piece.start;
             while done < piece.end {
-                let end = rec.next_after(done).min(piece.end);
-                let rows = &values[(done - piece.start) * row..(end - piece.start) * row];
+                let mut end = rec.next_after(done).min(piece.end);
+                let plate = match &stints {
+                    Some(stints) => {
+                        let st = (stints.iter().find(|st| st.steps.contains(&done)))
+                            .expect("every step of the piece in a stint");
+                        end = end.min(st.steps.end);
+                        let from = st.steps.start;
+                        let samples = &st.samples[done - from..end - from];
+                        Plate::jets(
+                            Jets {
+                                samples,
+                                coef: &st.coef,
+                            },
+                            m,
+                        )
+                    }
+                    None => {
+                        let rows = &values[(done - piece.start) * row..(end - piece.start) * row];
+                        Plate::interleaved(rows, width, m)
+                    }
+                };
                 let base = Base::planar(&mut self.0, lanes);
                 // SAFETY: every lane is written (above, or by an earlier block); nothing else
                 // addresses the buffer while `all` lives.
                 let (mut all, _) = unsafe { base.chunk(0, lanes, false) };
-                kernel::run(
-                    Plate::interleaved(rows, width, m),
-                    done,
-                    cfg.dt,
-                    half_side(cfg),
-                    &mut all,
-                );
+                kernel::run(plate, done, cfg.dt, half_side(cfg), &mut all);
                 read = false;
                 done = end;
                 if let Some(row) = rec.row(done) {

@@ -25,6 +25,8 @@ pub(super) mod avx2;
 #[cfg(target_arch = "x86_64")]
 pub(super) mod avx512;
 
+use crate::motion::Sample;
+
 /// Step count of a part that never left the plate.
 pub(super) const NEVER: f64 = f64::INFINITY;
 
@@ -131,6 +133,17 @@ pub(super) struct Plate<'t> {
     width: usize,
     /// Parts per world (`usize::MAX` for one table).
     parts: usize,
+    /// Eight worlds' jets evaluated by the kernel at each step's sample instead of read from
+    /// `values` ([`Plate::jets`]).
+    jets: Option<Jets<'t>>,
+}
+
+/// A set of eight worlds' jets through a stint of steps: each step's sample, and the jets'
+/// coefficients `[k, ax, ay, cx, cy]` lane by lane (see `motion::table::across::jets`).
+#[derive(Clone, Copy)]
+pub(super) struct Jets<'t> {
+    pub samples: &'t [Sample],
+    pub coef: &'t [[f64; 8]; 5],
 }
 
 impl<'t> Plate<'t> {
@@ -140,6 +153,7 @@ impl<'t> Plate<'t> {
             values: table.as_flattened(),
             width: 1,
             parts: usize::MAX,
+            jets: None,
         }
     }
 
@@ -157,12 +171,42 @@ impl<'t> Plate<'t> {
             values,
             width,
             parts,
+            jets: None,
         }
+    }
+
+    /// One set of eight worlds of `parts` parts interleaved (see [`Plate`]; the kernel checks
+    /// that its tiles hold no other set), under jets the
+    /// kernel evaluates at each step (the velocity `[ax g + w cy, ay g - w cx, w]`, `g` the
+    /// sample's feeding profile and `w = k` times its spin: the operations of the worlds' table,
+    /// so the same bits). Only the AVX-512 build takes it ([`Plate::jets_built`]).
+    pub(super) fn jets(jets: Jets<'t>, parts: usize) -> Self {
+        assert!(parts > 0, "worlds of no part");
+        Plate {
+            values: &[],
+            width: 8,
+            parts,
+            jets: Some(jets),
+        }
+    }
+
+    /// Whether the build `simd` evaluates [`Plate::jets`] (the others read a table).
+    pub(super) fn jets_built(simd: Simd) -> bool {
+        simd == Simd::Avx512
     }
 
     /// The number of steps.
     pub(super) fn steps(&self) -> usize {
-        self.values.len() / (3 * self.width)
+        match self.jets {
+            Some(j) => j.samples.len(),
+            None => self.values.len() / (3 * self.width),
+        }
+    }
+
+    /// The jets, if the kernel evaluates them.
+    #[inline]
+    pub(super) fn jets_of(&self) -> Option<Jets<'t>> {
+        self.jets
     }
 
     /// Columns side by side.
@@ -235,6 +279,11 @@ pub(super) fn run_with(simd: Simd, plate: Plate, first: usize, dt: f64, half: f6
 /// # Safety
 /// The CPU must have the build's features.
 unsafe fn dispatch(simd: Simd, table: Plate, first: usize, dt: f64, half: f64, s: &mut Lanes) {
+    assert!(
+        table.jets.is_none() || Plate::jets_built(simd),
+        "the {} build reads a table, not jets",
+        simd.name()
+    );
     let edge = half.is_finite();
     match simd {
         Simd::Portable => run_portable(table, first, dt, half, s),
