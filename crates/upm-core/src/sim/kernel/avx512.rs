@@ -150,11 +150,10 @@ unsafe fn tile<const EDGE: bool, const WORLDS: bool, const T: usize>(
             assert!(*col + 8 <= width, "a vector's columns within the table");
         }
     }
-    // Every step of every vector under the velocity `u` of vector `j` at step `k`.
     // Every step of every vector under the velocity `u`: of vector `j` at step `k` (`each`), or
     // of the whole tile at step `k` (`tile`: evaluated once a step, before its vectors).
     macro_rules! steps {
-        (each |$j:ident, $k:ident| $u:expr) => {
+        (each $j:ident, $k:ident => $u:expr) => {
             for $k in 0..plate.steps() {
                 for $j in 0..T {
                     let off = step::<EDGE>(&mut v[$j], $u, &c);
@@ -164,7 +163,7 @@ unsafe fn tile<const EDGE: bool, const WORLDS: bool, const T: usize>(
                 }
             }
         };
-        (tile |$k:ident| $u:expr) => {
+        (tile $k:ident => $u:expr) => {
             for $k in 0..plate.steps() {
                 let u = $u;
                 for j in 0..T {
@@ -179,31 +178,29 @@ unsafe fn tile<const EDGE: bool, const WORLDS: bool, const T: usize>(
     // SAFETY (of each `cell`): k < steps, and every vector's columns are within the width,
     // which is the plate's (checked above).
     if !WORLDS {
-        steps!(tile | k | splat(plate.at(1, 0, k)));
+        steps!(tile k => splat(plate.at(1, 0, k)));
     } else if let Some(jets) = plate.jets_of() {
         // One set of eight worlds: every vector's lanes are its worlds, one velocity a step
         // serves the tile.
         assert!(cols.iter().all(|&c| c == 0), "jets of one set of worlds");
         let load = |c: usize| _mm512_loadu_pd(jets.coef[c].as_ptr());
         let [k, ax, ay, cx, cy] = [load(0), load(1), load(2), load(3), load(4)];
-        steps!(
-            tile | t | {
-                // (`jet`'s operations in its order: the table's bits; t < steps = the samples)
-                let p = jets.samples.get_unchecked(t);
-                let g = _mm512_set1_pd(p.feed);
-                let w = _mm512_mul_pd(k, _mm512_set1_pd(p.spin));
-                [
-                    _mm512_add_pd(_mm512_mul_pd(ax, g), _mm512_mul_pd(w, cy)),
-                    _mm512_sub_pd(_mm512_mul_pd(ay, g), _mm512_mul_pd(w, cx)),
-                    w,
-                ]
-            }
-        );
+        steps!(tile t => {
+            // (`jet`'s operations in its order: the table's bits; t < steps = the samples)
+            let p = jets.samples.get_unchecked(t);
+            let g = _mm512_set1_pd(p.feed);
+            let w = _mm512_mul_pd(k, _mm512_set1_pd(p.spin));
+            [
+                _mm512_add_pd(_mm512_mul_pd(ax, g), _mm512_mul_pd(w, cy)),
+                _mm512_sub_pd(_mm512_mul_pd(ay, g), _mm512_mul_pd(w, cx)),
+                w,
+            ]
+        });
     } else if cols.iter().all(|&c| c == cols[0]) {
         // (every vector reads the same eight worlds: one load a component serves the tile)
-        steps!(tile | k | columns(plate.cell(width, cols[0], k), width));
+        steps!(tile k => columns(plate.cell(width, cols[0], k), width));
     } else {
-        steps!(each | j, k | columns(plate.cell(width, cols[j], k), width));
+        steps!(each j, k => columns(plate.cell(width, cols[j], k), width));
     }
     for (j, v) in v.iter().enumerate() {
         let k = live[j];

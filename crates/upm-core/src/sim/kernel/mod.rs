@@ -176,10 +176,10 @@ impl<'t> Plate<'t> {
     }
 
     /// One set of eight worlds of `parts` parts interleaved (see [`Plate`]; the kernel checks
-    /// that its tiles hold no other set), under jets the
-    /// kernel evaluates at each step (the velocity `[ax g + w cy, ay g - w cx, w]`, `g` the
-    /// sample's feeding profile and `w = k` times its spin: the operations of the worlds' table,
-    /// so the same bits). Only the AVX-512 build takes it ([`Plate::jets_built`]).
+    /// that its tiles hold no other set), under jets the kernel evaluates at each step (the
+    /// velocity `[ax g + w cy, ay g - w cx, w]`, `g` the sample's feeding profile and `w = k`
+    /// times its spin: the operations of the worlds' table, so the same bits). Only the AVX-512
+    /// build takes it ([`Plate::jets_built`]).
     pub(super) fn jets(jets: Jets<'t>, parts: usize) -> Self {
         assert!(parts > 0, "worlds of no part");
         Plate {
