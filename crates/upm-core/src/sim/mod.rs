@@ -28,6 +28,7 @@
 //! each other and with walls: [`contact`] (rapier2d) runs after each friction step when contacts
 //! are asked for.
 
+mod config;
 pub mod contact;
 mod disks;
 mod group;
@@ -46,9 +47,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
-use crate::error::{positive, Error, Result};
+use crate::error::{Error, Result};
 use crate::motion::PlateMotion;
 use crate::parallel;
+use config::half_side;
+pub use config::Config;
 pub use contact::Contacts;
 use disks::{run_disks, DiskState};
 pub use kernel::{simd, Simd};
@@ -58,25 +61,6 @@ pub use record::Stacked;
 use record::{recorded_rows, Rec, Recorder};
 pub use work::little_work;
 use work::{block_steps, little, POLYGON_DISKS};
-
-/// Largest number of recorded values (rows x parts) a simulation may allocate.
-const MAX_RECORDED: usize = 1 << 30;
-
-/// Integration settings.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Config {
-    /// Time step [s].
-    pub dt: f64,
-    /// Simulated time [s]; the run takes `ceil(duration / dt)` steps.
-    pub duration: f64,
-    /// Gravity [m/s^2].
-    pub g: f64,
-    /// Side of the square plate centred at the origin [m]; parts whose centre leaves it stop
-    /// being simulated. `None`: an unbounded plate.
-    pub plate_size: Option<f64>,
-    /// Record every this many steps (the initial state is always recorded).
-    pub record_every: usize,
-}
 
 /// What a simulation recorded. Arrays are row-major `(rows, parts)`.
 #[derive(Debug, Clone, PartialEq)]
@@ -97,69 +81,6 @@ pub struct Trajectory {
     pub left_plate: Vec<Option<f64>>,
     /// Time each part spent in flight [s] (0 on a plate that stays in its plane), `(parts,)`.
     pub flight: Vec<f64>,
-}
-
-impl Config {
-    /// The number of steps `duration` takes (at least one; not checked).
-    pub(super) fn step_count(&self) -> f64 {
-        (self.duration / self.dt - 1e-9).ceil().max(1.0)
-    }
-
-    /// Number of steps, after checking every setting against the motion.
-    pub fn steps(&self, motion: &PlateMotion, parts: usize) -> Result<usize> {
-        positive("dt", self.dt)?;
-        positive("duration", self.duration)?;
-        positive("g", self.g)?;
-        if let Some(size) = self.plate_size {
-            positive("plate_size", size)?;
-        }
-        if self.record_every == 0 {
-            return Err(Error::parameter("record_every", "must be >= 1; got 0"));
-        }
-        self.resolves(motion)?;
-        let steps = self.step_count();
-        if steps > 1e12 {
-            return Err(Error::parameter(
-                "dt",
-                format!(
-                    "gives {steps:e} steps for duration {}; at most 1e12",
-                    self.duration
-                ),
-            ));
-        }
-        let steps = steps as usize;
-        let rows = recorded_rows(steps, self.record_every);
-        if rows.saturating_mul(parts.max(1)) > MAX_RECORDED {
-            return Err(Error::parameter(
-                "record_every",
-                format!(
-                    "is too small: {rows} recorded rows x {parts} parts exceeds {MAX_RECORDED} values; \
-                     record every {} steps or more",
-                    (steps * parts.max(1)) / MAX_RECORDED + 1
-                ),
-            ));
-        }
-        Ok(steps)
-    }
-
-    /// Checks that the steps resolve `motion`'s highest frequency: the one check of
-    /// [`Config::steps`] that depends on the motion (a batch makes it for every world, and the
-    /// others once).
-    fn resolves(&self, motion: &PlateMotion) -> Result<()> {
-        let f_max = motion.max_frequency();
-        let dt_max = 1.0 / (20.0 * f_max);
-        if f_max > 0.0 && self.dt > dt_max {
-            return Err(Error::parameter(
-                "dt",
-                format!(
-                    "is too large for the motion's highest frequency {f_max:.6e} Hz: at least 20 steps per \
-                     period are needed, so dt <= {dt_max:.6e} s; got {}",
-                    self.dt
-                ),
-            ));
-        }
-        Ok(())
-    }
 }
 
 /// Whether a part at `p` with velocity `v` moves with the plate surface of velocity `u`
@@ -183,11 +104,6 @@ fn leaves(active: &mut bool, left: &mut Option<f64>, c: [f64; 2], s: usize, cfg:
         *left = Some((s + 1) as f64 * cfg.dt);
     }
     out
-}
-
-/// Half the plate's side [m], infinite for an unbounded plate.
-fn half_side(cfg: &Config) -> f64 {
-    cfg.plate_size.map_or(f64::INFINITY, |s| 0.5 * s)
 }
 
 /// The parts of one world and what has been recorded of it.
