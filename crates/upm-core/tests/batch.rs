@@ -327,3 +327,32 @@ fn groups_of_whole_vectors_in_one_block_are_bitwise_each_world_alone() {
     let err = simulate_batch(&motions(3), &bad, &cfg).unwrap_err();
     assert!(err.to_string().contains("11"), "{err}");
 }
+
+#[test]
+fn parts_start_stuck_in_just_the_worlds_whose_plate_they_move_with() {
+    // Worlds that share their parts read them once a group, but whether a part starts stuck
+    // depends on each world's plate velocity at the start: each part here but the last moves
+    // with one world's plate surface; the last starts off the plate.
+    let cfg = config(1.0 / 35.0 / 100.0, 0.2, Some(0.17), 9);
+    for (m, b) in [(3, 21), (8, 13)] {
+        let motions = motions(b);
+        let mut parts = parts(m);
+        parts.position[m - 1] = [0.2, 0.0];
+        let with = |i: usize| (2 * i + 1) % b; // the world part i moves with
+        for i in 0..m - 1 {
+            let u = motions[with(i)].velocity(0.0);
+            let [x, y] = parts.position[i];
+            parts.velocity[i] = [u[0] - u[2] * y, u[1] + u[2] * x];
+        }
+        let batch = simulate_batch(&motions, &parts, &cfg).unwrap();
+        for (w, motion) in motions.iter().enumerate() {
+            let alone = simulate(motion, &parts, &cfg).unwrap();
+            assert_eq!(batch[w], alone, "{m} parts, world {w} of {b}");
+            for i in 0..m - 1 {
+                let stuck = alone.stuck[i];
+                assert_eq!(stuck, w == with(i), "{m} parts: part {i} in world {w}");
+            }
+            assert_eq!(alone.left_plate[m - 1], Some(0.0), "{m} parts, world {w}");
+        }
+    }
+}

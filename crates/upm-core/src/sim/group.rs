@@ -17,10 +17,10 @@ use std::sync::Mutex;
 use rayon::prelude::*;
 
 use super::kernel::{self, Jets, Plate};
-use super::points::{write, Base, Points, Source, PLANAR};
-use super::record::{Rec, Recorder, Stacked};
+use super::points::{write, Base, Points, Source, PLANAR, STUCK};
+use super::record::{Rec, Recorder, RunState, Stacked};
 use super::timing::{self, by_timing};
-use super::{half_side, Config, Error, PartsView, WorldFriction};
+use super::{half_side, moves_with_plate, Config, Error, PartsView, WorldFriction};
 use crate::motion::{Columns, Phases, PlateMotion};
 
 /// Worlds with at most this many point parts (and nothing else) are run in groups.
@@ -44,10 +44,10 @@ fn lanes(m: usize) -> usize {
 }
 
 /// The lane of part `i` of world `w` of a group of worlds of `m` points: vector `i` of the
-/// world's set of eight, lane `w % 8` (as [`Plate::column`] reads it). The copies below walk the
-/// lanes in order instead (computing it for every part scattered the stores: a 2-step call of
-/// 500 worlds took 0.25 µs a world against 0.19); the tests check them against it.
-#[cfg(test)]
+/// world's set of eight, lane `w % 8` (as [`Plate::column`] reads it). The copies of whole
+/// arrays below walk the lanes in order instead (computing it for every part scattered the
+/// stores: a 2-step call of 500 worlds took 0.25 µs a world against 0.19); the tests check them
+/// against it.
 fn lane(m: usize, w: usize, i: usize) -> usize {
     8 * (w / 8 * m + i) + w % 8
 }
@@ -307,6 +307,101 @@ impl Group {
         spare.extend(groups.into_iter().take(room));
     }
 
+    /// Reads the points of `worlds` (sharing their parts: no friction of their own) as their
+    /// first block starts and records their initial state. The parts are read once, as world 0
+    /// holds them (`plain`'s first `m` lanes): each lane of the group takes its part's state but
+    /// the stuck flag, which depends on its world's plate velocity at the start. Absent worlds'
+    /// lanes (the last group's) are zero: no part, never recorded, and (inactive) frozen on a
+    /// plate with an edge. (What an earlier run left there would change no result, lanes being
+    /// independent, but it could be NaN or subnormal: slow.)
+    fn start_shared(
+        &mut self,
+        worlds: &[Member],
+        m: usize,
+        lanes: usize,
+        cfg: &Config,
+        start: &Start,
+        plain: &mut [f64],
+    ) {
+        let base = Base::planar(plain, lanes);
+        let u0 = worlds[0].motion.velocity(0.0);
+        let src = Source::new(start.parts, None, cfg, u0, start.not_finite);
+        // SAFETY: the first `m` lanes are within the buffer, which nothing else addresses.
+        unsafe { src.fill(&base, 0, 0, m, false) };
+        let n = worlds.len();
+        let state = &mut self.0[..PLANAR * lanes];
+        for (from, to) in plain.chunks_exact(lanes).zip(state.chunks_exact_mut(lanes)) {
+            // vector `g m + i`: part `i` of the eight worlds of set `g` (those present)
+            for (g, set) in to.chunks_exact_mut(8 * m).enumerate() {
+                let present = n.saturating_sub(8 * g).min(8);
+                for (&value, to) in from[..m].iter().zip(set.chunks_exact_mut(8)) {
+                    to[..present].fill(value);
+                    to[present..].fill(0.0);
+                }
+            }
+        }
+        let at = |a: usize| &plain[a * lanes..][..m];
+        let (x, y, vx, vy) = (at(0), at(1), at(2), at(3));
+        let mut stuck = [0.0; MAX_POINTS];
+        for (w, world) in worlds.iter().enumerate() {
+            let u = if w == 0 {
+                u0
+            } else {
+                world.motion.velocity(0.0)
+            };
+            for (i, s) in stuck[..m].iter_mut().enumerate() {
+                // (as `Source::fill` finds it)
+                *s = if moves_with_plate([x[i], y[i]], [vx[i], vy[i]], u) {
+                    1.0
+                } else {
+                    0.0
+                };
+                state[STUCK * lanes + lane(m, w, i)] = *s;
+            }
+            let row = RunState {
+                x,
+                y,
+                vx,
+                vy,
+                stuck: &stuck[..m],
+            };
+            // SAFETY: row 0 and the parts below m, which this group alone writes for the world.
+            unsafe { world.rec.points_run(0, 0, &row) };
+            world.rec.fence();
+        }
+    }
+
+    /// Reads and records the points of `worlds` as their first block starts, each world's as a
+    /// world run alone holds them (with its own friction), then interleaved into the group's
+    /// lanes (absent worlds' zero, as in [`Group::start_shared`]).
+    fn start_each(
+        &mut self,
+        worlds: &[Member],
+        m: usize,
+        lanes: usize,
+        cfg: &Config,
+        start: &Start,
+        plain: &mut [f64],
+    ) {
+        for a in 0..PLANAR {
+            plain[a * lanes + worlds.len() * m..(a + 1) * lanes].fill(0.0);
+        }
+        let base = Base::planar(plain, lanes);
+        for (w, world) in worlds.iter().enumerate() {
+            let own = start.friction.map(|f| f.world(start.parts, world.b));
+            let parts = own.as_ref().unwrap_or(start.parts);
+            let u0 = world.motion.velocity(0.0);
+            let src = Source::new(parts, None, cfg, u0, start.not_finite);
+            // SAFETY: the world's lanes are within the buffer, which nothing else addresses;
+            // then just written.
+            unsafe {
+                src.fill(&base, w * m, 0, m, false);
+                write(&base.chunk(w * m, m, false).0, 0, 0, &world.rec, None);
+            }
+        }
+        interleave(plain, &mut self.0, m, lanes);
+    }
+
     /// Advances the point parts of `worlds` through the block of `steps`, recording as
     /// [`Points::run`] does (their initial state read from `start` as the first block starts);
     /// `shared` holds the samples of the timings that span groups ([`shared_phases`]).
@@ -335,49 +430,31 @@ impl Group {
             }
         }
         if first == 0 {
-            // Every world's points as a world run alone holds them, read and recorded there,
-            // then interleaved into the group's lanes. Absent worlds' lanes (the last group's)
-            // are zero: no part, never recorded, and (inactive) frozen on a plate with an edge.
-            // (What an earlier run left there would change no result, lanes being independent,
-            // but it could be NaN or subnormal: slow.)
-            for a in 0..PLANAR {
-                plain[a * lanes + worlds.len() * m..(a + 1) * lanes].fill(0.0);
+            match start.friction {
+                None => self.start_shared(worlds, m, lanes, cfg, start, &mut plain),
+                Some(_) => self.start_each(worlds, m, lanes, cfg, start, &mut plain),
             }
-            let base = Base::planar(&mut plain, lanes);
-            for (w, world) in worlds.iter().enumerate() {
-                let own = start.friction.map(|f| f.world(start.parts, world.b));
-                let parts = own.as_ref().unwrap_or(start.parts);
-                let u0 = world.motion.velocity(0.0);
-                let src = Source::new(parts, None, cfg, u0, start.not_finite);
-                // SAFETY: the world's lanes are within the buffer, which nothing else
-                // addresses; then just written.
-                unsafe {
-                    src.fill(&base, w * m, 0, m, false);
-                    write(&base.chunk(w * m, m, false).0, 0, 0, &world.rec, None);
-                }
-            }
-            interleave(&plain, &mut self.0, m, lanes);
         }
         let rec = worlds[0].rec;
         // Jets the kernel evaluates itself, where it can (one set of worlds, of one timing, on
-        // the build that does): no table, and the same bits as the table's.
-        let fused =
-            (sets(m) == 1 && runs.len() == 1 && Plate::jets_built(kernel::simd())).then(|| {
-                let phases = runs[0].1.as_ref().or(shared[worlds[0].timing].as_ref());
-                let motions: Vec<&PlateMotion> = worlds.iter().map(|w| w.motion).collect();
-                (
-                    phases.expect("a timing's samples, shared or its own"),
-                    motions,
-                )
-            });
+        // the build that does, and jets through the block): no table, and the same bits as the
+        // table's.
+        let stints = if sets(m) == 1 && runs.len() == 1 && Plate::jets_built(kernel::simd()) {
+            let phases = runs[0].1.as_ref().or(shared[worlds[0].timing].as_ref());
+            let motions: Vec<&PlateMotion> = worlds.iter().map(|w| w.motion).collect();
+            (phases.expect("a timing's samples, shared or its own")).jets(&motions, steps.clone())
+        } else {
+            None
+        };
         // Through the block a piece at a time: the piece's table stays in the core's L1 cache
-        // while the kernel reads it.
-        let len = piece(width);
+        // while the kernel reads it (the whole block at once without a table).
+        let len = if stints.is_some() {
+            steps.len()
+        } else {
+            piece(width)
+        };
         for piece in (first..steps.end).step_by(len) {
             let piece = piece..(piece + len).min(steps.end);
-            let stints = fused
-                .as_ref()
-                .and_then(|(phases, motions)| phases.jets(motions, piece.clone()));
             let values = match stints {
                 Some(_) => &[][..],
                 None => tabulate(worlds, width, shared, &runs, &mut table, piece.clone()),

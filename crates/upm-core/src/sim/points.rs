@@ -27,6 +27,8 @@ pub const CHUNK_PARTS: usize = 256;
 /// its rate and the steps spent in flight.
 pub(super) const ARRAYS: usize = 12;
 pub(super) const PLANAR: usize = 9;
+/// The stuck flags' array among them.
+pub(super) const STUCK: usize = 4;
 
 /// Where the points' initial state comes from, until every chunk has read it.
 #[derive(Clone, Copy)]

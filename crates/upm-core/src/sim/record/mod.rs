@@ -17,7 +17,7 @@ pub(super) use stream::FLAG_BYTES;
 #[cfg(target_arch = "x86_64")]
 pub(super) use stream::{cells, left_times};
 #[cfg(target_arch = "x86_64")]
-use stream::{flags_streamed, pairs_streamed, times_streamed};
+use stream::{flags, pairs, times};
 
 /// Whether step `s` (1-based) is recorded: every `every`-th step, and always the last one.
 #[inline]
@@ -318,11 +318,11 @@ impl Rec {
         self.point(row, part, p, v, stuck);
     }
 
-    /// Writes the states of the points `part .. part + x.len()` (in order) in row `row`: with
-    /// non-temporal stores of whole 32-byte pairs of cells where the result is streamed and the
-    /// build has AVX (two parts' positions, or velocities, a store: a cache line fills in two,
-    /// which [`Rec::point_streamed`]'s 16-byte stores, two streams interleaved, did not do at
-    /// memory speed on AMD Zen 3), else one part at a time. The caller then calls [`Rec::fence`].
+    /// Writes the states of the points `part .. part + x.len()` (in order) in row `row`: whole
+    /// 32-byte pairs of cells where the build has AVX (two parts' positions, or velocities, a
+    /// store), non-temporal where the result is streamed (a cache line fills in two, which
+    /// [`Rec::point_streamed`]'s 16-byte stores, two streams interleaved, did not do at memory
+    /// speed on AMD Zen 3); else one part at a time. The caller then calls [`Rec::fence`].
     ///
     /// # Safety
     /// `row < rows`, `part + x.len() <= m`, the slices have one length, and no other thread
@@ -332,11 +332,18 @@ impl Rec {
         debug_assert!(row < self.rows && part + k <= self.m);
         debug_assert!([s.y.len(), s.vx.len(), s.vy.len(), s.stuck.len()] == [k; 4]);
         #[cfg(target_arch = "x86_64")]
-        if self.stream && crate::sim::simd() != crate::sim::Simd::Portable {
+        if crate::sim::simd() != crate::sim::Simd::Portable {
             let i = row * self.m + part;
-            pairs_streamed(self.pos.add(i), s.x, s.y);
-            pairs_streamed(self.vel.add(i), s.vx, s.vy);
-            flags_streamed::<{ std::arch::x86_64::_CMP_GT_OQ }>(self.stuck.add(i), s.stuck, 0.0);
+            unsafe fn cells<const NT: bool>(rec: &Rec, i: usize, s: &RunState) {
+                use std::arch::x86_64::_CMP_GT_OQ;
+                pairs::<NT>(rec.pos.add(i), s.x, s.y);
+                pairs::<NT>(rec.vel.add(i), s.vx, s.vy);
+                flags::<_CMP_GT_OQ, NT>(rec.stuck.add(i), s.stuck, 0.0);
+            }
+            match self.stream {
+                true => cells::<true>(self, i, s),
+                false => cells::<false>(self, i, s),
+            }
             return;
         }
         for q in 0..k {
@@ -404,19 +411,29 @@ impl Rec {
 
     /// [`Rec::ended`] for the parts `part ..` of a chunk that never leaves the plate's plane:
     /// `steps[q]` is the step count when part `part + q` left the plate ([`super::kernel::NEVER`]:
-    /// it did not), written as a time (NaN: it did not) and a flag, with non-temporal stores of
-    /// whole vectors where the result is streamed and the build has AVX2, then fenced.
+    /// it did not), written as a time (NaN: it did not) and a flag, whole vectors at a time where
+    /// the build has AVX2 (non-temporal where the result is streamed, then fenced).
     ///
     /// # Safety
     /// `part + steps.len() <= m`, and no other thread writes these parts' times.
     pub(super) unsafe fn left_run(&self, part: usize, steps: &[f64], dt: f64) {
         debug_assert!(part + steps.len() <= self.m);
         #[cfg(target_arch = "x86_64")]
-        if self.stream && crate::sim::simd() != crate::sim::Simd::Portable {
-            times_streamed(self.left.add(part), steps, dt);
-            let (gone, never) = (self.gone.add(part), super::kernel::NEVER);
-            flags_streamed::<{ std::arch::x86_64::_CMP_NEQ_OQ }>(gone, steps, never);
-            self.fence();
+        if crate::sim::simd() != crate::sim::Simd::Portable {
+            use std::arch::x86_64::_CMP_NEQ_OQ;
+            let (left, gone, never) = (
+                self.left.add(part),
+                self.gone.add(part),
+                super::kernel::NEVER,
+            );
+            if self.stream {
+                times::<true>(left, steps, dt);
+                flags::<_CMP_NEQ_OQ, true>(gone, steps, never);
+                self.fence();
+            } else {
+                times::<false>(left, steps, dt);
+                flags::<_CMP_NEQ_OQ, false>(gone, steps, never);
+            }
             return;
         }
         for (q, &s) in steps.iter().enumerate() {

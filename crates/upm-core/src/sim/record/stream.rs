@@ -1,7 +1,7 @@
 //! Result cells written a vector at a time: the `(x, y)` pairs of four lanes, eight stuck flags
-//! as a word, and the times of leaving the plate, as non-temporal stores for a result streamed
-//! to memory (see [`super::Rec::points_run`]) and as values the one-pass short run stores
-//! itself (`sim::short`).
+//! as a word, and the times of leaving the plate, with non-temporal stores for a result
+//! streamed to memory (`NT`, see [`super::Rec::points_run`]) or plain ones, and as values the
+//! one-pass short run stores itself (`sim::short`).
 
 /// The cells `(a[q], b[q])` of four lanes, in order, as two vectors of two cells each.
 #[cfg(target_arch = "x86_64")]
@@ -19,31 +19,44 @@ pub(in crate::sim) unsafe fn cells(
     ]
 }
 
-/// Writes `(a[q], b[q])` at `out[q]` for every `q`: 16-byte stores until `out` is 32-byte
-/// aligned, then pairs of cells as one non-temporal 32-byte store each.
+/// Writes `(a[q], b[q])` at `out[q]` for every `q`, pairs of cells as one 32-byte store each;
+/// non-temporal (`NT`) from where `out` is 32-byte aligned (16-byte ones until then).
 ///
 /// # Safety
 /// The build has AVX; `out` is 16-byte aligned with room for `a.len()` cells; `b` is as long.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-pub(super) unsafe fn pairs_streamed(out: *mut [f64; 2], a: &[f64], b: &[f64]) {
+pub(super) unsafe fn pairs<const NT: bool>(out: *mut [f64; 2], a: &[f64], b: &[f64]) {
     use std::arch::x86_64::*;
     let k = a.len().min(b.len());
+    let one = |q: usize| {
+        let cell = _mm_set_pd(b[q], a[q]);
+        if NT {
+            _mm_stream_pd(out.add(q).cast(), cell)
+        } else {
+            _mm_storeu_pd(out.add(q).cast(), cell)
+        }
+    };
     let mut q = 0;
-    while q < k && !(out.add(q) as usize).is_multiple_of(32) {
-        _mm_stream_pd(out.add(q).cast(), _mm_set_pd(b[q], a[q]));
+    while NT && q < k && !(out.add(q) as usize).is_multiple_of(32) {
+        one(q);
         q += 1;
     }
     while q + 4 <= k {
         let x = _mm256_loadu_pd(a.as_ptr().add(q));
         let y = _mm256_loadu_pd(b.as_ptr().add(q));
         let [c01, c23] = cells(x, y);
-        _mm256_stream_pd(out.add(q).cast(), c01);
-        _mm256_stream_pd(out.add(q + 2).cast(), c23);
+        if NT {
+            _mm256_stream_pd(out.add(q).cast(), c01);
+            _mm256_stream_pd(out.add(q + 2).cast(), c23);
+        } else {
+            _mm256_storeu_pd(out.add(q).cast(), c01);
+            _mm256_storeu_pd(out.add(q + 2).cast(), c23);
+        }
         q += 4;
     }
     while q < k {
-        _mm_stream_pd(out.add(q).cast(), _mm_set_pd(b[q], a[q]));
+        one(q);
         q += 1;
     }
 }
@@ -64,28 +77,36 @@ pub(in crate::sim) const FLAG_BYTES: [u64; 256] = {
 };
 
 /// `out[q] = values[q] OP against` for every `q`, `OP` the comparison `_mm256_cmp_pd` takes as
-/// `OP`; whole aligned words of eight with non-temporal stores.
+/// `OP`; whole words of eight, non-temporal (`NT`) and aligned.
 ///
 /// # Safety
 /// The build has AVX2; `out` has room for `values.len()` flags.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-pub(super) unsafe fn flags_streamed<const OP: i32>(out: *mut bool, values: &[f64], against: f64) {
+pub(super) unsafe fn flags<const OP: i32, const NT: bool>(
+    out: *mut bool,
+    values: &[f64],
+    against: f64,
+) {
     use std::arch::x86_64::*;
     let k = values.len();
     let against = _mm256_set1_pd(against);
     let test = |v: __m256d| _mm256_cmp_pd::<OP>(v, against);
     let one = |q: usize| _mm256_movemask_pd(test(_mm256_set1_pd(values[q]))) & 1 == 1;
     let mut q = 0;
-    while q < k && !(out.add(q) as usize).is_multiple_of(8) {
+    while NT && q < k && !(out.add(q) as usize).is_multiple_of(8) {
         out.add(q).write(one(q));
         q += 1;
     }
     let set = |at: usize| _mm256_movemask_pd(test(_mm256_loadu_pd(values.as_ptr().add(at))));
     while q + 8 <= k {
         let word = FLAG_BYTES[(set(q) | set(q + 4) << 4) as usize];
-        // The word is aligned and within `out` (above).
-        _mm_stream_si64(out.add(q).cast(), word as i64);
+        if NT {
+            // The word is aligned and within `out` (above).
+            _mm_stream_si64(out.add(q).cast(), word as i64);
+        } else {
+            out.add(q).cast::<u64>().write_unaligned(word);
+        }
         q += 8;
     }
     while q < k {
@@ -118,24 +139,28 @@ pub(in crate::sim) unsafe fn left_times(
     [_mm256_blendv_pd(_mm256_set1_pd(f64::NAN), time, left), left]
 }
 
-/// `out[q] = left_time(steps[q], dt)` for every `q`: 8-byte stores until `out` is 32-byte
-/// aligned, then four a non-temporal store (the same product, so the same bits).
+/// `out[q] = left_time(steps[q], dt)` for every `q`, four a store (the same product, so the
+/// same bits); non-temporal (`NT`) from where `out` is 32-byte aligned (8-byte ones until then).
 ///
 /// # Safety
 /// The build has AVX2; `out` is 8-byte aligned with room for `steps.len()` times.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-pub(super) unsafe fn times_streamed(out: *mut f64, steps: &[f64], dt: f64) {
+pub(super) unsafe fn times<const NT: bool>(out: *mut f64, steps: &[f64], dt: f64) {
     use std::arch::x86_64::*;
     let k = steps.len();
     let mut q = 0;
-    while q < k && !(out.add(q) as usize).is_multiple_of(32) {
+    while NT && q < k && !(out.add(q) as usize).is_multiple_of(32) {
         out.add(q).write(left_time(steps[q], dt));
         q += 1;
     }
     while q + 4 <= k {
-        let s = _mm256_loadu_pd(steps.as_ptr().add(q));
-        _mm256_stream_pd(out.add(q), left_times(s, dt)[0]);
+        let t = left_times(_mm256_loadu_pd(steps.as_ptr().add(q)), dt)[0];
+        if NT {
+            _mm256_stream_pd(out.add(q), t);
+        } else {
+            _mm256_storeu_pd(out.add(q), t);
+        }
         q += 4;
     }
     while q < k {
@@ -168,39 +193,47 @@ mod tests {
         })
     }
 
+    /// The cells, times and flags [`pairs`], [`times`] and [`flags`] write (`NT` or not)
+    /// against the scalar ones, at `offset` cells into an aligned buffer; nothing written past
+    /// the last.
+    unsafe fn check<const NT: bool>(offset: usize, steps: &[f64]) {
+        let (dt, k) = (1.0 / 2400.0, steps.len());
+        let y: Vec<f64> = steps.iter().map(|s| -0.5 * s).collect();
+        // (buffers of 32-byte units, so that `offset` walks the alignments)
+        let mut times_at = vec![[0.0f64; 4]; (offset + k).div_ceil(4) + 1];
+        let mut cells_at = vec![[0.0f64; 4]; (offset + k).div_ceil(2) + 1];
+        let mut flags_at = vec![u64::from_ne_bytes([7; 8]); (offset + k).div_ceil(8) + 1];
+        let (t, c, f) = (
+            times_at.as_mut_ptr().cast::<f64>().add(offset),
+            cells_at.as_mut_ptr().cast::<[f64; 2]>().add(offset),
+            flags_at.as_mut_ptr().cast::<bool>().add(offset),
+        );
+        times::<NT>(t, steps, dt);
+        pairs::<NT>(c, steps, &y);
+        flags::<{ std::arch::x86_64::_CMP_NEQ_OQ }, NT>(f, steps, NEVER);
+        std::arch::x86_64::_mm_sfence();
+        let at = format!("NT {NT} offset {offset} k {k}");
+        for (q, &s) in steps.iter().enumerate() {
+            let want = if s == NEVER { f64::NAN } else { s * dt };
+            assert_eq!((*t.add(q)).to_bits(), want.to_bits(), "{at} q {q}");
+            assert_eq!(*c.add(q), [s, y[q]], "{at} q {q}");
+            assert_eq!(*f.add(q).cast::<u8>(), u8::from(s != NEVER), "{at} q {q}");
+        }
+        assert_eq!(*f.add(k).cast::<u8>(), 7, "{at}");
+        assert_eq!(*t.add(k), 0.0, "{at}");
+        assert_eq!(*c.add(k), [0.0; 2], "{at}");
+    }
+
     #[test]
-    fn streamed_times_and_flags_are_the_scalar_ones() {
+    fn vector_cells_times_and_flags_are_the_scalar_ones() {
         if !is_x86_feature_detected!("avx2") {
             return;
         }
-        let dt = 1.0 / 2400.0;
         for (offset, steps) in cases() {
-            let k = steps.len();
-            // (a buffer of 32-byte cells, so that `offset` walks the alignments)
-            let mut times = vec![[0.0f64; 4]; (offset + k).div_ceil(4) + 1];
-            let mut flags = vec![u64::from_ne_bytes([7; 8]); (offset + k).div_ceil(8) + 1];
-            let (t, f) = (
-                times.as_mut_ptr().cast::<f64>(),
-                flags.as_mut_ptr().cast::<bool>(),
-            );
-            // SAFETY: AVX2 (checked); both buffers have room for offset + k cells.
+            // SAFETY: AVX2 (checked).
             unsafe {
-                times_streamed(t.add(offset), &steps, dt);
-                flags_streamed::<{ std::arch::x86_64::_CMP_NEQ_OQ }>(f.add(offset), &steps, NEVER);
-                std::arch::x86_64::_mm_sfence();
-                for (q, &s) in steps.iter().enumerate() {
-                    let (time, flag) = (*t.add(offset + q), *f.add(offset + q).cast::<u8>());
-                    let want = if s == NEVER { f64::NAN } else { s * dt };
-                    assert_eq!(
-                        time.to_bits(),
-                        want.to_bits(),
-                        "offset {offset} k {k} q {q}"
-                    );
-                    assert_eq!(flag, u8::from(s != NEVER), "offset {offset} k {k} q {q}");
-                }
-                // nothing written past the last
-                assert_eq!(*f.add(offset + k).cast::<u8>(), 7, "offset {offset} k {k}");
-                assert_eq!(*t.add(offset + k), 0.0, "offset {offset} k {k}");
+                check::<true>(offset, &steps);
+                check::<false>(offset, &steps);
             }
         }
     }
