@@ -164,6 +164,29 @@ fn pulses_sharing_their_timing_in_a_batch_are_bitwise_each_alone() {
     }
 }
 
+#[test]
+fn jets_of_one_timing_in_worlds_of_a_few_points_are_bitwise_each_alone() {
+    // Worlds of 1 to 4 points take several sets of eight worlds to a group (one group of 21
+    // worlds of 1 or 2 points, with absent sets; two groups of 3 or 4 points): under jets of one
+    // timing the AVX-512 kernel evaluates each set's velocity for its vectors, the other builds
+    // read the table.
+    let motions: Vec<PlateMotion> = pulses(84).into_iter().step_by(4).collect(); // 50 Hz jets
+    for (m, plate) in [(1, Some(0.2)), (2, None), (3, Some(0.2)), (4, None)] {
+        let cfg = config(1.0 / 50.0 / 48.0, 0.25, plate, 11);
+        let parts = parts(m);
+        let batch = simulate_batch(&motions, &parts, &cfg).unwrap();
+        for (w, motion) in motions.iter().enumerate() {
+            let alone = simulate(motion, &parts, &cfg).unwrap();
+            assert_eq!(batch[w], alone, "{m} points, world {w}");
+            assert_ne!(
+                alone.positions.last(),
+                parts.position.last(),
+                "{m}: {w} moves"
+            );
+        }
+    }
+}
+
 /// Runs `motions` on `parts` in one batch, each world with its own friction (a row of `m`
 /// values each), and checks each world against it run alone with its row; returns how many of
 /// its parts left the plate.

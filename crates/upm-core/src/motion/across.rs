@@ -210,40 +210,37 @@ pub(crate) fn jets(motions: &[&PlateMotion], item: usize) -> Option<[[f64; LANES
     Some([k, ax, ay, cx, cy])
 }
 
-/// A stint of a piece of steps of jets (see [`Phases::jets`]): its steps, each step's sample,
-/// and the jets' coefficients ([`jets`]).
+/// A stint of a piece of steps (see [`Phases::jets`]): its steps, each step's sample, and if
+/// every motion plays a jet in it, the jets' coefficients ([`jets`]) of each set of eight
+/// motions in turn.
 pub(crate) struct JetStint<'a> {
     pub steps: Range<usize>,
     pub samples: &'a [Sample],
-    pub coef: [[f64; LANES]; 5],
+    pub coef: Option<Vec<[[f64; LANES]; 5]>>,
 }
 
 impl Phases {
-    /// The stints of `steps` (within the block) for `motions` (at most [`LANES`], of the timing
-    /// these samples were taken for), if every motion plays a jet in each (and the plate rests
-    /// in none): what a kernel that evaluates the jets itself needs to give each lane the
-    /// velocity [`Phases::extend_across`] tabulates, to the bit. `None` otherwise.
-    pub(crate) fn jets(
-        &self,
-        motions: &[&PlateMotion],
-        steps: Range<usize>,
-    ) -> Option<Vec<JetStint<'_>>> {
+    /// The stints of `steps` (within the block) for `motions` (of the timing these samples were
+    /// taken for), in order: in those where every motion plays a jet (and the plate does not
+    /// rest), what a kernel that evaluates the jets itself needs to give each lane the velocity
+    /// [`Phases::extend_across`] tabulates, to the bit; no coefficients in the others.
+    pub(crate) fn jets(&self, motions: &[&PlateMotion], steps: Range<usize>) -> Vec<JetStint<'_>> {
         assert!(
-            self.steps.start <= steps.start
-                && steps.end <= self.steps.end
-                && motions.len() <= LANES,
-            "steps {steps:?} outside the block {:?}, or {} motions",
+            self.steps.start <= steps.start && steps.end <= self.steps.end,
+            "steps {steps:?} outside the block {:?}",
             self.steps,
-            motions.len()
         );
         self.pieces(steps)
             .map(|(st, first, samples)| {
-                (st.stretch != Stretch::Off).then_some(())?;
-                Some(JetStint {
+                let coef = (st.stretch != Stretch::Off).then(|| {
+                    let sets = motions.chunks(LANES).map(|set| jets(set, st.item));
+                    sets.collect::<Option<_>>()
+                });
+                JetStint {
                     steps: first..first + samples.len(),
                     samples,
-                    coef: jets(motions, st.item)?,
-                })
+                    coef: coef.flatten(),
+                }
             })
             .collect()
     }

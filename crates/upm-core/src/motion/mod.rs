@@ -18,7 +18,7 @@ mod table;
 
 pub use spatial::{Spatial, Term};
 use table::{about, along, feed, jet, Stretch};
-pub(crate) use table::{Columns, Phases, Sample};
+pub(crate) use table::{Columns, JetStint, Phases, Sample};
 
 /// One kind of plate motion.
 #[derive(Debug, Clone, PartialEq)]

@@ -458,7 +458,7 @@ impl Run<'_> {
 
 #[path = "across.rs"]
 mod across;
-pub(crate) use across::Columns;
+pub(crate) use across::{Columns, JetStint};
 #[path = "phasors.rs"]
 mod phasors;
 use phasors::Phasors;

@@ -297,9 +297,10 @@ fn motions_side_by_side_are_bitwise_each_alone() {
 
 #[test]
 fn jets_a_kernel_evaluates_are_what_the_table_holds() {
-    // Eight jets of one timing (attack 0.1 s, hold 0.1, decay 0.1, then rest) at 2400 steps/s.
+    // Eleven jets of one timing (attack 0.1 s, hold 0.1, decay 0.1, then rest) at 2400 steps/s:
+    // a set of eight and one of three (its other lanes' coefficients zero).
     let dt = 1.0 / 2400.0;
-    let motions: Vec<PlateMotion> = (0..8)
+    let motions: Vec<PlateMotion> = (0..11)
         .map(|j| {
             let a = 0.7 * j as f64;
             PlateMotion::jet(
@@ -316,39 +317,52 @@ fn jets_a_kernel_evaluates_are_what_the_table_holds() {
         .collect();
     let refs: Vec<&PlateMotion> = motions.iter().collect();
     let phases = Phases::of(&motions[0], 0..800, dt);
-    let mut table = vec![0.0; 3 * 8 * 800];
+    let width = 16;
+    let mut table = vec![0.0; 3 * width * 800];
     let mut out = Columns {
         values: &mut table,
-        width: 8,
+        width,
     };
     phases.extend_across(&refs, 0..800, &mut out, 0);
     // Steps 200..500 lie within the attack, hold and decay: three stints, in order, that cover
     // them; each lane's jet velocity, evaluated as the kernel does, is the table's to the bit.
-    let stints = phases.jets(&refs, 200..500).expect("jets throughout");
+    let stints = phases.jets(&refs, 200..500);
     assert_eq!(stints.len(), 3);
     let mut next = 200;
     for st in &stints {
         assert_eq!(st.steps.start, next);
         assert_eq!(st.samples.len(), st.steps.len());
         next = st.steps.end;
-        let [k, ax, ay, cx, cy] = st.coef;
-        for (s, p) in st.steps.clone().zip(st.samples) {
-            for j in 0..8 {
-                let w = k[j] * p.spin;
-                let u = [ax[j] * p.feed + w * cy[j], ay[j] * p.feed - w * cx[j], w];
-                for (c, u) in u.iter().enumerate() {
-                    assert_eq!(
-                        u.to_bits(),
-                        table[(3 * s + c) * 8 + j].to_bits(),
-                        "step {s}"
-                    );
+        let coef = st.coef.as_ref().expect("jets throughout");
+        assert_eq!(coef.len(), 2);
+        for (set, &[k, ax, ay, cx, cy]) in coef.iter().enumerate() {
+            assert!(
+                k[3..].iter().all(|&k| k == 0.0) || set == 0,
+                "no jet past the motions"
+            );
+            for (s, p) in st.steps.clone().zip(st.samples) {
+                for j in 0..8 {
+                    let w = k[j] * p.spin;
+                    let u = [ax[j] * p.feed + w * cy[j], ay[j] * p.feed - w * cx[j], w];
+                    let col = 8 * set + j;
+                    for (c, u) in u.iter().enumerate() {
+                        if col < motions.len() {
+                            let want = table[(3 * s + c) * width + col];
+                            assert_eq!(u.to_bits(), want.to_bits(), "step {s}, motion {col}");
+                        } else {
+                            assert_eq!(*u, 0.0, "step {s}, lane {col} (no motion)");
+                        }
+                    }
                 }
             }
         }
     }
     assert_eq!(next, 500);
     // Where the plate rests (from step 720), or a motion plays no jet, the kernel reads a table.
-    assert!(phases.jets(&refs, 700..760).is_none());
+    let none = |stints: Vec<JetStint>| stints.iter().all(|st| st.coef.is_none());
+    let rest = phases.jets(&refs, 700..760);
+    assert_eq!(rest.len(), 2, "the decay's last steps, then the rest");
+    assert!(rest[0].coef.is_some() && none(rest.into_iter().skip(1).collect()));
     let mut mixed = refs.clone();
     let rotation = PlateMotion::rotation(
         [0.0; 2],
@@ -358,5 +372,5 @@ fn jets_a_kernel_evaluates_are_what_the_table_holds() {
     .with_envelope(0.1, 0.1, 0.1)
     .unwrap();
     mixed[3] = &rotation;
-    assert!(phases.jets(&mixed, 200..500).is_none());
+    assert!(none(phases.jets(&mixed, 200..500)));
 }

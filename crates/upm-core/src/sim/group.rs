@@ -21,7 +21,7 @@ use super::points::{write, Base, Points, Source, PLANAR, STUCK};
 use super::record::{Rec, Recorder, RunState, Stacked};
 use super::timing::{self, by_timing};
 use super::{half_side, moves_with_plate, Config, Error, PartsView, WorldFriction};
-use crate::motion::{Columns, Phases, PlateMotion};
+use crate::motion::{Columns, JetStint, Phases, PlateMotion};
 
 /// Worlds with at most this many point parts (and nothing else) are run in groups.
 pub(super) const MAX_POINTS: usize = 32;
@@ -436,49 +436,51 @@ impl Group {
             }
         }
         let rec = worlds[0].rec;
-        // Jets the kernel evaluates itself, where it can (one set of worlds, of one timing, on
-        // the build that does, and jets through the block): no table, and the same bits as the
-        // table's.
-        let stints = if sets(m) == 1 && runs.len() == 1 && Plate::jets_built(kernel::simd()) {
+        // Jets the kernel evaluates itself, where it can (worlds of one timing, on the build
+        // that does, in the stints where every world plays a jet): no table, and the same bits
+        // as the table's. (Absent worlds' sets, the last group's, have zero coefficients: a
+        // plate at rest.)
+        let mut stints = Vec::new();
+        if runs.len() == 1 && Plate::jets_built(kernel::simd()) {
             let phases = runs[0].1.as_ref().or(shared[worlds[0].timing].as_ref());
             let motions: Vec<&PlateMotion> = worlds.iter().map(|w| w.motion).collect();
-            (phases.expect("a timing's samples, shared or its own")).jets(&motions, steps.clone())
-        } else {
-            None
-        };
+            stints = (phases.expect("a timing's samples, shared or its own"))
+                .jets(&motions, steps.clone());
+            for coef in stints.iter_mut().filter_map(|st| st.coef.as_mut()) {
+                coef.resize(sets(m), [[0.0; 8]; 5]);
+            }
+        }
+        let jets = |st: &JetStint| st.coef.is_some();
         // Through the block a piece at a time: the piece's table stays in the core's L1 cache
-        // while the kernel reads it (the whole block at once without a table).
-        let len = if stints.is_some() {
+        // while the kernel reads it (the whole block at once where no step needs a table).
+        let len = if !stints.is_empty() && stints.iter().all(jets) {
             steps.len()
         } else {
             piece(width)
         };
         for piece in (first..steps.end).step_by(len) {
             let piece = piece..(piece + len).min(steps.end);
-            let values = match stints {
-                Some(_) => &[][..],
-                None => tabulate(worlds, width, shared, &runs, &mut table, piece.clone()),
+            let within = |st: &&JetStint| st.steps.start < piece.end && piece.start < st.steps.end;
+            let values = if !stints.is_empty() && stints.iter().filter(within).all(jets) {
+                &[][..]
+            } else {
+                tabulate(worlds, width, shared, &runs, &mut table, piece.clone())
             };
             let row = 3 * width; // values a step
             let mut done = piece.start;
             while done < piece.end {
                 let mut end = rec.next_after(done).min(piece.end);
-                let plate = match &stints {
-                    Some(stints) => {
-                        let st = (stints.iter().find(|st| st.steps.contains(&done)))
-                            .expect("every step of the piece in a stint");
+                let stint = stints.iter().find(|st| st.steps.contains(&done));
+                let plate = match stint.and_then(|st| Some((st, st.coef.as_ref()?))) {
+                    Some((st, coef)) => {
                         end = end.min(st.steps.end);
                         let from = st.steps.start;
                         let samples = &st.samples[done - from..end - from];
-                        Plate::jets(
-                            Jets {
-                                samples,
-                                coef: &st.coef,
-                            },
-                            m,
-                        )
+                        Plate::jets(Jets { samples, coef }, m)
                     }
                     None => {
+                        // (to the stint's end at most, where the next may take jets)
+                        end = end.min(stint.map_or(end, |st| st.steps.end));
                         let rows = &values[(done - piece.start) * row..(end - piece.start) * row];
                         Plate::interleaved(rows, width, m)
                     }

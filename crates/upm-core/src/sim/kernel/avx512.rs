@@ -6,6 +6,7 @@
 use std::arch::x86_64::*;
 
 use super::{Lanes, Plate};
+use crate::motion::Sample;
 
 /// Vectors (of eight parts) per register tile: 64 parts whose steps are independent, enough to
 /// hide the step's long dependency chain (about 60 cycles). 8 measured best of 2, 4, 6, 8 and 12
@@ -180,22 +181,52 @@ unsafe fn tile<const EDGE: bool, const WORLDS: bool, const T: usize>(
     if !WORLDS {
         steps!(tile k => splat(plate.at(1, 0, k)));
     } else if let Some(jets) = plate.jets_of() {
-        // One set of eight worlds: every vector's lanes are its worlds, one velocity a step
-        // serves the tile.
-        assert!(cols.iter().all(|&c| c == 0), "jets of one set of worlds");
-        let load = |c: usize| _mm512_loadu_pd(jets.coef[c].as_ptr());
-        let [k, ax, ay, cx, cy] = [load(0), load(1), load(2), load(3), load(4)];
-        steps!(tile t => {
-            // (`jet`'s operations in its order: the table's bits; t < steps = the samples)
-            let p = jets.samples.get_unchecked(t);
-            let g = _mm512_set1_pd(p.feed);
-            let w = _mm512_mul_pd(k, _mm512_set1_pd(p.spin));
-            [
-                _mm512_add_pd(_mm512_mul_pd(ax, g), _mm512_mul_pd(w, cy)),
-                _mm512_sub_pd(_mm512_mul_pd(ay, g), _mm512_mul_pd(w, cx)),
-                w,
-            ]
-        });
+        // Each vector's set of eight worlds (its lanes), whose velocity a step serves it.
+        let sets: [usize; T] = std::array::from_fn(|j| cols[j] / 8);
+        assert!(
+            sets.iter().all(|&g| g < jets.coef.len()),
+            "a vector's set within the jets"
+        );
+        if sets.iter().all(|&g| g == sets[0]) {
+            // one set: one velocity a step serves the tile
+            let coef = &jets.coef[sets[0]];
+            let load = |c: usize| _mm512_loadu_pd(coef[c].as_ptr());
+            let [k, ax, ay, cx, cy] = [load(0), load(1), load(2), load(3), load(4)];
+            steps!(tile t => {
+                // (`jet`'s operations in its order: the table's bits; t < steps = the samples)
+                let p = jets.samples.get_unchecked(t);
+                let g = _mm512_set1_pd(p.feed);
+                let w = _mm512_mul_pd(k, _mm512_set1_pd(p.spin));
+                [
+                    _mm512_add_pd(_mm512_mul_pd(ax, g), _mm512_mul_pd(w, cy)),
+                    _mm512_sub_pd(_mm512_mul_pd(ay, g), _mm512_mul_pd(w, cx)),
+                    w,
+                ]
+            });
+        } else {
+            // several: each set's velocity evaluated a step before its vectors (a run of them;
+            // `v` indexed only by the tile's loop, which the compiler unrolls, so that it may
+            // keep the vectors in registers: indexed at run time, it kept them in memory for
+            // every loop of the tile, and worlds of 5 points cost 1.35x one world a part-step
+            // instead of 1.1x)
+            let load = |g: usize| {
+                jets.coef
+                    .get_unchecked(g)
+                    .map(|c| _mm512_loadu_pd(c.as_ptr()))
+            };
+            for (t, p) in jets.samples.iter().enumerate() {
+                let mut u = jet(load(sets[0]), p);
+                for j in 0..T {
+                    if j > 0 && sets[j] != sets[j - 1] {
+                        u = jet(load(sets[j]), p);
+                    }
+                    let off = step::<EDGE>(&mut v[j], u, &c);
+                    if EDGE && off != 0 {
+                        mark_left(off, s.left, at(j), first + t + 1);
+                    }
+                }
+            }
+        }
     } else if cols.iter().all(|&c| c == cols[0]) {
         // (every vector reads the same eight worlds: one load a component serves the tile)
         steps!(tile k => columns(plate.cell(width, cols[0], k), width));
@@ -216,6 +247,19 @@ unsafe fn tile<const EDGE: bool, const WORLDS: bool, const T: usize>(
         }
     }
     T
+}
+
+/// The velocity of eight worlds' jets (coefficients `[k, ax, ay, cx, cy]` lane by lane) at the
+/// sample `p`: `jet`'s operations in its order, so the table's bits.
+#[inline(always)]
+unsafe fn jet([k, ax, ay, cx, cy]: [__m512d; 5], p: &Sample) -> [__m512d; 3] {
+    let g = _mm512_set1_pd(p.feed);
+    let w = _mm512_mul_pd(k, _mm512_set1_pd(p.spin));
+    [
+        _mm512_add_pd(_mm512_mul_pd(ax, g), _mm512_mul_pd(w, cy)),
+        _mm512_sub_pd(_mm512_mul_pd(ay, g), _mm512_mul_pd(w, cx)),
+        w,
+    ]
 }
 
 /// One vector of eight parts through the steps, as the tiles hold it: position, velocity, the

@@ -138,12 +138,12 @@ pub(super) struct Plate<'t> {
     jets: Option<Jets<'t>>,
 }
 
-/// A set of eight worlds' jets through a stint of steps: each step's sample, and the jets'
+/// Sets of eight worlds' jets through a stint of steps: each step's sample, and each set's jets'
 /// coefficients `[k, ax, ay, cx, cy]` lane by lane (see `motion::table::across::jets`).
 #[derive(Clone, Copy)]
 pub(super) struct Jets<'t> {
     pub samples: &'t [Sample],
-    pub coef: &'t [[f64; 8]; 5],
+    pub coef: &'t [[[f64; 8]; 5]],
 }
 
 impl<'t> Plate<'t> {
@@ -175,16 +175,19 @@ impl<'t> Plate<'t> {
         }
     }
 
-    /// One set of eight worlds of `parts` parts interleaved (see [`Plate`]; the kernel checks
-    /// that its tiles hold no other set), under jets the kernel evaluates at each step (the
-    /// velocity `[ax g + w cy, ay g - w cx, w]`, `g` the sample's feeding profile and `w = k`
-    /// times its spin: the operations of the worlds' table, so the same bits). Only the AVX-512
-    /// build takes it ([`Plate::jets_built`]).
+    /// Sets of eight worlds of `parts` parts interleaved (see [`Plate`]), one a set of the jets'
+    /// coefficients, under jets the kernel evaluates at each step (the velocity
+    /// `[ax g + w cy, ay g - w cx, w]`, `g` the sample's feeding profile and `w = k` times its
+    /// spin: the operations of the worlds' table, so the same bits). Only the AVX-512 build
+    /// takes it ([`Plate::jets_built`]).
     pub(super) fn jets(jets: Jets<'t>, parts: usize) -> Self {
-        assert!(parts > 0, "worlds of no part");
+        assert!(
+            parts > 0 && !jets.coef.is_empty(),
+            "worlds of no part, or no set"
+        );
         Plate {
             values: &[],
-            width: 8,
+            width: 8 * jets.coef.len(),
             parts,
             jets: Some(jets),
         }
