@@ -307,14 +307,15 @@ impl Group {
         spare.extend(groups.into_iter().take(room));
     }
 
-    /// Reads the points of `worlds` (sharing their parts: no friction of their own) as their
-    /// first block starts and records their initial state. The parts are read once, as world 0
-    /// holds them (`plain`'s first `m` lanes): each lane of the group takes its part's state but
-    /// the stuck flag, which depends on its world's plate velocity at the start. Absent worlds'
-    /// lanes (the last group's) are zero: no part, never recorded, and (inactive) frozen on a
-    /// plate with an edge. (What an earlier run left there would change no result, lanes being
-    /// independent, but it could be NaN or subnormal: slow.)
-    fn start_shared(
+    /// Reads the points of `worlds` as their first block starts and records their initial state.
+    /// Worlds that share their parts (no friction of their own) read them once, as world 0 holds
+    /// them (`plain`'s first `m` lanes): each lane of the group takes its part's state but the
+    /// stuck flag, which depends on its world's plate velocity at the start. Worlds with their
+    /// own friction are each read as a world run alone holds them, then interleaved. Absent
+    /// worlds' lanes (the last group's) are zero: no part, never recorded, and (inactive) frozen
+    /// on a plate with an edge. (What an earlier run left there would change no result, lanes
+    /// being independent, but it could be NaN or subnormal: slow.)
+    fn start(
         &mut self,
         worlds: &[Member],
         m: usize,
@@ -323,6 +324,26 @@ impl Group {
         start: &Start,
         plain: &mut [f64],
     ) {
+        if start.friction.is_some() {
+            for a in 0..PLANAR {
+                plain[a * lanes + worlds.len() * m..(a + 1) * lanes].fill(0.0);
+            }
+            let base = Base::planar(plain, lanes);
+            for (w, world) in worlds.iter().enumerate() {
+                let own = start.friction.map(|f| f.world(start.parts, world.b));
+                let parts = own.as_ref().unwrap_or(start.parts);
+                let u0 = world.motion.velocity(0.0);
+                let src = Source::new(parts, None, cfg, u0, start.not_finite);
+                // SAFETY: the world's lanes are within the buffer, which nothing else addresses;
+                // then just written.
+                unsafe {
+                    src.fill(&base, w * m, 0, m, false);
+                    write(&base.chunk(w * m, m, false).0, 0, 0, &world.rec, None);
+                }
+            }
+            interleave(plain, &mut self.0, m, lanes);
+            return;
+        }
         let base = Base::planar(plain, lanes);
         let u0 = worlds[0].motion.velocity(0.0);
         let src = Source::new(start.parts, None, cfg, u0, start.not_finite);
@@ -371,37 +392,6 @@ impl Group {
         }
     }
 
-    /// Reads and records the points of `worlds` as their first block starts, each world's as a
-    /// world run alone holds them (with its own friction), then interleaved into the group's
-    /// lanes (absent worlds' zero, as in [`Group::start_shared`]).
-    fn start_each(
-        &mut self,
-        worlds: &[Member],
-        m: usize,
-        lanes: usize,
-        cfg: &Config,
-        start: &Start,
-        plain: &mut [f64],
-    ) {
-        for a in 0..PLANAR {
-            plain[a * lanes + worlds.len() * m..(a + 1) * lanes].fill(0.0);
-        }
-        let base = Base::planar(plain, lanes);
-        for (w, world) in worlds.iter().enumerate() {
-            let own = start.friction.map(|f| f.world(start.parts, world.b));
-            let parts = own.as_ref().unwrap_or(start.parts);
-            let u0 = world.motion.velocity(0.0);
-            let src = Source::new(parts, None, cfg, u0, start.not_finite);
-            // SAFETY: the world's lanes are within the buffer, which nothing else addresses;
-            // then just written.
-            unsafe {
-                src.fill(&base, w * m, 0, m, false);
-                write(&base.chunk(w * m, m, false).0, 0, 0, &world.rec, None);
-            }
-        }
-        interleave(plain, &mut self.0, m, lanes);
-    }
-
     /// Advances the point parts of `worlds` through the block of `steps`, recording as
     /// [`Points::run`] does (their initial state read from `start` as the first block starts);
     /// `shared` holds the samples of the timings that span groups ([`shared_phases`]).
@@ -430,10 +420,7 @@ impl Group {
             }
         }
         if first == 0 {
-            match start.friction {
-                None => self.start_shared(worlds, m, lanes, cfg, start, &mut plain),
-                Some(_) => self.start_each(worlds, m, lanes, cfg, start, &mut plain),
-            }
+            self.start(worlds, m, lanes, cfg, start, &mut plain);
         }
         let rec = worlds[0].rec;
         // Jets the kernel evaluates itself, where it can (worlds of one timing, on the build
