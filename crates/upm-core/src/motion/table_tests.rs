@@ -156,19 +156,22 @@ fn jet(f: f64, attack: f64) -> PlateMotion {
         .unwrap()
 }
 
+/// A rotation about the origin at 50 Hz (`cos` and `sin` its harmonics), enveloped as [`jet`]
+/// with an attack of 0.1 s.
+fn rotation(cos: Vec<f64>, sin: Vec<f64>) -> PlateMotion {
+    PlateMotion::rotation([0.0; 2], Harmonics::new(cos, sin, 50.0).unwrap().into())
+        .unwrap()
+        .with_envelope(0.1, 0.1, 0.1)
+        .unwrap()
+}
+
 #[test]
 fn another_frequency_envelope_or_duration_is_another_timing() {
     let base = jet(50.0, 0.1).timing();
     assert_ne!(base, jet(40.0, 0.1).timing());
     assert_ne!(base, jet(50.0, 0.12).timing());
     assert_ne!(base, jet(50.0, 0.1).for_duration(0.2).unwrap().timing());
-    let spin = PlateMotion::rotation(
-        [0.0; 2],
-        Harmonics::new(vec![1.0], vec![0.0], 50.0).unwrap().into(),
-    )
-    .unwrap()
-    .with_envelope(0.1, 0.1, 0.1)
-    .unwrap();
+    let spin = rotation(vec![1.0], vec![0.0]);
     assert_ne!(base, spin.timing(), "a jet also turns its 2/3 phase");
     assert_eq!(base, jet(50.0, 0.1).timing());
 }
@@ -359,18 +362,12 @@ fn jets_a_kernel_evaluates_are_what_the_table_holds() {
     }
     assert_eq!(next, 500);
     // Where the plate rests (from step 720), or a motion plays no jet, the kernel reads a table.
-    let none = |stints: Vec<JetStint>| stints.iter().all(|st| st.coef.is_none());
+    let none = |stints: &[JetStint]| stints.iter().all(|st| st.coef.is_none());
     let rest = phases.jets(&refs, 700..760);
     assert_eq!(rest.len(), 2, "the decay's last steps, then the rest");
-    assert!(rest[0].coef.is_some() && none(rest.into_iter().skip(1).collect()));
+    assert!(rest[0].coef.is_some() && none(&rest[1..]));
     let mut mixed = refs.clone();
-    let rotation = PlateMotion::rotation(
-        [0.0; 2],
-        Harmonics::new(vec![0.0], vec![0.1], 50.0).unwrap().into(),
-    )
-    .unwrap()
-    .with_envelope(0.1, 0.1, 0.1)
-    .unwrap();
-    mixed[3] = &rotation;
-    assert!(none(phases.jets(&mixed, 200..500)));
+    let turn = rotation(vec![0.0], vec![0.1]);
+    mixed[3] = &turn;
+    assert!(none(&phases.jets(&mixed, 200..500)));
 }

@@ -187,33 +187,18 @@ unsafe fn tile<const EDGE: bool, const WORLDS: bool, const T: usize>(
             sets.iter().all(|&g| g < jets.coef.len()),
             "a vector's set within the jets"
         );
+        // (g is one of `sets`: within the coefficients, checked)
+        let load = |g: usize| (jets.coef.get_unchecked(g)).map(|c| _mm512_loadu_pd(c.as_ptr()));
         if sets.iter().all(|&g| g == sets[0]) {
-            // one set: one velocity a step serves the tile
-            let coef = &jets.coef[sets[0]];
-            let load = |c: usize| _mm512_loadu_pd(coef[c].as_ptr());
-            let [k, ax, ay, cx, cy] = [load(0), load(1), load(2), load(3), load(4)];
-            steps!(tile t => {
-                // (`jet`'s operations in its order: the table's bits; t < steps = the samples)
-                let p = jets.samples.get_unchecked(t);
-                let g = _mm512_set1_pd(p.feed);
-                let w = _mm512_mul_pd(k, _mm512_set1_pd(p.spin));
-                [
-                    _mm512_add_pd(_mm512_mul_pd(ax, g), _mm512_mul_pd(w, cy)),
-                    _mm512_sub_pd(_mm512_mul_pd(ay, g), _mm512_mul_pd(w, cx)),
-                    w,
-                ]
-            });
+            // one set: one velocity a step serves the tile (t < steps = the samples)
+            let coef = load(sets[0]);
+            steps!(tile t => jet(coef, jets.samples.get_unchecked(t)));
         } else {
             // several: each set's velocity evaluated a step before its vectors (a run of them;
             // `v` indexed only by the tile's loop, which the compiler unrolls, so that it may
             // keep the vectors in registers: indexed at run time, it kept them in memory for
             // every loop of the tile, and worlds of 5 points cost 1.35x one world a part-step
             // instead of 1.1x)
-            let load = |g: usize| {
-                jets.coef
-                    .get_unchecked(g)
-                    .map(|c| _mm512_loadu_pd(c.as_ptr()))
-            };
             for (t, p) in jets.samples.iter().enumerate() {
                 let mut u = jet(load(sets[0]), p);
                 for j in 0..T {
