@@ -9,7 +9,7 @@ equation numbers pointing into the thesis, is in ``docs/theory.md``.
 
 from __future__ import annotations
 
-from . import actuation, mchip, theory
+from . import actuation, mchip, shapes, theory
 from ._build import build_info
 from ._core import __version__
 from ._errors import (
@@ -127,6 +127,7 @@ __all__ = [
     "rotation_curl",
     "rotation_field",
     "rotation_order",
+    "shapes",
     "simulate",
     "simulate_batch",
     "solve_displacements",

@@ -251,9 +251,13 @@ def _main(argv: list[str]) -> int:
     d.add_argument("--seed", type=int, default=1, help="seed of the layout, the camera noise and the plant")
     d.add_argument(
         "--planner",
-        choices=("predictive", "jets", "rotations", "displacement"),
+        choices=("predictive", "jets", "rotations", "displacement", "greedy"),
         default=None,
-        help="the planner (default: the thesis's planner of the demo)",
+        help="the planner (default: the thesis's planner of the demo; scale demos: predictive or greedy)",
+    )
+    d.add_argument("--parts", type=int, default=None, help="shape demo: how many parts (default 12)")
+    d.add_argument(
+        "--shape", default=None, help="shape demo: ring, grid, a capital letter (T) or a mask image's path"
     )
     fg = commands.add_parser("figures", help="the thesis's analytic figures (3.5, 3.6, 4.7, 6.2, 6.9)")
     fg.add_argument("--out", type=Path, default=Path("out/figures"), help="directory (default: out/figures)")
@@ -324,7 +328,24 @@ def _main(argv: list[str]) -> int:
 
             for name, (summary, _) in ORIENT.items():
                 print(f"{name:12s} {'polygons':14s} {summary}")
+            from .scale_demos import DEMOS as SCALE
+
+            for entry in SCALE.values():
+                print(f"{entry.name:12s} {'many parts':14s} {entry.summary}")
             return 0
+        from .scale_demos import DEMOS as SCALE_TABLE
+
+        if args.name in SCALE_TABLE:
+            from .scale_demos import run_scale_demo
+
+            try:
+                metrics = run_scale_demo(args.name, args.out, parts=args.parts, shape=args.shape,
+                                         planner=args.planner or "predictive", seed=args.seed,
+                                         quick=args.quick, rrd=args.rrd)  # fmt: skip
+            except UpmError as error:
+                print(f"upm demo: {error}", file=sys.stderr)
+                return 2
+            return 0 if metrics["done"] and not metrics["fallen"] else 1
         from .orient_demos import DEMOS as ORIENT_TABLE
 
         if (
@@ -354,7 +375,8 @@ def _main(argv: list[str]) -> int:
         from .ppod_demos import DEMOS as PPOD
 
         if args.name not in DEMOS:
-            every = ["feeding", "list", *sorted(DEMOS), *sorted(MCHIP), *sorted(PPOD), *sorted(ORIENT_TABLE)]
+            every = ["feeding", "list", *sorted(DEMOS), *sorted(MCHIP), *sorted(PPOD), *sorted(ORIENT_TABLE),
+                     *sorted(SCALE_TABLE)]  # fmt: skip
             print(f"upm demo: no demo {args.name!r}; the demos: {', '.join(every)}", file=sys.stderr)
             return 2
         try:

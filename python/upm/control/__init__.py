@@ -16,6 +16,7 @@ from ..plan import (
     DisplacementPlanner,
     FieldPlanner,
     FixedPlanner,
+    GreedyLibraryPlanner,
     JetPlanner,
     Planner,
     PosePlanner,
@@ -26,6 +27,7 @@ from .devices import BoardDevice, Device, SimulatedDevice, SimulatedDevice6, as_
 from .loop import LoadedLog, Log, Loop, load_log
 from .orient import PoseLog, PoseLoop, PoseTask
 from .parts import PartsTask
+from .shape import ShapeTask
 from .tasks import GatherTask, GotoTask, SortTask, State, Task, TrajectoryTask, WatchTask
 
 __all__ = [
@@ -36,6 +38,7 @@ __all__ = [
     "FixedPlanner",
     "GatherTask",
     "GotoTask",
+    "GreedyLibraryPlanner",
     "JetPlanner",
     "LoadedLog",
     "Log",
@@ -48,6 +51,7 @@ __all__ = [
     "PoseTask",
     "PredictivePlanner",
     "RotationsPlanner",
+    "ShapeTask",
     "SimulatedDevice",
     "SimulatedDevice6",
     "SortTask",

@@ -17,7 +17,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._arrays import point
+from .._arrays import integer, point, real
 from .._errors import ParameterError, ShapeError
 from ..drive import PLATE_SIZE
 from ._steps import clip, distance_sum, points, positions_of
@@ -363,6 +363,10 @@ class SortTask:
         ``margin`` from the top and bottom edges (beyond it they are brought back): planners that
         solve for every constrained component (:class:`~upm.control.RotationsPlanner`) then have
         about half the constraints.
+    part_radius : float, optional
+        The parts' radius [m]: on the first cycle, a side given more parts than its region holds
+        (beyond ``line``, ``margin / 2`` from the edges, as a hexagonal packing) is refused with a
+        :class:`upm.ParameterError`; :meth:`fit_line` places the line for a count.
     """
 
     NEAR, FAR = 2.0, 0.3
@@ -380,8 +384,12 @@ class SortTask:
         past: float = 0.02,
         clear: float = 0.003,
         free_y: bool = False,
+        part_radius: float | None = None,
     ) -> None:
         self.free_y = bool(free_y)
+        self.part_radius = (
+            None if part_radius is None else real("part_radius", part_radius, low=0.0, low_open=True)
+        )
         for name, value in (("past", past), ("clear", clear)):
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ParameterError(f"{name} must be finite and >= 0 [m]; got {value!r}")
@@ -397,6 +405,53 @@ class SortTask:
         self.margin, self.spacing, self.max_step = float(margin), float(spacing), float(max_step)
         if not 0 < self.line < self.half - self.margin:
             raise ParameterError(f"line must be in (0, {self.half - self.margin:.3g}) m; got {self.line!r}")
+
+    @staticmethod
+    def capacity(
+        line: float, part_radius: float, *, plate_size: float = PLATE_SIZE, margin: float = 0.04
+    ) -> int:
+        """How many disks of ``part_radius`` [m] one side's region holds: centres beyond ``line``
+        (plus a radius) and ``margin / 2`` inside the edges, hexagonally packed 5 % apart."""
+        half, d = plate_size / 2, 2.1 * part_radius
+        width = half - margin / 2 - line - part_radius
+        height = 2 * (half - margin / 2)
+        if width < 0 or height < 0:
+            return 0
+        nx, ny = int(width / (d * math.sqrt(3) / 2)) + 1, int(height / d) + 1
+        return nx * ny - nx // 2
+
+    @classmethod
+    def fit_line(cls, count: int, part_radius: float, *, plate_size: float = PLATE_SIZE, margin: float = 0.04,
+                 room: float = 1.5) -> float:  # fmt: skip
+        """The farthest line from the centre (at most a quarter of the plate) whose regions hold
+        ``room`` times ``count`` parts of ``part_radius`` [m] a side. :class:`upm.ParameterError`
+        when even a line a radius from the centre does not."""
+        count = integer("count", count, low=1)
+        r = real("part_radius", part_radius, low=0.0, low_open=True)
+        for line in np.arange(plate_size / 4, r, -0.0025):
+            if cls.capacity(float(line), r, plate_size=plate_size, margin=margin) >= room * count:
+                return float(line)
+        most = cls.capacity(r, r, plate_size=plate_size, margin=margin)
+        raise ParameterError(
+            f"{count} parts of radius {1000 * r:.1f} mm a side cannot be sorted on a "
+            f"{1000 * plate_size:.0f} mm plate: a side holds at most {most} with room {room:g}x; "
+            "use fewer or smaller parts"
+        )
+
+    def _fits(self, state: State) -> None:
+        """:class:`upm.ParameterError` when a side is given more parts than its region holds."""
+        if self.part_radius is None:
+            return
+        room = self.capacity(self.line, self.part_radius, plate_size=2 * self.half, margin=self.margin)
+        for side in (-1, 1):
+            n = int(np.sum(self._side(state) == side))
+            if n > room:
+                raise ParameterError(
+                    f"SortTask: {n} parts go to the {'left' if side < 0 else 'right'}, but beyond line = "
+                    f"{self.line:.3g} m the region holds {room} parts of radius "
+                    f"{1000 * self.part_radius:.1f} mm; "
+                    "move the line in (SortTask.fit_line), or sort fewer or smaller parts"
+                )
 
     def lines(self) -> list[FloatArray]:
         """The two sorting lines ``x = +-line`` [m]."""
@@ -481,6 +536,7 @@ class SortTask:
         e = self.errors(state)
         sorted_ = e[np.isfinite(e)]
         if self.expected is None:
+            self._fits(state)
             self.expected = len(sorted_)
         return bool(len(sorted_) and len(sorted_) >= self.expected and np.all(sorted_ <= 0.0))
 

@@ -7,6 +7,8 @@
 * :mod:`~upm.plan.predictive`: :class:`PredictivePlanner`, receding-horizon sampling on the
   batched simulator within the drive's force and stroke; its candidate families
   (:mod:`~upm.plan.candidates`) and long-pulse look-ahead (:mod:`~upm.plan.macros`);
+* :mod:`~upm.plan.greedy`: :class:`GreedyLibraryPlanner`, the published Chladni-plate
+  controller (greedy, one step, a fixed library with displacement maps) as the peer;
 * :mod:`~upm.plan.fields`: :class:`FieldPlanner`, velocity fields of a plate that moves out of
   its plane (docs/ppod.md);
 * :mod:`~upm.plan.orient`: :class:`PosePlanner`, pulses that turn and place polygon parts,
@@ -24,6 +26,7 @@ from .candidates import Candidates, aligned_centres, generate
 from .displacements import DisplacementPlanner, plan_pulses, plan_to_motion, sustain_for_displacement
 from .fields import FieldPlanner
 from .fixed import FixedPlanner, Planner
+from .greedy import GreedyLibraryPlanner, default_library
 from .jets import JetPlanner, jet_plan, jet_pulses
 from .macros import MacroTable
 from .orient import PosePlanner
@@ -36,6 +39,7 @@ __all__ = [
     "DisplacementPlanner",
     "FieldPlanner",
     "FixedPlanner",
+    "GreedyLibraryPlanner",
     "JetPlanner",
     "MacroTable",
     "Planner",
@@ -43,6 +47,7 @@ __all__ = [
     "PredictivePlanner",
     "RotationsPlanner",
     "aligned_centres",
+    "default_library",
     "generate",
     "jet_plan",
     "jet_pulses",
