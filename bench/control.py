@@ -16,9 +16,11 @@ checked, 5 % gain errors); its parts are points, since contacts with lift-off ar
 
 Columns: done (of the seeds), plate time to finish [s], parts lost, largest plate-corner excursion
 [mm], median predicted-vs-achieved step error [mm] (predictive planner), median planning time per
-cycle [ms], and the share of progress later undone. Also ``--scaling``: sort time and parts lost
-against the number of chips (4, 8, 16, 32), written to ``docs/img/scaling.png`` (``--stored``:
-plot the runs already in ``docs/img/scaling.jsonl``).
+cycle [ms], and the share of progress later undone. Also ``--scaling``: sorts and the letter L of
+8 to 100 parts, the predictive planner beside the greedy library peer (the published Chladni
+controller, :class:`upm.control.GreedyLibraryPlanner`): done, plate and wall time, lost, final
+max error, planning time, parts per minute; plotted to ``docs/img/scaling.png`` (``--stored``:
+from the runs already in ``docs/img/scaling.jsonl``).
 
 Run: ``python bench/control.py [--tasks sort8,goto6] [--planners predictive,jets] [--seeds 5]``.
 """
@@ -157,10 +159,43 @@ def table(tasks: list[str], planners: list[str], seeds: int) -> None:
             print(f"| {task} | {name} | {done}/{seeds} | {cells} |", flush=True)
 
 
-def scaling(planners: list[str], seeds: int, counts: list[int], out: Path, stored: bool = False) -> None:
-    """Sort time, chips lost and chips per minute against the number of chips. Every run is
-    appended to ``out`` with the suffix ``.jsonl`` as it ends, and runs already there are not run
-    again (an interrupted sweep resumes); ``stored``: plot the stored runs only, run nothing."""
+def scale_run(task: str, n: int, name: str, seed: int) -> dict[str, float]:
+    """One run of the scaling table through the full loop (the scale demos' set-ups: sorts of
+    poker chips up to 32, of 20 mm chips beyond; the letter L of 10 mm washers)."""
+    from upm.scale_demos import CHIP, SMALL_CHIP, shape_setup, sort_setup
+
+    if task == "sort":
+        setup = sort_setup(False, seed, n, CHIP if n <= 32 else SMALL_CHIP, name)
+    else:
+        setup = shape_setup(False, seed, n, "L", name)
+    plant = SimulatedUPM(plate=LIMITS.plate, axes=LIMITS.axes, stroke=LIMITS.stroke, parts=setup.parts,
+                         seed=seed, part_radius=setup.radius)  # fmt: skip
+    camera = plant.camera(setup.labels, seed=seed, **setup.view)
+    loop = control.Loop(plant, camera, setup.planner, setup.task, part_radius=setup.radius)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        start = time.perf_counter()
+        log = loop.run(setup.cycles, timeout=600.0)
+        wall = time.perf_counter() - start
+    final = log.errors[-1] if len(log.errors) else np.zeros(0)
+    return {
+        "done": float(log.done and plant.fallen == 0),
+        "time": float(log.meta["plate_time"]),
+        "wall": wall,
+        "dead": float(np.sum(log.vision) + np.sum(log.planning)),
+        "lost": float(plant.fallen),
+        "error": 1000 * float(np.nanmax(final)) if np.any(np.isfinite(final)) else float("nan"),
+        "planning": 1000 * float(np.median(log.planning)),
+    }
+
+
+def scaling(planners: list[str], seeds: int, counts: list[int], tasks: list[str], out: Path,
+            stored: bool = False) -> None:  # fmt: skip
+    """Sorts and shapes of ``counts`` parts by each planner over ``seeds`` seeds through the full
+    loop: done, plate and wall time, parts lost, the farthest part's final error, planning time
+    and parts per minute. Every run is appended to ``out`` with the suffix ``.jsonl`` as it ends,
+    and runs already there are not run again (an interrupted sweep resumes); ``stored``: tabulate
+    and plot the stored runs only."""
     import json
 
     import matplotlib
@@ -171,65 +206,61 @@ def scaling(planners: list[str], seeds: int, counts: list[int], out: Path, store
 
     store = out.with_suffix(".jsonl")
     store.parent.mkdir(parents=True, exist_ok=True)
-    done: dict[tuple[str, int, int], dict[str, float]] = {}
+    done: dict[tuple[str, str, int, int], dict[str, float]] = {}
     if store.exists():
         for line in store.read_text().splitlines():
             row = json.loads(line)
-            done[(row["planner"], int(row["chips"]), int(row["seed"]))] = row
-    for name in planners:
+            done[(row["task"], row["planner"], int(row["parts"]), int(row["seed"]))] = row
+    for task in tasks:
         for n in counts:
-            for seed in range(1, seeds + 1):
-                if (name, n, seed) in done or stored:
+            for name in planners:
+                for seed in range(1, seeds + 1):
+                    if (task, name, n, seed) in done or stored:
+                        continue
+                    row = {"task": task, "planner": name, "parts": n, "seed": seed, "cpu": cpu(),
+                           **scale_run(task, n, name, seed)}  # fmt: skip
+                    done[(task, name, n, seed)] = row
+                    with store.open("a") as f:
+                        f.write(json.dumps(row) + "\n")
+                    print(f"{task}{n} {name} seed {seed}: {row['time']:.1f} s, done {row['done']:.0f}, "
+                          f"{row['lost']:.0f} lost, {row['wall']:.0f} s wall", flush=True)  # fmt: skip
+    fig, axes = plt.subplots(1, len(tasks), figsize=(5.5 * len(tasks), 3.8), squeeze=False)
+    print(f"\n{cpu()}: median (max) over the seeds run\n")
+    print("| task | parts | planner | done | plate time [s] | wall time [s] | lost | final max error [mm] "
+          "| planning [ms] | parts per minute |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for ax, task in zip(axes[0], tasks, strict=True):
+        for name in planners:
+            xs, med, full = [], [], []
+            for n in counts:
+                rows = [r for (t, p, k, _), r in done.items() if (t, p, k) == (task, name, n)]
+                if not rows:
                     continue
-                row = {"planner": name, "chips": n, "seed": seed, **run(f"sort{n}", name, seed)}
-                done[(name, n, seed)] = row
-                with store.open("a") as f:
-                    f.write(json.dumps(row) + "\n")
-                print(f"sort{n} {name} seed {seed}: {row['time']:.1f} s, done {row['done']:.0f}, "
-                      f"{row['lost']:.0f} lost, {row['wall']:.0f} s wall", flush=True)  # fmt: skip
-    fig, (a, b, c) = plt.subplots(1, 3, figsize=(12, 3.6))
-    print(f"\n{cpu()}: median (max) over {seeds} seeds\n")
-    print("| planner | chips | sorted | plate time [s] | lost | chips per minute |")
-    print("|---|---|---|---|---|---|")
-    for name in planners:
-        xs, med, top, lost, rate, full = [], [], [], [], [], []
-        for n in counts:
-            rows = [done[(name, n, s)] for s in range(1, seeds + 1) if (name, n, s) in done]
-            if not rows:
-                continue
-            t = np.array([r["time"] for r in rows])
-            ok = int(sum(r["done"] for r in rows))
-            xs.append(n)
-            med.append(float(np.median(t)))
-            top.append(float(np.max(t)))
-            lost.append(float(np.median([r["lost"] for r in rows])))
-            full.append(ok == len(rows))
-            # a rate only where every seed sorted (otherwise the time is the cycle cap's)
-            rate.append(60.0 * n / med[-1] if full[-1] else float("nan"))
-            shown = f"{rate[-1]:.0f}" if full[-1] else "– (not sorted)"
-            print(f"| {name} | {n} | {ok}/{len(rows)} | {med[-1]:.1f} ({top[-1]:.1f}) "
-                  f"| {lost[-1]:.0f} ({max(r['lost'] for r in rows):.0f}) | {shown} |")  # fmt: skip
-        (line,) = a.plot(xs, med, "-", label=name)
-        colour = line.get_color()
-        for x, m, hi, ok in zip(xs, med, top, full, strict=True):
-            # hollow: not every seed finished (the time is then the cycle cap's)
-            a.plot([x], [m], "o", color=colour, mfc=colour if ok else "white")
-            a.plot([x, x], [m, hi], color=colour, lw=0.8)
-        b.plot(xs, lost, "o-", color=colour, label=name)
-        c.plot(xs, rate, "o-", color=colour, label=name)
-    a.axhline(30.0, color="0.6", ls=":", lw=0.8)
-    a.text(4, 31, "thesis hardware, 8 chips", color="0.4", fontsize=7)
-    a.set(xlabel="chips", ylabel="plate time to sort [s]", xscale="log", yscale="log", xticks=counts)
-    a.set_xticklabels([str(n) for n in counts])
-    b.set(xlabel="chips", ylabel="chips lost (median)", xscale="log", xticks=counts)
-    b.set_xticklabels([str(n) for n in counts])
-    c.set(xlabel="chips", ylabel="chips sorted per minute", xscale="log", xticks=counts)
-    c.set_xticklabels([str(n) for n in counts])
-    for ax in (a, b, c):
+                ok = int(sum(r["done"] for r in rows))
+                t_ = np.array([r["time"] for r in rows])
+                keys = (("wall", 0), ("lost", 0), ("error", 1), ("planning", 0))
+                columns = [(t_, 1)] + [(np.array([r[k] for r in rows]), d) for k, d in keys]
+                cells = " | ".join(f"{np.nanmedian(v):.{d}f} ({np.nanmax(v):.{d}f})" for v, d in columns)
+                rate = f"{60.0 * n / np.median(t_):.0f}" if ok == len(rows) else "– (not all done)"
+                print(f"| {task} | {n} | {name} | {ok}/{len(rows)} | {cells} | {rate} |")
+                xs.append(n)
+                med.append(float(np.median(t_)))
+                full.append(ok == len(rows))
+            if xs:
+                (line,) = ax.plot(xs, med, "-", label=name)
+                for x, m, f in zip(xs, med, full, strict=True):  # hollow: not every seed done
+                    ax.plot([x], [m], "o", color=line.get_color(), mfc=line.get_color() if f else "white")
+        ax.set(
+            xlabel="parts",
+            ylabel="plate time [s] (median; hollow: not all done)",
+            xscale="log",
+            yscale="log",
+            title=f"{task} (letter L of 10 mm washers)" if task == "shape" else "sort by colour",
+        )
+        ax.set_xticks(counts, [str(n) for n in counts])
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
-    a.legend(fontsize=8)
-    fig.suptitle(f"sorting by colour through the full loop, 10 mm stroke (median, bar to max; {cpu()})",
-                 fontsize=9)  # fmt: skip
+        ax.legend(fontsize=8)
+    fig.suptitle(f"many parts through the full loop, 10 mm stroke ({cpu()})", fontsize=9)
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     print(f"\nwrote {out} and {store}")
@@ -240,14 +271,17 @@ def main() -> None:
     parser.add_argument("--tasks", default="sort8,sort10,goto6,bowtie,mu0.21,mu0.39")
     parser.add_argument("--planners", default="predictive,jets")
     parser.add_argument("--seeds", type=int, default=5)
-    parser.add_argument("--scaling", action="store_true", help="sort time against the number of chips")
-    parser.add_argument("--counts", default="4,8,16,32", help="chip counts for --scaling")
-    parser.add_argument("--stored", action="store_true", help="--scaling: plot the stored runs, run none")
+    parser.add_argument("--scaling", action="store_true", help="sorts and shapes against the number of parts")
+    parser.add_argument("--counts", default="8,16,32,64,100", help="part counts for --scaling")
+    parser.add_argument("--scale-tasks", default="sort,shape", help="--scaling: sort, shape or both")
+    parser.add_argument("--stored", action="store_true", help="--scaling: tabulate the stored runs, run none")
     args = parser.parse_args()
     planners = args.planners.split(",")
     if args.scaling:
         counts = [int(n) for n in args.counts.split(",")]
-        scaling(planners, args.seeds, counts, Path("docs/img/scaling.png"), stored=args.stored)
+        names = planners if args.planners != "predictive,jets" else ["predictive", "greedy"]
+        scaling(names, args.seeds, counts, args.scale_tasks.split(","), Path("docs/img/scaling.png"),
+                stored=args.stored)  # fmt: skip
     else:
         table(args.tasks.split(","), planners, args.seeds)
 

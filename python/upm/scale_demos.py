@@ -25,7 +25,7 @@ from .demos import CHIP, LIMITS, Demo, Setup, run_demo, scatter
 from .plan import PredictivePlanner
 from .vision.synthetic import Camera
 
-__all__ = ["DEMOS", "WASHER", "run_scale_demo", "shape_targets"]
+__all__ = ["DEMOS", "SMALL_CHIP", "WASHER", "run_scale_demo", "shape_setup", "shape_targets", "sort_setup"]
 
 #: A washer's radius [m]: the 10 mm parts of the ``shape`` demos.
 WASHER = 0.005
@@ -48,9 +48,13 @@ def shape_targets(shape: str, n: int, seed: int = 0) -> Any:
     if shape == "grid":
         return shapes.grid(n, spacing)
     if len(shape) == 1 and shape.isalpha():
-        # a letter's strokes hold about 0.26 height^2; each part takes a hexagon of the spacing
-        height = min(0.3, max(0.1, math.sqrt(n * 0.87 * spacing**2 / 0.24)))
-        return shapes.letter(shape, n, height, seed=seed)
+        # a letter's strokes hold about 0.24 height^2; each part takes a hexagon of the spacing
+        height = max(0.1, math.sqrt(n * 0.87 * spacing**2 / 0.24))
+        while True:  # taller until the spread leaves room between parts (k-means is not a packing)
+            points = shapes.letter(shape, n, height, seed=seed)
+            if shapes.min_spacing(points) >= 2.2 * WASHER or height >= 0.3:
+                return points
+            height *= 1.08
     path = Path(shape)
     if path.suffix and path.exists():
         return shapes.from_mask(path, n, 0.26, seed=seed)
@@ -67,7 +71,9 @@ def _planner(kind: str, radius: float) -> Any:
     raise ParameterError(f"planner must be one of {PLANNERS}; got {kind!r}")
 
 
-def _shape(quick: bool, seed: int, parts: int, shape: str, planner: str = "predictive") -> Setup:
+def shape_setup(quick: bool, seed: int, parts: int, shape: str, planner: str = "predictive") -> Setup:
+    """The ``shape`` demos' set-up: ``parts`` washers scattered by ``seed`` over the plate's
+    middle, ``shape``'s points (:func:`shape_targets`) as a :class:`~upm.control.ShapeTask`."""
     rng = np.random.default_rng(seed)
     targets = shape_targets(shape, parts)
     task = ShapeTask(targets, part_radius=WASHER, max_step=0.02)
@@ -77,7 +83,10 @@ def _shape(quick: bool, seed: int, parts: int, shape: str, planner: str = "predi
                  view={"camera": CAMERA, "radius": WASHER})  # fmt: skip
 
 
-def _sort(quick: bool, seed: int, count: int, radius: float, planner: str = "predictive") -> Setup:
+def sort_setup(quick: bool, seed: int, count: int, radius: float, planner: str = "predictive") -> Setup:
+    """The scale sorts' set-up: ``count`` chips of ``radius`` [m], half red and half blue,
+    scattered by ``seed`` between the lines, which :meth:`~upm.control.SortTask.fit_line` places
+    so that each side holds its chips."""
     rng = np.random.default_rng(seed)
     labels = ["red"] * (count // 2) + ["blue"] * (count - count // 2)
     margin = 0.08
@@ -103,13 +112,13 @@ def _report(log: Log, setup: Setup, m: dict[str, Any]) -> list[str]:
 
 DEMOS: dict[str, Demo] = {
     "sort32": Demo("sort32", "scale", "32 poker chips sorted by colour (16 a side)",
-                   lambda q, s: _sort(q, s, 32, CHIP), _report),
+                   lambda q, s: sort_setup(q, s, 32, CHIP), _report),
     "sort64": Demo("sort64", "scale", "64 chips of 20 mm sorted by colour (32 a side)",
-                   lambda q, s: _sort(q, s, 64, SMALL_CHIP), _report),
+                   lambda q, s: sort_setup(q, s, 64, SMALL_CHIP), _report),
     "shape100": Demo("shape100", "scale", "100 washers of 10 mm into the letter L",
-                     lambda q, s: _shape(q, s, 100, "L"), _report),
+                     lambda q, s: shape_setup(q, s, 100, "L"), _report),
     "shape": Demo("shape", "scale", "N washers into a shape (--parts N --shape ring|grid|A-Z|mask.png)",
-                  lambda q, s: _shape(q, s, 12, "ring"), _report),
+                  lambda q, s: shape_setup(q, s, 12, "ring"), _report),
 }  # fmt: skip
 
 
@@ -136,13 +145,13 @@ def run_scale_demo(
         n = 12 if parts is None else int(parts)
         if not 1 <= n <= 400:
             raise ParameterError(f"parts must be in [1, 400]; got {parts!r}")
-        setup = _shape(quick, seed, n, shape or "ring", planner)
+        setup = shape_setup(quick, seed, n, shape or "ring", planner)
     elif parts is not None or shape is not None:
         raise ParameterError(f"--parts and --shape are for the shape demo; {name} has its own")
     elif name.startswith("sort"):
-        setup = _sort(quick, seed, int(name[4:]), CHIP if name == "sort32" else SMALL_CHIP, planner)
+        setup = sort_setup(quick, seed, int(name[4:]), CHIP if name == "sort32" else SMALL_CHIP, planner)
     else:
-        setup = _shape(quick, seed, 100, "L", planner)
+        setup = shape_setup(quick, seed, 100, "L", planner)
     if cycles is not None:
         setup.cycles = int(cycles)
     return run_demo(name, out, seed=seed, verbose=verbose, rrd=rrd, entry=(DEMOS[name], setup))

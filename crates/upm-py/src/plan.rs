@@ -88,3 +88,29 @@ pub fn edge_penalty<'py>(
     })?;
     Ok(PyArray1::from_vec(py, out))
 }
+
+/// The predictive planner's overlap penalty `(L,)` of layouts `q (L, M, 2)`: over pairs closer
+/// than `reach` [m], the sum of `reach - distance` (see `upm_core::plan::overlap_penalty`).
+#[pyfunction]
+pub fn overlap_penalty<'py>(
+    py: Python<'py>,
+    q: PyReadonlyArray3<'py, f64>,
+    reach: f64,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let (l, m) = (q.shape()[0], q.shape()[1]);
+    if q.shape()[2] != 2 {
+        return Err(shape_error(
+            py,
+            format!("q must have shape (L, M, 2); got {:?}", q.shape()),
+        ));
+    }
+    let qs = flat_pairs(&q);
+    let out = detached(py, || {
+        let mut out = vec![0.0; l];
+        if m > 0 {
+            plan::overlap_penalty(reach, &qs, m, &mut out).map_err(Failure::from)?;
+        }
+        Ok(out)
+    })?;
+    Ok(PyArray1::from_vec(py, out))
+}

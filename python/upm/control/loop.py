@@ -51,7 +51,9 @@ class Log:
     achieved : (C, P, 2) steps measured on the next frame [m]
     errors : (C, P) the task's error of each part [m]
     pulses : (C,) pulses played; plate_time (C,) their length [s]
-    vision, planning, execution : (C,) seconds spent on each
+    vision, planning, execution : (C,) seconds spent on each (planning: while the plate waited)
+    ahead : (C,) seconds spent planning the next cycle while the plate played (``pipeline``)
+    kept : (C,) whether the cycle played the plan made ahead (its prediction held)
     centers : list of (n, 2) the centres (rotations) or foci (jets) of each cycle's pulses
     frames : (F, H, W, 3) the camera frames kept for an animation (every ``keep_frames``-th)
     frame_cycles : (F,) the cycle of each kept frame
@@ -69,6 +71,8 @@ class Log:
     planning: list[float] = field(default_factory=list)
     execution: list[float] = field(default_factory=list)
     centers: list[FloatArray] = field(default_factory=list)
+    ahead: list[float] = field(default_factory=list)
+    kept: list[bool] = field(default_factory=list)
     frames: list[NDArray[np.uint8]] = field(default_factory=list)
     frame_cycles: list[int] = field(default_factory=list)
     done: bool = False
@@ -148,6 +152,8 @@ class Log:
             "vision": np.array(self.vision),
             "planning": np.array(self.planning),
             "execution": np.array(self.execution),
+            "ahead": np.array(self.ahead),
+            "kept": np.array(self.kept, dtype=bool),
             "centers": cents,
             "frames": frames,
             "frame_cycles": np.array(self.frame_cycles, dtype=np.int64),
@@ -254,6 +260,12 @@ class Loop:
         Shortest cycle [s of plate time]: a cycle whose pulses are shorter rests for the remainder
         (time passes while the loop sees and thinks, so trajectories keep moving when the parts
         are on their references).
+    pipeline : float or None
+        Plan while the plate plays: as each pulse plays, the planner (one with ``speculate`` and
+        ``adopt``: :class:`~upm.plan.PredictivePlanner`) plans the next from where the pulse is
+        predicted to leave the parts; when the frame arrives, that plan is played if every part
+        is within ``pipeline`` [m] of its prediction (and the same parts are seen), else the
+        cycle plans afresh. ``None``: see, plan, play in turn.
     """
 
     def __init__(
@@ -270,6 +282,7 @@ class Loop:
         search: float | None = None,
         keep_frames: int = 1,
         min_cycle: float = 0.25,
+        pipeline: float | None = None,
     ) -> None:
         from ..vision import THESIS_PALETTE, find_table
 
@@ -294,12 +307,29 @@ class Loop:
         if not (math.isfinite(min_cycle) and min_cycle >= 0):
             raise ParameterError(f"min_cycle must be finite and >= 0 [s]; got {min_cycle!r}")
         self.min_cycle = float(min_cycle)
+        if pipeline is not None:
+            real("pipeline", pipeline, low=0.0, low_open=True)
+            if not (hasattr(planner, "speculate") and hasattr(planner, "adopt")):
+                raise ParameterError(
+                    f"pipeline needs a planner that plans ahead (speculate, adopt: PredictivePlanner); "
+                    f"got {type(planner).__name__}"
+                )
+        self.pipeline = None if pipeline is None else float(pipeline)
         self._find_table = find_table
         self.palette = THESIS_PALETTE if palette is None else palette
         self.table = table
         self.search = search
         self.tracker: Any = None
         self.plate_time = 0.0
+        self._pool: Any = None
+
+    def _player(self) -> Any:
+        """The one worker thread that plays pulses while the loop plans ahead (``pipeline``)."""
+        if self._pool is None:
+            from concurrent.futures import ThreadPoolExecutor
+
+            self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="upm-plate")
+        return self._pool
 
     def _read(self) -> NDArray[np.uint8]:
         ok, frame = self.camera.read()
@@ -358,6 +388,9 @@ class Loop:
                 out.save(target)
             if owned:
                 recorder.close()
+            if self._pool is not None:
+                self._pool.shutdown(wait=True)
+                self._pool = None
         return out
 
     def _cycles(
@@ -373,6 +406,7 @@ class Loop:
     ) -> None:
         flushed = start
         last_cycle = 0.0
+        pending: tuple[list[Pulse], object, NDArray[np.int64], FloatArray] | None = None
         prev: dict[int, FloatArray] = {}  # positions at the start of the last cycle
         known: set[int] = set()
         for cycle in range(cycles + 1):
@@ -414,6 +448,8 @@ class Loop:
                 out.record(tracks.ids, pos, nothing, errors, self.plate_time, time.perf_counter() - start, [],
                            (t1 - t0, 0.0, 0.0))  # fmt: skip
                 out.done = finished
+                out.kept.append(False)
+                out.ahead.append(0.0)
                 out.meta["stopped"] = "done" if finished else ("cycles" if cycle == cycles else "timeout")
                 if recorder is not None:
                     seen_now = (state, tracks, frame, achieved, before, errors)
@@ -422,7 +458,16 @@ class Loop:
             steps = np.asarray(self.task.steps(state), dtype=np.float64)
             seen = np.all(np.isfinite(pos), axis=1)
             steps[~seen] = 0.0
-            pulses = plan_cycle(self.planner, self.task, state, steps, self.min_cycle)
+            pulses = None
+            if pending is not None:  # planned while the last pulse played: kept if it still holds
+                ahead_pulses, token, p_ids, p_pos = pending
+                pending = None
+                if _holds(tracks.ids[seen], pos[seen], p_ids, p_pos, self.pipeline or 0.0):
+                    self.planner.adopt(token, tracks.ids[seen], pos[seen])
+                    pulses = _padded(list(ahead_pulses), self.min_cycle)
+            out.kept.append(pulses is not None)
+            if pulses is None:
+                pulses = plan_cycle(self.planner, self.task, state, steps, self.min_cycle)
             t2 = time.perf_counter()
             if callback is not None:
                 callback(state, pulses)
@@ -430,7 +475,29 @@ class Loop:
             if expected is not None and pulses:  # the planner's prediction guides the next search
                 self.tracker.expect(*expected)
             waited = float(getattr(self.device, "waited", 0.0))
-            self.device.execute(pulses)
+            ahead = 0.0
+            if self.pipeline is not None and expected is not None and any(p.kind != "rest" for p in pulses):
+                # the plate plays in a worker thread while this one plans the next cycle from the
+                # prediction; the cycle ends when both have
+                labels = dict(zip((int(i) for i in tracks.ids), tracks.labels, strict=True))
+                e_ids, e_pos = expected
+                alive = np.all(
+                    np.isfinite(e_pos), axis=1
+                )  # a part predicted off the plate is not planned for
+                e_ids, e_pos = np.asarray(e_ids)[alive], np.asarray(e_pos)[alive]
+                guess = State(cycle + 1, self.plate_time + pulse_time(pulses), e_ids, e_pos,
+                              tuple(labels.get(int(i), "") for i in e_ids), pulse_time(pulses))  # fmt: skip
+                playing = self._player().submit(self.device.execute, pulses)
+                try:
+                    a0 = time.perf_counter()
+                    ahead_pulses, token = self.planner.speculate(guess, self.task)
+                    ahead = time.perf_counter() - a0
+                    pending = (ahead_pulses, token, np.asarray(e_ids).copy(), np.asarray(e_pos).copy())
+                finally:
+                    playing.result()
+            else:
+                self.device.execute(pulses)
+            out.ahead.append(ahead)
             t3 = time.perf_counter()
             last_cycle = pulse_time(pulses) + float(getattr(self.device, "waited", 0.0)) - waited
             self.plate_time += last_cycle
@@ -503,10 +570,25 @@ def plan_cycle(planner: Any, task: Any, state: State, steps: FloatArray, min_cyc
         pulses = list(planner.plan_task(view, task))
     else:
         pulses = list(planner.plan(state.positions[seen], steps[seen]))
+    return _padded(pulses, min_cycle)
+
+
+def _padded(pulses: list[Pulse], min_cycle: float) -> list[Pulse]:
+    """``pulses`` with a rest to ``min_cycle`` [s] of plate time when shorter."""
     short = min_cycle - pulse_time(pulses)
-    if short > 1e-9:
-        pulses.append(Pulse.pause(short))
-    return pulses
+    return [*pulses, Pulse.pause(short)] if short > 1e-9 else pulses
+
+
+def _holds(
+    ids: NDArray[np.int64], pos: FloatArray, p_ids: NDArray[np.int64], p_pos: FloatArray, within: float
+) -> bool:
+    """Whether the parts seen (``ids`` at ``pos``) are the ones predicted (``p_ids`` at
+    ``p_pos``), each within ``within`` [m] of its prediction."""
+    if len(ids) != len(p_ids) or set(map(int, ids)) != set(map(int, p_ids)):
+        return False
+    at = {int(i): k for k, i in enumerate(p_ids)}
+    d = pos - p_pos[[at[int(i)] for i in ids]]
+    return bool(np.all(np.isfinite(d)) and np.all(np.hypot(d[:, 0], d[:, 1]) <= within))
 
 
 def _recorder(recording: Any) -> tuple[Any, bool]:

@@ -136,6 +136,10 @@ class PredictivePlanner:
         Rotations about this many centres picked each cycle for the task by a quick model
         (:func:`~upm.plan.candidates.aligned_centres`), each at on-times 0.2 and 0.4 s: pulses
         that move many parts toward their goals at once. 0: none.
+    focus : int or None
+        Pulses at parts (rotations about a part, jets at it) only for this many parts a cycle,
+        those whose cost falls most steeply as they move (the parts with the most still to gain);
+        ``None``: at every part. Keeps a cycle's candidates as many for 100 parts as for 16.
     """
 
     def __init__(
@@ -161,6 +165,7 @@ class PredictivePlanner:
         lookahead: float | None = 1.0,
         pairs: tuple[int, int] | None = (16, 100),
         aligned: int = 16,
+        focus: int | None = 16,
     ) -> None:
         if not isinstance(limits, DriveLimits):
             raise ParameterError(f"limits must be a upm.DriveLimits; got {type(limits).__name__}")
@@ -188,6 +193,11 @@ class PredictivePlanner:
             if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 0:
                 raise ParameterError(f"{name} must be an integer >= 0; got {count!r}")
         self.aligned = int(aligned)
+        if focus is not None and (
+            isinstance(focus, bool) or not isinstance(focus, (int, np.integer)) or focus < 1
+        ):
+            raise ParameterError(f"focus must be None or an integer >= 1; got {focus!r}")
+        self.focus = None if focus is None else int(focus)
         self.edge = float(edge)
         if not (isinstance(guard, (int, float)) and 0 <= guard < self.edge):
             raise ParameterError(f"guard must be >= 0 and below edge ({self.edge:g} m); got {guard!r}")
@@ -315,9 +325,10 @@ class PredictivePlanner:
             self.lost_cost, self.guard,
         )  # fmt: skip
         if overlaps and self.part_radius is not None and q.shape[1] > 1:
-            i, j = np.triu_indices(q.shape[1], 1)
-            gap = np.linalg.norm(np.nan_to_num(q[:, i] - q[:, j], nan=1.0), axis=-1)
-            out = out + 0.5 * np.clip(2.05 * self.part_radius - gap, 0.0, None).sum(axis=-1)
+            # half the depth of every overlap of two parts (upm_core::plan::overlap_penalty: a
+            # sweep along x, not all pairs)
+            reach = 2.05 * self.part_radius
+            out = out + 0.5 * _core.overlap_penalty(np.ascontiguousarray(q, dtype=np.float64), reach)
         return out
 
     def _score(
@@ -455,7 +466,11 @@ class PredictivePlanner:
         gain_of = np.array([self.gains.get(int(i), 1.0) for i in ids])
         final = pos + gain_of[None, :, None] * (final - pos)
         gain, rate = self._score(task, state, pos, final, durations)
-        rate = np.maximum(rate, self._two_step(task, state, pos, final, durations))
+        among = None
+        if self.focus is not None and len(pos) > self.focus:
+            # many parts: the look-ahead for the best few by their own rate (its cost is K R M)
+            among = np.argsort(-np.where(np.isfinite(rate), rate, -np.inf), kind="stable")[: 8 * self.focus]
+        rate = np.maximum(rate, self._two_step(task, state, pos, final, durations, among))
         pair_rate = np.full(len(pulses), -np.inf)
         pair_gain = np.zeros(len(pulses))
         if self.pairs is not None and len(pulses):
@@ -499,11 +514,22 @@ class PredictivePlanner:
         return best, gain, rate, float(durations[best]), final[best]
 
     def _two_step(
-        self, task: _CostTask, state: Any, pos: FloatArray, final: FloatArray, durations: FloatArray
+        self,
+        task: _CostTask,
+        state: Any,
+        pos: FloatArray,
+        final: FloatArray,
+        durations: FloatArray,
+        among: NDArray[np.int64] | None = None,
     ) -> FloatArray:
-        """Gain per second of each candidate followed by the best long pulse (its table)."""
+        """Gain per second of each candidate (``among`` them only: the others ``-inf``) followed
+        by the best long pulse (its table)."""
         if self.macros is None:
             return np.full(len(final), -np.inf)
+        if among is not None:
+            out_all = np.full(len(final), -np.inf)
+            out_all[among] = self._two_step(task, state, pos, final[among], durations[among])
+            return out_all
         safe = np.where(np.isfinite(final), final, pos)
         after = self.macros.apply(safe)  # (K, R, M, 2)
         total = durations[:, None] + self.macros.durations[None, :]
@@ -580,7 +606,15 @@ class PredictivePlanner:
             aligned = aligned_centres(
                 lambda q: task.cost(state, q, 0.0), pos, self.limits.size, count=self.aligned
             )
-        cands = self.candidates(pos, self._descent(task, state, pos), carried, aligned)
+        toward = self._descent(task, state, pos)
+        near = pos
+        if self.focus is not None and len(pos) > self.focus:
+            # pulses at parts only for the parts with the most to gain (the steepest descent of
+            # the cost): the candidates stay as many whatever the count of parts, and each
+            # prediction O(M)
+            keep = np.sort(np.argsort(-np.hypot(toward[:, 0], toward[:, 1]), kind="stable")[: self.focus])
+            near, toward = pos[keep], toward[keep]
+        cands = self.candidates(near, toward, carried, aligned)
         if self.macros is not None:  # the long pulses of the look-ahead are playable themselves
             cands = cands + self.macros.playable(carried)
         best, _, _, duration, final = self._choose(task, state, cands.pulses, ids)
@@ -593,6 +627,25 @@ class PredictivePlanner:
         self._last = (played, ids.copy(), pos.copy(), np.asarray(final, dtype=float))
         self.expected = (ids.copy(), self._last[3].copy())
         return [played]
+
+    def speculate(self, state: Any, task: _CostTask) -> tuple[list[Pulse], object]:
+        """Plan the next pulse from ``state`` as the last pulse is predicted to leave it, while that
+        pulse plays (:class:`upm.control.Loop`'s ``pipeline``). Nothing the planner has learnt
+        or expects changes: the pulses and a token for :meth:`adopt`, which keeps the plan."""
+        saved = (self._plate.copy(), self._t_next, self._last, self.expected)
+        self._last = None  # a prediction teaches nothing: the pulse before is corrected on adoption
+        try:
+            pulses = self.plan_task(state, task)
+            after = (self._plate.copy(), self._t_next, self._last, self.expected)
+        finally:
+            self._plate, self._t_next, self._last, self.expected = saved
+        return pulses, after
+
+    def adopt(self, token: object, ids: NDArray[np.int64], positions: FloatArray) -> None:
+        """Keep a plan from :meth:`speculate`: learn from the pulse that has just played (the parts
+        ``ids`` seen at ``positions``), then take the state the kept plan leaves."""
+        self._correct(np.asarray(ids, dtype=np.int64), np.asarray(positions, dtype=np.float64))
+        self._plate, self._t_next, self._last, self.expected = token  # type: ignore[misc]
 
     def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]:
         """Without a task: the pulse that best brings each part to ``positions + steps`` (NaN
