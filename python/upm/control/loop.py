@@ -407,6 +407,7 @@ class Loop:
         flushed = start
         last_cycle = 0.0
         pending: tuple[list[Pulse], object, NDArray[np.int64], FloatArray] | None = None
+        ahead_planner: Any = self.planner  # with speculate and adopt when pipelined (checked)
         prev: dict[int, FloatArray] = {}  # positions at the start of the last cycle
         known: set[int] = set()
         for cycle in range(cycles + 1):
@@ -463,7 +464,7 @@ class Loop:
                 ahead_pulses, token, p_ids, p_pos = pending
                 pending = None
                 if _holds(tracks.ids[seen], pos[seen], p_ids, p_pos, self.pipeline or 0.0):
-                    self.planner.adopt(token, tracks.ids[seen], pos[seen])
+                    ahead_planner.adopt(token, tracks.ids[seen], pos[seen])
                     pulses = _padded(list(ahead_pulses), self.min_cycle)
             out.kept.append(pulses is not None)
             if pulses is None:
@@ -490,7 +491,7 @@ class Loop:
                 playing = self._player().submit(self.device.execute, pulses)
                 try:
                     a0 = time.perf_counter()
-                    ahead_pulses, token = self.planner.speculate(guess, self.task)
+                    ahead_pulses, token = ahead_planner.speculate(guess, self.task)
                     ahead = time.perf_counter() - a0
                     pending = (ahead_pulses, token, np.asarray(e_ids).copy(), np.asarray(e_pos).copy())
                 finally:
