@@ -308,3 +308,36 @@ def test_the_scale_demos_build_their_shapes_and_refuse_bad_options(tmp_path):
         run_scale_demo("sort32", tmp_path, parts=5)
     with pytest.raises(upm.ParameterError, match="planner"):
         run_scale_demo("sort32", tmp_path, planner="magic")
+
+
+def test_a_hundred_washers_keep_their_ids_through_the_loops_tracker():
+    from upm.control.loop import loop_tracker
+    from upm.demos import scatter
+    from upm.scale_demos import CAMERA, WASHER
+    from upm.vision import THESIS_PALETTE, find_table
+
+    rng = np.random.default_rng(3)
+    plant = SimulatedUPM(parts=scatter(rng, 100, 0.16, 3.2 * WASHER), part_radius=WASHER)
+    camera = plant.camera("penny", camera=CAMERA, seed=3, radius=WASHER)
+    frame = camera.read()[1]
+    tracker = loop_tracker(find_table(frame, plant.plate_size), WASHER, THESIS_PALETTE, 0.02)
+    tracks = tracker.update(frame)
+
+    def owners():  # each track's part: the nearest true part
+        return {
+            int(i): int(np.argmin(np.hypot(*(plant.parts - p).T)))
+            for i, p in zip(tracks.ids, tracks.positions)
+        }
+
+    first = owners()
+    assert len(first) == 100 and len(set(first.values())) == 100
+    for _ in range(8):
+        # every part 12 mm at most (as a pulse moves them); the planner's prediction 2 mm off
+        moved = plant.parts + rng.uniform(-0.012, 0.012, 2) + rng.uniform(-0.001, 0.001, (100, 2))
+        guess = np.array([moved[first[int(i)]] for i in tracks.ids]) + rng.normal(0.0, 0.002, (100, 2))
+        tracker.expect(tracks.ids, guess)
+        plant.move_parts(moved)
+        tracks = tracker.update(camera.read()[1])
+        assert owners() == first  # no part lost, no swap
+    error = np.hypot(*(tracks.positions - plant.parts[[first[int(i)] for i in tracks.ids]]).T)
+    assert np.max(error) < 1e-3  # each 10 mm part located to a millimetre

@@ -257,6 +257,14 @@ def _main(argv: list[str]) -> int:
     )
     d.add_argument("--parts", type=int, default=None, help="shape demo: how many parts (default 12)")
     d.add_argument(
+        "--pipeline",
+        type=float,
+        default=None,
+        metavar="MM",
+        help="plan while the plate plays, keeping plans whose parts end within MM of the prediction "
+        "(predictive planner; the scale demos do by default, 6 mm)",
+    )
+    d.add_argument(
         "--shape", default=None, help="shape demo: ring, grid, a capital letter (T) or a mask image's path"
     )
     fg = commands.add_parser("figures", help="the thesis's analytic figures (3.5, 3.6, 4.7, 6.2, 6.9)")
@@ -309,6 +317,7 @@ def _main(argv: list[str]) -> int:
             print(f"upm desk: {error}", file=sys.stderr)
             return 2
     if args.command == "demo":
+        ahead = None if args.pipeline is None else args.pipeline / 1000  # mm on the command line
         if args.name == "feeding":
             return demo(args.out, plots=not args.no_plots)
         if args.name == "list":
@@ -341,7 +350,7 @@ def _main(argv: list[str]) -> int:
             try:
                 metrics = run_scale_demo(args.name, args.out, parts=args.parts, shape=args.shape,
                                          planner=args.planner or "predictive", seed=args.seed,
-                                         quick=args.quick, rrd=args.rrd)  # fmt: skip
+                                         quick=args.quick, rrd=args.rrd, pipeline=ahead)  # fmt: skip
             except UpmError as error:
                 print(f"upm demo: {error}", file=sys.stderr)
                 return 2
@@ -382,7 +391,7 @@ def _main(argv: list[str]) -> int:
         try:
             metrics = run_demo(args.name, args.out, board=args.board, quick=args.quick, seed=args.seed,
                                mp4=args.mp4, contacts=not args.points, planner=args.planner,
-                               rrd=args.rrd)  # fmt: skip
+                               rrd=args.rrd, pipeline=ahead)  # fmt: skip
         except UpmError as error:
             print(f"upm demo: {error}", file=sys.stderr)
             return 2

@@ -77,6 +77,8 @@ class Setup:
     centers: FloatArray | None = None
     view: dict[str, Any] = field(default_factory=dict)
     """Options of the plant's camera (``SimulatedUPM.camera``): a finer camera, the parts' radius."""
+    pipeline: float | None = None
+    """The loop plans while the plate plays, keeping plans whose prediction holds to this [m]."""
 
 
 @dataclass(frozen=True)
@@ -562,6 +564,7 @@ def run_demo(
     planner: str | None = None,
     rrd: bool = False,
     entry: tuple[Demo, Setup] | None = None,
+    pipeline: float | None = None,
 ) -> dict[str, Any]:
     """Run demo ``name`` (see :data:`DEMOS`), write its outputs to ``out/name/``, print the report
     and return the metrics. ``board``: the plate runs in a board emulator process reached over the
@@ -570,7 +573,8 @@ def run_demo(
     through each other; ``planner``: one of :data:`PLANNERS` instead of the demo's thesis planner
     (``predictive`` plays one pulse a cycle, so it gets four times the cycles); ``rrd``: also
     record the run for rerun to ``out/name/run.rrd`` (extra ``viz``); ``entry``: a demo and its
-    set-up built elsewhere (:mod:`upm.scale_demos`), run under ``name``."""
+    set-up built elsewhere (:mod:`upm.scale_demos`), run under ``name``; ``pipeline`` [m]: plan
+    while the plate plays (``Loop(pipeline=)``, the predictive planner only)."""
     if entry is None and name not in DEMOS:
         raise ParameterError(f"demo must be one of {sorted(DEMOS)}; got {name!r}")
     demo, setup = (DEMOS[name], DEMOS[name].build(quick, seed)) if entry is None else entry
@@ -580,6 +584,8 @@ def run_demo(
             setup.cycles *= 4
     if cycles is not None:
         setup.cycles = int(cycles)
+    if pipeline is not None:
+        setup.pipeline = float(pipeline)
     say = print if verbose else (lambda *a, **k: None)
     using = "" if planner is None else f"; planner: {type(setup.planner).__name__} instead"
     say(
@@ -598,7 +604,8 @@ def run_demo(
             try:
                 with Board(tty) as link, RemoteCamera(address) as camera:
                     device = BoardDevice(link, LIMITS, wait_rest=True)
-                    loop = Loop(device, camera, setup.planner, setup.task, part_radius=setup.radius)
+                    loop = Loop(device, camera, setup.planner, setup.task, part_radius=setup.radius,
+                                pipeline=setup.pipeline)  # fmt: skip
                     log = loop.run(setup.cycles, recording=recording)
                     truth = camera.truth()
                     stroke = camera.max_excursion()
@@ -614,6 +621,7 @@ def run_demo(
             setup.planner,
             setup.task,
             part_radius=setup.radius,
+            pipeline=setup.pipeline,
         )
         log = loop.run(setup.cycles, recording=recording)
         fallen = plant.fallen
@@ -623,6 +631,8 @@ def run_demo(
     metrics["seed"] = seed
     metrics["planner"] = type(setup.planner).__name__
     metrics["max_stroke"] = float(stroke)
+    metrics["pipeline"] = setup.pipeline
+    metrics["kept_share"] = float(np.mean(log.kept)) if log.kept else 0.0
     errs = getattr(setup.planner, "step_errors", None)
     metrics["prediction_error_median"] = float(np.median(errs)) if errs else float("nan")
     written = _write_outputs(name, Path(out) / name, log, loop, setup, metrics, mp4) + (

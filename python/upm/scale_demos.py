@@ -63,6 +63,14 @@ def shape_targets(shape: str, n: int, seed: int = 0) -> Any:
     )
 
 
+#: The predictive planner plans while the plate plays, keeping plans whose parts end within this.
+AHEAD = 0.006
+
+
+def _ahead(kind: str) -> float | None:
+    return AHEAD if kind == "predictive" else None
+
+
 def _planner(kind: str, radius: float) -> Any:
     if kind == "predictive":
         return PredictivePlanner(LIMITS, mu=0.3, part_radius=radius)
@@ -80,7 +88,7 @@ def shape_setup(quick: bool, seed: int, parts: int, shape: str, planner: str = "
     start = scatter(rng, parts, 0.15, 2.6 * WASHER)
     cycles = (40 if quick else 600) + 4 * parts
     return Setup(start, ["penny"] * parts, WASHER, _planner(planner, WASHER), task, cycles,
-                 view={"camera": CAMERA, "radius": WASHER})  # fmt: skip
+                 view={"camera": CAMERA, "radius": WASHER}, pipeline=_ahead(planner))  # fmt: skip
 
 
 def sort_setup(quick: bool, seed: int, count: int, radius: float, planner: str = "predictive") -> Setup:
@@ -96,7 +104,7 @@ def sort_setup(quick: bool, seed: int, count: int, radius: float, planner: str =
                     part_radius=radius)  # fmt: skip
     view = {"camera": CAMERA, "radius": radius}
     return Setup(parts, labels, radius, _planner(planner, radius), task, 30 if quick else 400 + 8 * count,
-                 view=view)  # fmt: skip
+                 view=view, pipeline=_ahead(planner))  # fmt: skip
 
 
 def _report(log: Log, setup: Setup, m: dict[str, Any]) -> list[str]:
@@ -134,9 +142,12 @@ def run_scale_demo(
     cycles: int | None = None,
     verbose: bool = True,
     rrd: bool = False,
+    pipeline: float | None = None,
 ) -> dict[str, Any]:
     """Run scale demo ``name`` (:data:`DEMOS`) through :func:`upm.demos.run_demo`; ``parts`` and
-    ``shape`` set the ``shape`` demo's count and shape; ``planner``: ``predictive`` or ``greedy``."""
+    ``shape`` set the ``shape`` demo's count and shape; ``planner``: ``predictive`` or ``greedy``;
+    ``pipeline`` [m]: the threshold of plans made while the plate plays (default :data:`AHEAD`
+    for the predictive planner)."""
     if name not in DEMOS:
         raise ParameterError(f"demo must be one of {sorted(DEMOS)}; got {name!r}")
     if planner not in PLANNERS:
@@ -154,4 +165,6 @@ def run_scale_demo(
         setup = shape_setup(quick, seed, 100, "L", planner)
     if cycles is not None:
         setup.cycles = int(cycles)
-    return run_demo(name, out, seed=seed, verbose=verbose, rrd=rrd, entry=(DEMOS[name], setup))
+    return run_demo(
+        name, out, seed=seed, verbose=verbose, rrd=rrd, entry=(DEMOS[name], setup), pipeline=pipeline
+    )
