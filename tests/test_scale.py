@@ -326,7 +326,7 @@ def test_a_hundred_washers_keep_their_ids_through_the_loops_tracker():
     def owners():  # each track's part: the nearest true part
         return {
             int(i): int(np.argmin(np.hypot(*(plant.parts - p).T)))
-            for i, p in zip(tracks.ids, tracks.positions)
+            for i, p in zip(tracks.ids, tracks.positions, strict=True)
         }
 
     first = owners()
