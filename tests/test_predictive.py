@@ -13,7 +13,7 @@ from upm.board import protocol
 from upm.board.emulator import BoardEmulator
 from upm.control.tasks import State
 from upm.drive import DriveLimits, StrokeError, flexures
-from upm.plan import PredictivePlanner, aligned_centres, generate, predictive
+from upm.plan import PredictivePlanner, aligned_centres, generate, goals
 from upm.plant import Channel, Envelope, SimulatedUPM
 from upm.pulses import Pulse
 from upm.waveforms import Harmonics
@@ -278,7 +278,7 @@ def test_a_pulse_that_leaves_a_part_at_the_edge_is_not_played() -> None:
     final, _ = guarded.predict(pulses, pos)
     assert 0 < half - final[0, -1, 0] < guarded.guard  # on the plate, within the guard
     assert half - final[1, -1, 0] > 0.02
-    view, goal = predictive._View(pos), predictive._Steps(pos + steps)
+    view, goal = goals.PositionsView(pos), goals.StepsGoal(pos + steps)
     best, gain, _ = PredictivePlanner(limits, guard=0.0, **kw).choose(goal, view, pulses)
     assert best == 0 and gain[0] > gain[1] > 0  # without the guard the translation wins
     best, gain, _ = guarded.choose(goal, view, pulses)

@@ -3,10 +3,12 @@ explains the last pulse, from a handful of predictions (:class:`~upm.plan.Predic
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["FACTORS", "best_factor"]
+__all__ = ["FACTORS", "best_factor", "learn"]
 
 FACTORS = np.array([0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4])
 """Factors on the friction estimate the last pulse is predicted again with."""
@@ -27,3 +29,58 @@ def best_factor(factors: NDArray[np.float64], err: NDArray[np.float64]) -> float
             if aa > 0:
                 f = float(np.exp(np.clip(-bb / (2 * aa), x0, x2)))
     return f
+
+
+def learn(planner: Any, last: tuple[Any, ...], ids: NDArray[np.int64], pos: NDArray[np.float64]) -> None:
+    """What the predictive ``planner`` learns from its ``last`` pulse (the pulse, its parts' ids,
+    where they started and where they were predicted to end), its parts ``ids`` seen now at
+    ``pos``: every step's prediction error (``planner.step_errors``); the friction factor that best
+    explains the pulse (:data:`FACTORS`, :func:`best_factor`), moved part way
+    (``planner.mu_estimate``, the look-ahead's tables refreshed); and a per-part gain on the
+    predicted step (``planner.gains``)."""
+    pulse, last_ids, start, predicted = last
+    index = {int(i): k for k, i in enumerate(ids)}
+    rows = [(k, index[int(i)]) for k, i in enumerate(last_ids) if int(i) in index]
+    if not rows:
+        return
+    a, b = np.array(rows).T
+    achieved = pos[b] - start[a]
+    guessed = predicted[a] - start[a]
+    ok = np.all(np.isfinite(achieved), axis=1) & np.all(np.isfinite(guessed), axis=1)
+    if not ok.any():
+        return
+    planner.step_errors += [float(e) for e in np.hypot(*(achieved[ok] - guessed[ok]).T)]
+    if not planner.adapt:
+        return
+    # only steps well clear of vision noise and of a neighbour's nudge inform the friction:
+    # parts predicted to move more than 1 cm that also did
+    big = (np.hypot(*guessed.T) > 0.01) & (np.hypot(*achieved.T) > 0.005)
+    moved = ok & big
+    if moved.sum() >= 2:
+        # friction: the value among a few that best explains this pulse (parts replicated, one
+        # friction each: point parts do not interact), moved half way in log
+        factors = FACTORS
+        m = int(moved.sum())
+        starts = np.tile(start[a][moved], (len(factors), 1))
+        mus = np.repeat(planner.mu_estimate * factors, m)
+        final, _ = planner.predict([pulse], starts, mu=mus)
+        miss = np.hypot(
+            *(final[0].reshape(len(factors), m, 2) - (start[a][moved] + achieved[moved])[None]).transpose(
+                2, 0, 1
+            )
+        )
+        # a parabola through the best and its neighbours for a value between the factors
+        f = best_factor(factors, np.nansum(miss**2, axis=1))
+        # damped, and trusted only where the pulse moved the parts well clear of noise
+        weight = 0.5 if float(np.median(np.hypot(*achieved[moved].T))) > 0.02 else 0.25
+        planner.mu_estimate = float(np.clip(planner.mu_estimate * f**weight, 0.05, 1.5))
+        if planner.macros is not None:
+            planner.macros.refresh(planner.mu_estimate)
+    for k, r in zip(np.nonzero(ok)[0], a[ok], strict=True):
+        g2 = float(guessed[k] @ guessed[k])
+        if g2 < (8e-3) ** 2:
+            continue
+        ratio = float(np.clip(achieved[k] @ guessed[k] / g2, 0.5, 1.5))
+        pid = int(last_ids[r])
+        old = planner.gains.get(pid, 1.0)
+        planner.gains[pid] = float(np.clip(0.7 * old + 0.3 * ratio * old, 0.6, 1.6))

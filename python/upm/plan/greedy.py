@@ -30,6 +30,7 @@ from .._errors import ParameterError
 from ..drive import DriveLimits
 from ..pulses import Pulse
 from .candidates import generate
+from .goals import PositionsView, StepsGoal
 from .sizing import positive
 
 __all__ = ["GreedyLibraryPlanner", "default_library"]
@@ -192,25 +193,7 @@ class GreedyLibraryPlanner:
         components free)."""
         pos = np.asarray(positions, dtype=np.float64)
         goal = pos + np.asarray(steps, dtype=np.float64)
-        return self.plan_task(_Points(pos), _Goal(goal))
+        return self.plan_task(PositionsView(pos), StepsGoal(goal))
 
     def __repr__(self) -> str:
         return f"GreedyLibraryPlanner({len(self.library)} notes, mu={self.mu:g}, maps {len(self.axis)}^2)"
-
-
-class _Points:
-    def __init__(self, positions: FloatArray) -> None:
-        self.positions = positions
-
-
-class _Goal:
-    """Points to reach, a NaN component free (it costs nothing)."""
-
-    def __init__(self, goal: FloatArray) -> None:
-        self.goal = goal
-
-    def cost(self, state: Any, positions: FloatArray | None = None, elapsed: Any = 0.0) -> FloatArray:
-        q = state.positions if positions is None else positions
-        d = np.where(np.isfinite(self.goal), q - self.goal, 0.0)
-        out: FloatArray = np.sum(d**2, axis=(-1, -2))
-        return out

@@ -43,7 +43,8 @@ from ..motion import PlateMotion
 from ..pulses import Pulse
 from ..sim import Disk, simulate_batch
 from .candidates import Candidates, aligned_centres, generate
-from .fitting import FACTORS, best_factor
+from .fitting import learn
+from .goals import PositionsView, StepsGoal
 from .macros import MacroTable
 from .sizing import positive as _positive
 from .sizing import separate, slide_to_rest
@@ -55,27 +56,6 @@ FloatArray = NDArray[np.float64]
 
 class _CostTask(Protocol):
     def cost(self, state: Any, positions: FloatArray | None = None, elapsed: Any = 0.0) -> Any: ...
-
-
-class _Steps:
-    """The cost of plain steps (``plan(positions, steps)`` without a task): distance to
-    ``positions + steps`` over the constrained components."""
-
-    def __init__(self, goal: FloatArray) -> None:
-        self.goal = goal
-
-    def cost(self, state: Any, positions: FloatArray | None = None, elapsed: Any = 0.0) -> Any:
-        q = state.positions if positions is None else positions
-        d = np.where(np.isfinite(self.goal), q - self.goal, 0.0)
-        return np.sum(np.hypot(d[..., 0], d[..., 1]), axis=-1)
-
-
-class _View:
-    """A minimal state: positions only."""
-
-    def __init__(self, positions: FloatArray) -> None:
-        self.positions = positions
-        self.ids = np.arange(len(positions))
 
 
 def _pair_sizes(pairs: Any) -> tuple[int, int]:
@@ -344,55 +324,10 @@ class PredictivePlanner:
 
     # -- online correction ----------------------------------------------------------------------
     def _correct(self, ids: NDArray[np.int64], pos: FloatArray) -> None:
-        if self._last is None:
-            return
-        pulse, last_ids, start, predicted = self._last
-        self._last = None
-        index = {int(i): k for k, i in enumerate(ids)}
-        rows = [(k, index[int(i)]) for k, i in enumerate(last_ids) if int(i) in index]
-        if not rows:
-            return
-        a, b = np.array(rows).T
-        achieved = pos[b] - start[a]
-        guessed = predicted[a] - start[a]
-        ok = np.all(np.isfinite(achieved), axis=1) & np.all(np.isfinite(guessed), axis=1)
-        if not ok.any():
-            return
-        self.step_errors += [float(e) for e in np.hypot(*(achieved[ok] - guessed[ok]).T)]
-        if not self.adapt:
-            return
-        # only steps well clear of vision noise and of a neighbour's nudge inform the friction:
-        # parts predicted to move more than 1 cm that also did
-        big = (np.hypot(*guessed.T) > 0.01) & (np.hypot(*achieved.T) > 0.005)
-        moved = ok & big
-        if moved.sum() >= 2:
-            # friction: the value among a few that best explains this pulse (parts replicated, one
-            # friction each: point parts do not interact), moved half way in log
-            factors = FACTORS
-            m = int(moved.sum())
-            starts = np.tile(start[a][moved], (len(factors), 1))
-            mus = np.repeat(self.mu_estimate * factors, m)
-            final, _ = self.predict([pulse], starts, mu=mus)
-            miss = np.hypot(
-                *(final[0].reshape(len(factors), m, 2) - (start[a][moved] + achieved[moved])[None]).transpose(
-                    2, 0, 1
-                )
-            )
-            # a parabola through the best and its neighbours for a value between the factors
-            f = best_factor(factors, np.nansum(miss**2, axis=1))
-            # damped, and trusted only where the pulse moved the parts well clear of noise
-            weight = 0.5 if float(np.median(np.hypot(*achieved[moved].T))) > 0.02 else 0.25
-            self.mu_estimate = float(np.clip(self.mu_estimate * f**weight, 0.05, 1.5))
-            if self.macros is not None:
-                self.macros.refresh(self.mu_estimate)
-        for k, r in zip(np.nonzero(ok)[0], a[ok], strict=True):
-            g2 = float(guessed[k] @ guessed[k])
-            if g2 < (8e-3) ** 2:
-                continue
-            ratio = float(np.clip(achieved[k] @ guessed[k] / g2, 0.5, 1.5))
-            pid = int(last_ids[r])
-            old = self.gains.get(pid, 1.0)
-            self.gains[pid] = float(np.clip(0.7 * old + 0.3 * ratio * old, 0.6, 1.6))
+        """Learn from the last pulse, its parts ``ids`` seen now at ``pos`` (:func:`.fitting.learn`)."""
+        last, self._last = self._last, None
+        if last is not None:
+            learn(self, last, ids, pos)
 
     # -- planning ----------------------------------------------------------------------------------
     def _carried(self) -> float:
@@ -652,7 +587,7 @@ class PredictivePlanner:
         components free)."""
         pos = np.asarray(positions, dtype=float)
         goal = pos + np.asarray(steps, dtype=float)
-        return self.plan_task(_View(pos), _Steps(goal))
+        return self.plan_task(PositionsView(pos), StepsGoal(goal))
 
     def __repr__(self) -> str:
         return (
