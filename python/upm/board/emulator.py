@@ -194,7 +194,8 @@ class BoardEmulator:
         assert self.plate6 is not None
         acc = np.zeros((len(idx), 9))
         if env is not None and self.motion6 is not None:
-            acc = self.plate6.readings(self.motion6[0], idx / self.plant.sample_rate) * env[:, None]
+            since = (idx - self.pulse[1]) / self.plant.sample_rate if self.pulse is not None else idx * 0.0
+            acc = self.plate6.readings(self.motion6[0], since) * env[:, None]
         counts = self.plant.counts(acc)
         return p.Samples6(int(idx[0]), tuple(tuple(int(v) for v in row) for row in counts))
 
@@ -318,8 +319,13 @@ class BoardEmulator:
                 out += self._send(self._samples6(idx, env))
             elif n > 0:
                 if pulsing and self.pulse is not None:
-                    env = self.envelope((idx - self.pulse[1]) / fs)
-                    acc, vel = self.plant.plate_state(self.plant.forces(self.channels[:4], idx / fs, env))
+                    # the drive's time starts with the pulse, as the host planned it: timed from
+                    # the board's clock, the carrier's phase at the start (and with it what the
+                    # pulse does) would depend on when the PULSE command happened to arrive
+                    since = (idx - self.pulse[1]) / fs
+                    acc, vel = self.plant.plate_state(
+                        self.plant.forces(self.channels[:4], since, self.envelope(since))
+                    )
                     self.pulse_velocity.append(vel)
                     counts = self.plant.sensor_counts(acc, vel)
                 else:
