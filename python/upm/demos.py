@@ -79,6 +79,8 @@ class Setup:
     """Options of the plant's camera (``SimulatedUPM.camera``): a finer camera, the parts' radius."""
     pipeline: float | None = None
     """The loop plans while the plate plays, keeping plans whose prediction holds to this [m]."""
+    keep_frames: int = 1
+    """The log keeps every this-many-th camera frame (for the animation)."""
 
 
 @dataclass(frozen=True)
@@ -605,7 +607,7 @@ def run_demo(
                 with Board(tty) as link, RemoteCamera(address) as camera:
                     device = BoardDevice(link, LIMITS, wait_rest=True)
                     loop = Loop(device, camera, setup.planner, setup.task, part_radius=setup.radius,
-                                pipeline=setup.pipeline)  # fmt: skip
+                                pipeline=setup.pipeline, keep_frames=setup.keep_frames)  # fmt: skip
                     log = loop.run(setup.cycles, recording=recording)
                     truth = camera.truth()
                     stroke = camera.max_excursion()
@@ -622,6 +624,7 @@ def run_demo(
             setup.task,
             part_radius=setup.radius,
             pipeline=setup.pipeline,
+            keep_frames=setup.keep_frames,
         )
         log = loop.run(setup.cycles, recording=recording)
         fallen = plant.fallen

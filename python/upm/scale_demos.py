@@ -87,8 +87,9 @@ def shape_setup(quick: bool, seed: int, parts: int, shape: str, planner: str = "
     task = ShapeTask(targets, part_radius=WASHER, max_step=0.02)
     start = scatter(rng, parts, 0.15, 2.6 * WASHER)
     cycles = (40 if quick else 600) + 4 * parts
-    return Setup(start, ["penny"] * parts, WASHER, _planner(planner, WASHER), task, cycles,
-                 view={"camera": CAMERA, "radius": WASHER}, pipeline=_ahead(planner))  # fmt: skip
+    view = {"camera": CAMERA, "radius": WASHER}
+    return Setup(start, ["penny"] * parts, WASHER, _planner(planner, WASHER), task, cycles, view=view,
+                 pipeline=_ahead(planner), keep_frames=5)  # fmt: skip
 
 
 def sort_setup(quick: bool, seed: int, count: int, radius: float, planner: str = "predictive") -> Setup:
@@ -104,7 +105,7 @@ def sort_setup(quick: bool, seed: int, count: int, radius: float, planner: str =
                     part_radius=radius)  # fmt: skip
     view = {"camera": CAMERA, "radius": radius}
     return Setup(parts, labels, radius, _planner(planner, radius), task, 30 if quick else 400 + 8 * count,
-                 view=view, pipeline=_ahead(planner))  # fmt: skip
+                 view=view, pipeline=_ahead(planner), keep_frames=5)  # fmt: skip
 
 
 def _report(log: Log, setup: Setup, m: dict[str, Any]) -> list[str]:
