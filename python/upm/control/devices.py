@@ -177,8 +177,9 @@ class BoardDevice:
         (the simulated plant's plate and flexures, 10 mm). Every pulse is checked against them
         before it is sent (:meth:`upm.drive.DriveLimits.check`).
     wait_rest : bool
-        Sleep for each pulse's rest (a real plate's parts need it; the emulator settles them at
-        the end of the pulse).
+        Wait out each pulse's rest (a real plate's parts need it; the emulator settles them at
+        the end of the pulse): until ``on_time + rest`` after the PULSE command, so time the
+        board took to report the pulse done counts towards the rest.
     """
 
     def __init__(
@@ -233,6 +234,7 @@ class BoardDevice:
                 board.set_envelope(pulse.attack, pulse.sustain, pulse.decay)
                 self._id = (self._id + 1) & 0xFFFF
                 for attempt in range(8):
+                    started = time.monotonic()
                     try:
                         board.pulse(self._id, wait=True, timeout=pulse.on_time + 5.0)
                         break
@@ -242,7 +244,11 @@ class BoardDevice:
                         time.sleep(0.25)
                         self.waited += 0.25
                 board.samples()  # the accelerometer record is not needed here: drop it
-            if self.wait_rest and pulse.rest > 0:
+                if self.wait_rest and pulse.rest > 0:
+                    # the parts slide while the pulse's rest runs from its end on the plate's
+                    # clock: whatever of it the wait for PULSE_DONE took is not waited again
+                    time.sleep(max(0.0, started + pulse.duration - time.monotonic()))
+            elif self.wait_rest and pulse.rest > 0:
                 time.sleep(pulse.rest)
 
 
