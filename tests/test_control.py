@@ -300,11 +300,11 @@ def test_remote_camera_refuses_bad_addresses():
 
 
 def test_demo_list_names_every_demo(capsys):
-    from upm import cli, demos, mchip_demos, orient_demos, ppod_demos
+    from upm import cli, demos, mchip_demos, orient_demos, ppod_demos, scale_demos
 
     assert cli.main(["demo", "list"]) == 0
     listed = [line.split()[0] for line in capsys.readouterr().out.splitlines()]
-    every = [*demos.DEMOS, *mchip_demos.DEMOS, *ppod_demos.DEMOS, *orient_demos.DEMOS]
+    every = [*demos.DEMOS, *mchip_demos.DEMOS, *ppod_demos.DEMOS, *orient_demos.DEMOS, *scale_demos.DEMOS]
     assert listed == every
 
 
