@@ -350,7 +350,8 @@ def _main(argv: list[str]) -> int:
             try:
                 metrics = run_scale_demo(args.name, args.out, parts=args.parts, shape=args.shape,
                                          planner=args.planner or "predictive", seed=args.seed,
-                                         quick=args.quick, rrd=args.rrd, pipeline=ahead)  # fmt: skip
+                                         quick=args.quick, rrd=args.rrd, pipeline=ahead,
+                                         board=args.board)  # fmt: skip
             except UpmError as error:
                 print(f"upm demo: {error}", file=sys.stderr)
                 return 2

@@ -408,7 +408,7 @@ def _metrics(name: str, log: Log, setup: Setup, fallen: int, wall: float, board:
         "planning_ms": 1000 * float(np.mean(log.planning)) if log.planning else 0.0,
         "pulses": int(np.sum(log.pulses)),
         "planning_ms_median": 1000 * float(np.median(log.planning)) if log.planning else 0.0,
-        # the plate idles while the host sees and plans (the loop is serial)
+        # the plate idles while the host sees and plans (planning ahead while it plays is not counted)
         "dead_time": float(np.sum(log.vision) + np.sum(log.planning)),
         "final_error_max": _finite(np.nanmax, final),
         "undone_share": _undone(errors),
@@ -526,6 +526,10 @@ def _emulated(
         "plate": [PLATE.mass, PLATE.inertia, PLATE.lever],
         "stroke": LIMITS.stroke,
     }
+    if "camera" in setup.view:  # the emulator's camera as the demo's (a finer one for small parts)
+        scene["camera"] = {"size": list(setup.view["camera"].size)}
+    if "radius" in setup.view:
+        scene["render"] = {"radius": setup.view["radius"]}
     path = scene_dir / "scene.json"
     path.write_text(json.dumps(scene))
     proc = subprocess.Popen(

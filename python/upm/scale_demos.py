@@ -144,11 +144,12 @@ def run_scale_demo(
     verbose: bool = True,
     rrd: bool = False,
     pipeline: float | None = None,
+    board: bool = False,
 ) -> dict[str, Any]:
     """Run scale demo ``name`` (:data:`DEMOS`) through :func:`upm.demos.run_demo`; ``parts`` and
     ``shape`` set the ``shape`` demo's count and shape; ``planner``: ``predictive`` or ``greedy``;
     ``pipeline`` [m]: the threshold of plans made while the plate plays (default :data:`AHEAD`
-    for the predictive planner)."""
+    for the predictive planner); ``board``: the plate in a board emulator process."""
     if name not in DEMOS:
         raise ParameterError(f"demo must be one of {sorted(DEMOS)}; got {name!r}")
     if planner not in PLANNERS:

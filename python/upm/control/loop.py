@@ -482,9 +482,8 @@ class Loop:
                 # prediction; the cycle ends when both have
                 labels = dict(zip((int(i) for i in tracks.ids), tracks.labels, strict=True))
                 e_ids, e_pos = expected
-                alive = np.all(
-                    np.isfinite(e_pos), axis=1
-                )  # a part predicted off the plate is not planned for
+                # a part predicted off the plate is not planned for
+                alive = np.all(np.isfinite(e_pos), axis=1)
                 e_ids, e_pos = np.asarray(e_ids)[alive], np.asarray(e_pos)[alive]
                 guess = State(cycle + 1, self.plate_time + pulse_time(pulses), e_ids, e_pos,
                               tuple(labels.get(int(i), "") for i in e_ids), pulse_time(pulses))  # fmt: skip
