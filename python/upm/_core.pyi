@@ -34,6 +34,7 @@ __all__ = [
     "mchip_simulate",
     "motors_for",
     "normalized_drive",
+    "overlap_penalty",
     "polygon_gauge",
     "polygon_geometry",
     "polygon_wrench",

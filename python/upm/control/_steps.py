@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._arrays import as_float
 from .._errors import ShapeError
 
-__all__ = ["clip", "distance_sum", "points", "positions_of"]
+__all__ = ["PointTargets", "clip", "distance_sum", "points", "positions_of"]
 
 FloatArray = NDArray[np.float64]
 
@@ -47,3 +47,29 @@ def clip(steps: FloatArray, longest: float) -> FloatArray:
     scale = np.where(n > longest, longest / np.maximum(n, 1e-300), 1.0)
     out: FloatArray = steps * scale[:, None]
     return out
+
+
+class PointTargets:
+    """What tasks of point targets share (:class:`~upm.control.GotoTask`,
+    :class:`~upm.control.ShapeTask`): errors and cost from ``targets(state)`` (each part's point,
+    NaN: none) and ``tolerance`` [m]."""
+
+    tolerance: float
+
+    def targets(self, state: Any) -> FloatArray:
+        raise NotImplementedError
+
+    def lines(self) -> list[FloatArray]:
+        """Lines to draw the task with [m] (none: the targets are points)."""
+        return []
+
+    def errors(self, state: Any) -> FloatArray:
+        """Each part's distance to its point [m] (NaN: none)."""
+        d = self.targets(state) - state.positions
+        out: FloatArray = np.hypot(d[:, 0], d[:, 1])
+        return out
+
+    def cost(self, state: Any, positions: FloatArray | None = None, elapsed: Any = 0.0) -> FloatArray:
+        """Sum of the parts' distances to their points [m], each less half the tolerance (0 within
+        it); a lost part counts 1 m."""
+        return distance_sum(positions_of(state, positions), self.targets(state), 0.5 * self.tolerance)

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._arrays import integer, real
 from .._errors import ParameterError
 from ..drive import PLATE_SIZE
-from ._steps import clip, distance_sum, points, positions_of
+from ._steps import PointTargets, clip, points
 from .tasks import State
 
 __all__ = ["ShapeTask", "assign", "kabsch"]
@@ -62,7 +62,7 @@ def _turn(p: FloatArray, angle: float, about: FloatArray) -> FloatArray:
     return out
 
 
-class ShapeTask:
+class ShapeTask(PointTargets):
     """N parts to N target points, any part to any point (see the module docstring).
 
     Parameters
@@ -193,20 +193,6 @@ class ShapeTask:
         out = np.full_like(np.asarray(state.positions, dtype=np.float64), np.nan)
         out[slot >= 0] = placed[slot[slot >= 0]]
         return out
-
-    def lines(self) -> list[FloatArray]:
-        """Nothing to draw but the points (:meth:`targets`)."""
-        return []
-
-    def errors(self, state: State) -> FloatArray:
-        d = self.targets(state) - state.positions
-        out: FloatArray = np.hypot(d[:, 0], d[:, 1])
-        return out
-
-    def cost(self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0) -> FloatArray:
-        """Sum of the parts' distances to this cycle's assigned points [m], each less half the
-        tolerance; a lost part counts 1 m."""
-        return distance_sum(positions_of(state, positions), self.targets(state), 0.5 * self.tolerance)
 
     def steps(self, state: State) -> FloatArray:
         d = self.targets(state) - state.positions

@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._arrays import integer, point, real
 from .._errors import ParameterError, ShapeError
 from ..drive import PLATE_SIZE
-from ._steps import clip, distance_sum, points, positions_of
+from ._steps import PointTargets, clip, distance_sum, points, positions_of
 
 __all__ = ["GatherTask", "GotoTask", "SortTask", "State", "Task", "TrajectoryTask", "WatchTask"]
 
@@ -88,7 +88,7 @@ class _Slots:
         return np.array([self.of.get(int(i), -1) for i in state.ids], dtype=np.int64)
 
 
-class GotoTask:
+class GotoTask(PointTargets):
     """Every part to its goal.
 
     Parameters
@@ -132,19 +132,6 @@ class GotoTask:
         out = np.full_like(state.positions, np.nan)
         out[slot >= 0] = self.goals[slot[slot >= 0]]
         return out
-
-    def lines(self) -> list[FloatArray]:
-        """Lines to draw the task with [m] (none: goals are points)."""
-        return []
-
-    def errors(self, state: State) -> FloatArray:
-        d = self.targets(state) - state.positions
-        out: FloatArray = np.hypot(d[:, 0], d[:, 1])
-        return out
-
-    def cost(self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0) -> FloatArray:
-        """Sum of the parts' distances to their goals [m], each less the tolerance (0 within it)."""
-        return distance_sum(positions_of(state, positions), self.targets(state), 0.5 * self.tolerance)
 
     def steps(self, state: State) -> FloatArray:
         d = self.targets(state) - state.positions
