@@ -165,17 +165,23 @@ class DriveLimits:
     def excursion(self, pose: ArrayLike) -> float:
         """Largest distance [m] of any corner from home over plate poses ``(..., 3)`` =
         ``(x [m], y [m], theta [rad])`` of the plate's centre (exact rigid motion)."""
+        far = self.excursions(pose)
+        return float(far.max()) if far.size else 0.0
+
+    def excursions(self, pose: ArrayLike) -> FloatArray:
+        """Largest distance [m] of any corner from home at each plate pose ``(..., 3)`` =
+        ``(x [m], y [m], theta [rad])``: shape ``(...)`` (exact rigid motion)."""
         q = as_float("pose", pose)
         if q.shape[-1:] != (3,):
             raise ShapeError(f"pose must have shape (..., 3) (x, y, theta); got {q.shape}")
+        lead = q.shape[:-1]
         q = q.reshape(-1, 3)
-        if not len(q):
-            return 0.0
         c, s = np.cos(q[:, 2])[:, None], np.sin(q[:, 2])[:, None]
         k = self.corners[None]
         moved_x = c * k[..., 0] - s * k[..., 1] + q[:, :1] - k[..., 0]
         moved_y = s * k[..., 0] + c * k[..., 1] + q[:, 1:2] - k[..., 1]
-        return float(np.sqrt(np.max(moved_x**2 + moved_y**2)))
+        out: FloatArray = np.sqrt(np.max(moved_x**2 + moved_y**2, axis=1)).reshape(lead)
+        return out
 
     def respond(
         self, wrench: ArrayLike, dt: float, state: ArrayLike | None = None

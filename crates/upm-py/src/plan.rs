@@ -52,6 +52,21 @@ pub fn apply_rays<'py>(
     PyArray1::from_vec(py, out.into_flattened()).reshape([l, k, m, 2])
 }
 
+/// `L` layouts of `M` parts, and their positions laid flat.
+type Layouts<'a> = (usize, usize, std::borrow::Cow<'a, [[f64; 2]]>);
+
+/// Layouts `q (L, M, 2)` as `(L, M, positions)`, or a shape error naming what was expected.
+fn layouts<'a>(py: Python<'_>, q: &'a PyReadonlyArray3<'_, f64>) -> PyResult<Layouts<'a>> {
+    let shape = q.shape();
+    if shape[2] != 2 {
+        return Err(shape_error(
+            py,
+            format!("q must have shape (L, M, 2); got {shape:?}"),
+        ));
+    }
+    Ok((shape[0], shape[1], flat_pairs(q)))
+}
+
 /// The predictive planner's edge penalty `(L,)` of layouts `q (L, M, 2)` (see
 /// `upm_core::plan::edge_penalty`).
 #[pyfunction]
@@ -64,14 +79,7 @@ pub fn edge_penalty<'py>(
     lost: f64,
     guard: f64,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let (l, m) = (q.shape()[0], q.shape()[1]);
-    if q.shape()[2] != 2 {
-        return Err(shape_error(
-            py,
-            format!("q must have shape (L, M, 2); got {:?}", q.shape()),
-        ));
-    }
-    let qs = flat_pairs(&q);
+    let (l, m, qs) = layouts(py, &q)?;
     let edges = plan::Edges {
         half,
         band,
@@ -97,14 +105,7 @@ pub fn overlap_penalty<'py>(
     q: PyReadonlyArray3<'py, f64>,
     reach: f64,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let (l, m) = (q.shape()[0], q.shape()[1]);
-    if q.shape()[2] != 2 {
-        return Err(shape_error(
-            py,
-            format!("q must have shape (L, M, 2); got {:?}", q.shape()),
-        ));
-    }
-    let qs = flat_pairs(&q);
+    let (l, m, qs) = layouts(py, &q)?;
     let out = detached(py, || {
         let mut out = vec![0.0; l];
         if m > 0 {

@@ -3,6 +3,7 @@ steps clipped to a longest length."""
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from typing import Any
 
 import numpy as np
@@ -49,15 +50,16 @@ def clip(steps: FloatArray, longest: float) -> FloatArray:
     return out
 
 
-class PointTargets:
+class PointTargets(ABC):
     """What tasks of point targets share (:class:`~upm.control.GotoTask`,
     :class:`~upm.control.ShapeTask`): errors and cost from ``targets(state)`` (each part's point,
     NaN: none) and ``tolerance`` [m]."""
 
     tolerance: float
 
+    @abstractmethod
     def targets(self, state: Any) -> FloatArray:
-        raise NotImplementedError
+        """Each part's point [m] (NaN: none), ``(M, 2)``."""
 
     def lines(self) -> list[FloatArray]:
         """Lines to draw the task with [m] (none: the targets are points)."""

@@ -67,7 +67,6 @@ def default_library(
         fine=(),
         use=use,
     )
-    # the part-centred families were built at one on-time (the middle one): keep them all
     return list(made.pulses)
 
 
@@ -144,11 +143,7 @@ class GreedyLibraryPlanner:
         margin = (1.0 - self.use) * self.limits.stroke
         long = replace(pulse, rest=2.0)
         pose, _ = self.limits.play(long, sample_rate=1000.0)
-        corners = self.limits.corners
-        c, s = np.cos(pose[:, 2])[:, None], np.sin(pose[:, 2])[:, None]
-        dx = c * corners[None, :, 0] - s * corners[None, :, 1] + pose[:, :1] - corners[None, :, 0]
-        dy = s * corners[None, :, 0] + c * corners[None, :, 1] + pose[:, 1:2] - corners[None, :, 1]
-        reach = np.sqrt(np.max(dx**2 + dy**2, axis=1))
+        reach = self.limits.excursions(pose)
         carried = np.maximum.accumulate(reach[::-1])[::-1]  # the largest excursion from then on
         t = np.arange(len(reach)) / 1000.0
         fits = np.nonzero((carried <= margin) & (t >= pulse.on_time))[0]
