@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._arrays import point, real
 from .._errors import ParameterError
 from ._steps import clip, points, positions_of
-from .tasks import State
+from .state import State
 
 __all__ = ["PartsTask"]
 

@@ -20,7 +20,7 @@ from .._arrays import integer, real
 from .._errors import ParameterError
 from ..drive import PLATE_SIZE
 from ._steps import PointTargets, clip, points
-from .tasks import State
+from .state import State
 
 __all__ = ["ShapeTask", "assign", "kabsch"]
 

@@ -10,9 +10,7 @@ again.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from collections.abc import Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -21,71 +19,12 @@ from .._arrays import integer, point, real
 from .._errors import ParameterError, ShapeError
 from ..drive import PLATE_SIZE
 from ._steps import PointTargets, clip, distance_sum, points, positions_of
+from .state import Slots, State, Task
+from .trajectory import TrajectoryTask
 
 __all__ = ["GatherTask", "GotoTask", "SortTask", "State", "Task", "TrajectoryTask", "WatchTask"]
 
 FloatArray = NDArray[np.float64]
-
-
-@dataclass(frozen=True)
-class State:
-    """The loop's view of the plate at the start of a cycle."""
-
-    cycle: int
-    time: float
-    """Plate time elapsed [s] (the pulses played so far)."""
-    ids: NDArray[np.int64]
-    positions: FloatArray
-    """(M, 2) [m], NaN for parts lost in this frame."""
-    labels: tuple[str, ...]
-    last_cycle: float
-    """Plate time of the previous cycle [s] (0 on the first)."""
-
-
-@runtime_checkable
-class Task(Protocol):
-    """What the loop asks of a task. ``cost(state, positions, elapsed)`` is the task's own
-    measure of what is left to do [m] for the parts of ``state`` at ``positions (..., M, 2)``
-    (default: where they are) after ``elapsed`` [s] of plate time (scalar or the batch's shape):
-    zero when done, growing with distance; predictive planners minimise it."""
-
-    def steps(self, state: State) -> FloatArray: ...
-
-    def done(self, state: State) -> bool: ...
-
-    def errors(self, state: State) -> FloatArray: ...
-
-    def cost(
-        self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0
-    ) -> FloatArray: ...
-
-
-class _Slots:
-    """Binding of tracked part ids to a task's slots, made once on the first cycle they are seen."""
-
-    def __init__(self, anchors: FloatArray) -> None:
-        self.anchors = anchors
-        self.of: dict[int, int] = {}
-
-    def bind(self, state: State) -> NDArray[np.int64]:
-        """Slot of every tracked part (-1: none). A slot whose part has left the tracker's view
-        for good (its id is gone) is free for a part that appears."""
-        present = {int(i) for i in state.ids}
-        self.of = {i: s for i, s in self.of.items() if i in present}
-        new = [
-            k
-            for k, i in enumerate(state.ids)
-            if int(i) not in self.of and np.all(np.isfinite(state.positions[k]))
-        ]
-        free = [s for s in range(len(self.anchors)) if s not in self.of.values()]
-        if new and free:
-            from scipy.optimize import linear_sum_assignment
-
-            cost = np.linalg.norm(state.positions[new][:, None] - self.anchors[free][None], axis=2)
-            rows, cols = linear_sum_assignment(cost)
-            for r, c in zip(rows, cols, strict=True):
-                self.of[int(state.ids[new[r]])] = free[c]
-        return np.array([self.of.get(int(i), -1) for i in state.ids], dtype=np.int64)
 
 
 class GotoTask(PointTargets):
@@ -122,7 +61,7 @@ class GotoTask(PointTargets):
         anchors = self.goals if starts is None else points("starts", starts)
         if anchors.shape != self.goals.shape:
             raise ShapeError(f"starts must match goals' shape {self.goals.shape}; got {anchors.shape}")
-        self.slots = _Slots(anchors)
+        self.slots = Slots(anchors)
         self.gain, self.max_step, self.tolerance = float(gain), float(max_step), float(tolerance)
         self.first_step = self.max_step if first_step is None else float(first_step)
 
@@ -146,178 +85,6 @@ class GotoTask(PointTargets):
         e = self.errors(state)
         bound = self.slots.bind(state) >= 0
         return bool(len(self.slots.of) == len(self.goals) and np.all(e[bound] <= self.tolerance))
-
-
-def _polyline(name: str, path: ArrayLike, closed: bool) -> tuple[FloatArray, FloatArray]:
-    p = points(name, path)
-    if closed and np.any(p[0] != p[-1]):
-        p = np.vstack([p, p[:1]])
-    if len(p) < 2:
-        raise ShapeError(f"{name} needs at least 2 points")
-    seg = np.hypot(*np.diff(p, axis=0).T)
-    if np.any(seg <= 0):
-        raise ParameterError(f"{name} has repeated consecutive points")
-    return p, np.concatenate([[0.0], np.cumsum(seg)])
-
-
-def _along(p: FloatArray, s: FloatArray, at: FloatArray) -> FloatArray:
-    return np.stack([np.interp(at, s, p[:, 0]), np.interp(at, s, p[:, 1])], axis=-1)
-
-
-class TrajectoryTask:
-    """Parts follow polylines at a given speed, each under a PD controller (thesis 4.3.1, 6.3).
-
-    Parameters
-    ----------
-    paths : sequence of (K, 2) array_like
-        One polyline per part [m]; or a single path shared by ``count`` parts spaced equally
-        along it (``equidistant``; the figure-eight of the bow-tie experiment).
-    speed : float
-        Speed of the references along the paths [m/s of plate time].
-    kp, kd : float
-        Proportional and derivative gains of each part's controller (per cycle).
-    closed : bool
-        The paths are loops; run ``laps`` times around.
-    equidistant : bool
-        Parts share ``paths[0]``, ``count`` of them, kept ``L / count`` apart along it.
-    hold : float
-        When a part lags its reference by more than this [m], every reference waits (the parts keep
-        their spacing and nobody is left behind).
-    max_step : float
-        Longest step asked for [m].
-    tolerance : float
-        Done when the references have finished and every part is within this of its end [m].
-    """
-
-    def __init__(
-        self,
-        paths: Sequence[ArrayLike],
-        speed: float,
-        *,
-        kp: float = 0.7,
-        kd: float = 0.2,
-        closed: bool = False,
-        laps: float = 1.0,
-        equidistant: bool = False,
-        count: int | None = None,
-        hold: float = 0.015,
-        max_step: float = 0.02,
-        tolerance: float = 0.005,
-    ) -> None:
-        if not (math.isfinite(speed) and speed > 0):
-            raise ParameterError(f"speed must be finite and > 0 [m/s]; got {speed!r}")
-        self.speed, self.kp, self.kd, self.closed, self.laps = (
-            float(speed),
-            float(kp),
-            float(kd),
-            closed,
-            float(laps),
-        )
-        self.hold, self.max_step, self.tolerance = float(hold), float(max_step), float(tolerance)
-        if equidistant:
-            if count is None or count < 1:
-                raise ParameterError("equidistant needs count >= 1 (how many parts share the path)")
-            p, s = _polyline("paths[0]", paths[0], closed)
-            self.paths = [(p, s)] * count
-            self.offsets = -np.arange(count) * s[-1] / count
-        else:
-            self.paths = [_polyline(f"paths[{k}]", q, closed) for k, q in enumerate(paths)]
-            self.offsets = np.zeros(len(self.paths))
-        if not self.paths:
-            raise ParameterError("paths must hold at least one path")
-        self.length = float(self.paths[0][1][-1])
-        self.progress = 0.0  # arc length covered by the references [m]
-        self.slots = _Slots(np.array([self.reference(k, 0.0) for k in range(len(self.paths))]))
-        self._previous: dict[int, FloatArray] = {}
-        self._time = 0.0
-        self.waited = 0.0
-
-    def reference(self, k: int, progress: float) -> FloatArray:
-        """Where the reference of slot ``k`` is after ``progress`` [m] along its path."""
-        p, s = self.paths[k]
-        at = progress + self.offsets[k]
-        at = at % s[-1] if self.closed else min(max(at, 0.0), s[-1])
-        return _along(p, s, np.array(at))
-
-    @property
-    def end(self) -> float:
-        return self.laps * self.length if self.closed else self.length
-
-    def _refs(self, state: State, progress: float) -> FloatArray:
-        slot = self.slots.bind(state)
-        out = np.full_like(state.positions, np.nan)
-        for k, j in enumerate(slot):
-            if j >= 0:
-                out[k] = self.reference(int(j), progress)
-        return out
-
-    def targets(self, state: State) -> FloatArray:
-        """Where each tracked part's reference is now [m] (NaN: not bound to a path)."""
-        return self._refs(state, self.progress)
-
-    def lines(self) -> list[FloatArray]:
-        """The paths [m]."""
-        unique = {id(p): p for p, _ in self.paths}
-        return list(unique.values())
-
-    def errors(self, state: State) -> FloatArray:
-        d = self._refs(state, self.progress) - state.positions
-        out: FloatArray = np.hypot(d[:, 0], d[:, 1])
-        return out
-
-    def cost(self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0) -> FloatArray:
-        """Sum of the parts' distances [m] to where their references will be after ``elapsed``
-        more seconds (the references wait while a part lags more than ``hold``)."""
-        q = positions_of(state, positions)
-        el = np.asarray(elapsed, dtype=np.float64)
-        lag = self.errors(state)
-        wait = bool(np.nanmax(lag, initial=0.0) > self.hold)
-        ahead = np.minimum(self.progress + (0.0 if wait else self.speed) * el, self.end)
-        slot = self.slots.bind(state)
-        flat = ahead.reshape(-1)
-        refs = np.full((len(flat), len(slot), 2), np.nan)
-        for k, j in enumerate(slot):
-            if j >= 0:
-                p, s_ = self.paths[int(j)]
-                at = flat + self.offsets[int(j)]
-                at = at % s_[-1] if self.closed else np.clip(at, 0.0, s_[-1])
-                refs[:, k] = _along(p, s_, at)
-        refs = refs.reshape(*ahead.shape, len(slot), 2) if ahead.ndim else refs[0]
-        return distance_sum(q, refs)
-
-    def steps(self, state: State) -> FloatArray:
-        dt = state.time - self._time
-        self._time = state.time
-        lag = self.errors(state)
-        holding = bool(np.nanmax(lag, initial=0.0) > self.hold)
-        if state.cycle > 0:
-            if holding:
-                self.waited += dt
-            else:
-                self.progress = min(self.progress + self.speed * dt, self.end)
-        # feed forward: where the reference will be after a cycle like the last one (none while
-        # the references wait for a lagging part)
-        ahead = (
-            self.progress
-            if holding
-            else min(self.progress + self.speed * (state.last_cycle or 0.0), self.end)
-        )
-        e = self._refs(state, self.progress) - state.positions
-        forward = self._refs(state, ahead) - self._refs(state, self.progress)
-        out = np.zeros_like(state.positions)
-        for k, i in enumerate(state.ids):
-            if not np.all(np.isfinite(e[k])):
-                continue
-            prev = self._previous.get(int(i), e[k])
-            out[k] = forward[k] + self.kp * e[k] + self.kd * (e[k] - prev)
-            self._previous[int(i)] = e[k]
-        return clip(out, self.max_step)
-
-    def done(self, state: State) -> bool:
-        if self.progress < self.end:
-            return False
-        e = self.errors(state)
-        return bool(np.all(e[np.isfinite(e)] <= self.tolerance))
 
 
 class SortTask:
