@@ -287,7 +287,7 @@ def test_plate_motion_programs():
             "record_every",
         ),
         (
-            lambda m: upm.simulate(m, [[0, 0]], duration=1e4, dt=1e-7, mu=0.3),
+            lambda m: upm.simulate(m, [[0, 0]], duration=1e3, dt=1e-7, mu=0.3),
             upm.ParameterError,
             "record_every is too small",
         ),

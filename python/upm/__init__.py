@@ -139,3 +139,15 @@ __all__ = [
     "theory",
     "trim_rests",
 ]
+
+#: Subpackages that load on first use (``upm.plot.sweep(...)`` after ``import upm``): each pulls in
+#: its extra (matplotlib, OpenCV, pyserial, ...) only when it is used.
+_ON_USE = ("board", "control", "desk", "plant", "plate6", "plot", "vision", "viz")
+
+
+def __getattr__(name: str) -> object:
+    if name in _ON_USE:
+        import importlib
+
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'upm' has no attribute {name!r}")

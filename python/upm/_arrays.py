@@ -150,13 +150,24 @@ def as_int(name: str, value: Any) -> int:
         raise ParameterError(f"{name} must be an integer; got {show(value)}") from error
 
 
+#: The most elements a broadcast of inputs may have (one float64 result of 8 GB), refused before
+#: NumPy tries to allocate it.
+MAX_ELEMENTS = 2**30
+
+
 def broadcast_shape(**arrays: FloatArray) -> tuple[int, ...]:
     """The common shape of ``arrays``; `ShapeError` listing every shape if there is none."""
+    listed = ", ".join(f"{name} {a.shape}" for name, a in arrays.items())
     try:
-        return tuple(np.broadcast_shapes(*(a.shape for a in arrays.values())))
+        shape = tuple(np.broadcast_shapes(*(a.shape for a in arrays.values())))
     except ValueError as error:
-        listed = ", ".join(f"{name} {a.shape}" for name, a in arrays.items())
         raise ShapeError(f"shapes do not broadcast together: {listed}") from error
+    if math.prod(shape) > MAX_ELEMENTS:
+        raise ShapeError(
+            f"the inputs broadcast to {math.prod(shape):.3g} elements ({listed}), more than the "
+            f"{MAX_ELEMENTS:.3g} (8 GB of float64) one call evaluates: split the inputs"
+        )
+    return shape
 
 
 def flat(array: FloatArray, shape: tuple[int, ...]) -> FloatArray:

@@ -18,7 +18,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -44,6 +44,18 @@ FloatArray = NDArray[np.float64]
 
 #: Side of the thesis's square plate [m] (16 inches).
 PLATE_SIZE = 0.4064
+#: The highest base frequency a drive may have [Hz]: the board samples at 5 kHz, and a drive's
+#: second harmonic must stay below its Nyquist frequency (the thesis drives at 20-70 Hz). Planners
+#: and pulse builders refuse higher ones rather than simulate millions of periods.
+MAX_FREQUENCY = 1000.0
+
+
+def drive_frequency(name: str, value: Any) -> float:
+    """``value`` as a drive frequency [Hz] in (0, :data:`MAX_FREQUENCY`]; `ParameterError` naming
+    ``name`` otherwise."""
+    return real(name, value, low=0.0, low_open=True, high=MAX_FREQUENCY)
+
+
 #: The thesis's 16" honeycomb plate as the motors see it: 1 kg, 0.0275 kg m^2, motors at 0.2 m.
 DEFAULT_PLATE = Plate(1.0, 0.0275, 0.2)
 
@@ -356,6 +368,10 @@ class DriveLimits:
     def check(self, pulse: Pulse) -> None:
         """Raise :class:`StrokeError` or ``ParameterError`` when ``pulse`` exceeds the stroke or the
         motor force (the host's check before sending a pulse)."""
+        from .pulses import Pulse
+
+        if not isinstance(pulse, Pulse):
+            raise ParameterError(f"pulse must be a upm.Pulse; got {type(pulse).__name__}")
         if pulse.kind == "rest":
             return
         force, reach = self._reach_of(pulse)

@@ -52,6 +52,11 @@ class PlateMotion:
     __slots__ = ("_inner", "_recipe")
 
     def __init__(self, inner: _core.PlateMotion, recipe: tuple[Any, ...] | None = None):
+        if not isinstance(inner, _core.PlateMotion):
+            raise ParameterError(
+                f"inner must be the core's motion; got {type(inner).__name__}: build a PlateMotion with "
+                "its class methods (translation, rotation, jet, harmonic, rest, sequence, ...)"
+            )
         self._inner = inner
         self._recipe = recipe  # how it was built: rebuilds it (pickling) and compares it (==)
 
@@ -144,8 +149,22 @@ class PlateMotion:
         """The harmonic motion with the six axes' acceleration phasors ``phasors[k]`` (the inverse
         of :meth:`harmonic_phasors`; terms below 1e-12 are left out)."""
         axes: dict[str, list[tuple[int, float, float]]] = {a: [] for a in ("x", "y", "z", "rx", "ry", "rz")}
+        if not isinstance(phasors, Mapping):
+            raise ParameterError(
+                f"phasors must map harmonics to 6 complex amplitudes; got {type(phasors).__name__}"
+            )
         for k, s in sorted(phasors.items()):
-            for name, a in zip(axes, np.asarray(s, dtype=np.complex128).reshape(6), strict=True):
+            if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+                raise ParameterError(f"phasors' keys must be harmonics (integers >= 1); got {k!r}")
+            try:
+                amp = np.asarray(s, dtype=np.complex128)
+            except (TypeError, ValueError) as e:
+                raise ParameterError(f"phasors[{k}] must be 6 complex amplitudes; got {s!r}") from e
+            if amp.size != 6:
+                raise ShapeError(
+                    f"phasors[{k}] must hold 6 amplitudes (x, y, z, rx, ry, rz); got shape {amp.shape}"
+                )
+            for name, a in zip(axes, amp.reshape(6), strict=True):
                 if abs(a) > 1e-12:
                     axes[name].append((k, float(abs(a)), float(np.angle(a))))
         return cls.harmonic(frequency, **axes)

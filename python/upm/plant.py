@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._arrays import as_float
+from ._arrays import as_float, integer, real
 from ._errors import ParameterError, ShapeError
 from .actuation import Axis, Plate
 from .drive import DEFAULT_PLATE, PLATE_SIZE, DriveLimits, StrokeError, flexures, wrench_matrix
@@ -67,6 +67,10 @@ class Envelope:
     attack: float = 0.02
     sustain: float = 0.2
     decay: float = 0.02
+
+    def __post_init__(self) -> None:
+        for name in ("attack", "sustain", "decay"):
+            object.__setattr__(self, name, real(name, getattr(self, name), low=0.0))
 
     @property
     def duration(self) -> float:
@@ -157,9 +161,28 @@ class SimulatedUPM:
     gap_every: int = 20
 
     def __post_init__(self) -> None:
-        self.parts = np.array(as_float("parts", self.parts), dtype=np.float64).reshape(-1, 2)
+        parts = np.array(as_float("parts", self.parts), dtype=np.float64)
+        if parts.size == 0:
+            parts = parts.reshape(0, 2)
+        if parts.ndim != 2 or parts.shape[1] != 2:
+            raise ShapeError(f"parts must have shape (M, 2) [m]; got {parts.shape}")
+        self.parts = parts
+        self.mu = real("mu", self.mu, low=0.0, low_open=True)
+        if self.mu_s is not None:
+            self.mu_s = real("mu_s", self.mu_s, low=self.mu)
+        self.seed = integer("seed", self.seed, low=0)
+        self.restitution = real("restitution", self.restitution, low=0.0, high=1.0)
+        self.part_friction = real("part_friction", self.part_friction, low=0.0)
+        self.gap_every = integer("gap_every", self.gap_every, low=1)
         if self.part_radius is not None and not (np.isfinite(self.part_radius) and self.part_radius > 0):
             raise ParameterError(f"part_radius must be None or finite and > 0; got {self.part_radius}")
+        if self.part_radius is not None and len(self.parts) > 1:
+            gap = _min_gap(self.parts[None], np.zeros(len(self.parts), bool), self.part_radius)
+            if gap < -1e-9:
+                raise ParameterError(
+                    f"parts must not overlap: two disks of part_radius {self.part_radius:g} m overlap by "
+                    f"{-1000 * gap:.3g} mm; space their centres at least 2 * part_radius apart"
+                )
         if self.part_shape is not None:
             one = isinstance(self.part_shape, Polygon)
             many = isinstance(self.part_shape, (list, tuple)) and all(
@@ -350,6 +373,14 @@ class SimulatedUPM:
         Needs OpenCV (``upm[vision]``)."""
         from .vision import synthetic
 
+        if not isinstance(labels, str):
+            if not all(isinstance(lab, str) for lab in labels):
+                raise ParameterError(f"labels must be a label (str) or one per part; got {labels!r}")
+            if len(labels) != len(self.parts):
+                raise ShapeError(
+                    f"labels must hold one label per part ({len(self.parts)}); got {len(labels)}"
+                )
+            labels = list(labels)
         return synthetic.VirtualCamera(self, camera or synthetic.Camera(), labels, dict(options), seed)
 
     @property

@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from ._arrays import vector
 from ._errors import ParameterError
 from .actuation import Axis, Plate
-from .drive import wrench_matrix
+from .drive import drive_frequency, wrench_matrix
 from .motion import PlateMotion
 from .waveforms import Harmonics
 
@@ -58,6 +58,9 @@ def _unit(name: str, value: ArrayLike) -> FloatArray:
         raise ParameterError(f"{name} must be non-zero")
     out: FloatArray = np.asarray(d, dtype=np.float64) / n
     return out
+
+
+_KINDS = ("rotation", "translation", "jet", "field", "rest")
 
 
 def _finite(name: str, value: float, low: float = 0.0, strict: bool = False) -> float:
@@ -91,6 +94,35 @@ class Pulse:
     amplitude: float = 0.0
     plate_motion: PlateMotion | None = None
     """The harmonic 6-axis motion of a field pulse (:meth:`field`)."""
+
+    def __post_init__(self) -> None:
+        """Whatever built it (the builders, ``dataclasses.replace`` or the constructor), a pulse is
+        playable: `ParameterError` naming the field otherwise."""
+        if self.kind not in _KINDS:
+            raise ParameterError(f"kind must be one of {_KINDS}; got {self.kind!r}")
+        vector("center", self.center, 2)
+        drive_frequency("frequency", self.frequency)
+        if self.kind == "rest":
+            _finite("rest", self.rest, strict=True)
+        else:
+            self._times(self.attack, self.sustain, self.decay, self.rest)
+        if self.kind in ("rotation", "translation"):
+            _playable(self.waveform)
+            base = float(self.waveform.frequency)  # type: ignore[union-attr]
+            if abs(base - self.frequency) > 1e-9 * base:
+                raise ParameterError(
+                    f"frequency must be the waveform's ({base:g} Hz); got {self.frequency:g}"
+                )
+        if self.kind in ("translation", "jet"):
+            d = vector("direction", self.direction, 2)
+            if not abs(math.hypot(*d) - 1.0) < 1e-6:
+                raise ParameterError(f"direction must be a unit vector; got {self.direction!r}")
+        if self.kind == "jet":
+            _finite("rho", self.rho, strict=True)
+            _finite("amplitude", self.amplitude, strict=True)
+        if self.kind == "field" and not isinstance(self.plate_motion, PlateMotion):
+            got = type(self.plate_motion).__name__
+            raise ParameterError(f"plate_motion must be a upm.PlateMotion for a field pulse; got {got}")
 
     # -- builders ------------------------------------------------------------------------------
     @classmethod
@@ -158,7 +190,7 @@ class Pulse:
         return cls(
             "jet",
             (float(cx), float(cy)),
-            _finite("frequency", frequency, strict=True),
+            drive_frequency("frequency", frequency),
             *cls._times(attack, sustain, decay, rest),
             direction=(float(d[0]), float(d[1])),
             rho=_finite("rho", rho, strict=True),

@@ -278,6 +278,10 @@ def available_memory() -> int | None:
     return min(limits) if limits else None
 
 
+#: The most integrator steps one call may take (about ten minutes for one part at 50 ns a step).
+MAX_STEPS = 10**10
+
+
 def _check_memory(worlds: int, parts: int, duration: float, dt: float, every: int) -> None:
     """`ParameterError` when the recorded result cannot fit in memory, before anything runs (a
     failed allocation in the extension would abort the process)."""
@@ -348,6 +352,13 @@ def _run(
                 f"collide or meet a wall); parts[{first}] is a point: give it a size, or simulate "
                 "without contacts"
             )
+    steps = math.ceil(span / step - 1e-9)
+    if steps > MAX_STEPS:
+        raise ParameterError(
+            f"duration / dt must be at most {MAX_STEPS:.0e} steps (minutes of work a part); got "
+            f"{steps:.3g} ({span:g} s at dt = {step:g} s): raise dt, or run the span in pieces, each "
+            "starting from the last one's final state"
+        )
     m = pos.shape[0]
     mu_a = _per_part("mu", mu, m)
     mu_s_a = mu_a if mu_s is None else _per_part("mu_s", mu_s, m)

@@ -171,6 +171,12 @@ def _plan(target: str | Callable[..., Any], grid: Mapping[str, Any], fixed: dict
           chunk: int | None) -> tuple[_Plan, Scenario | None]:  # fmt: skip
     if not isinstance(grid, Mapping) or not grid:
         raise ParameterError("grid must be a non-empty mapping of parameter name -> values")
+    both = sorted(set(grid) & set(fixed))
+    if both:
+        raise ParameterError(
+            f"{both} given both as grid axes and as fixed parameters: the fixed value would be dropped; "
+            "give each parameter once"
+        )
     scenario = None
     if isinstance(target, str):
         if target not in SCENARIOS:
@@ -327,6 +333,19 @@ class _Store:
 # -- the sweep --------------------------------------------------------------------------------
 
 
+class _NoBar:
+    """What a sweep without ``progress`` uses in place of tqdm's bar (tqdm need not be installed)."""
+
+    def __init__(self, **_: Any) -> None:
+        pass
+
+    def update(self, _: int) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
 def sweep(
     target: str | Callable[..., Any],
     grid: Mapping[str, Any],
@@ -382,7 +401,7 @@ def sweep(
         a store holding another sweep.
     """
     xr = need("xarray", "sweep", "upm.sweep")
-    tqdm = need("tqdm.auto", "sweep", "upm.sweep", "tqdm").tqdm
+    tqdm = need("tqdm.auto", "sweep", "upm.sweep", "tqdm").tqdm if progress else _NoBar
 
     plan, scenario = _plan(target, grid, fixed, chunk)
     if backend not in ("threads", "dask"):

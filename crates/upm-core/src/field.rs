@@ -142,6 +142,9 @@ pub fn jet_field(
     ])
 }
 
+/// Most quadrature pieces one average may take (32 a period of the highest frequency).
+const MAX_PIECES: f64 = 2_000_000.0;
+
 /// Average force / (mu m g) that `motion` exerts on a part at `p` moving at `part_velocity`
 /// [m/s], over one pass of the program ([`PlateMotion::span`]), to absolute accuracy `tol`.
 pub fn average_field(
@@ -158,24 +161,35 @@ pub fn average_field(
     // Start with pieces no longer than 1/32 of the shortest period present, so a feature of the
     // velocity wider than about 1/500 of that period reaches a node of the first rules.
     let f_max = motion.max_frequency();
+    // The pieces are counted before any is allocated: a program of millions of periods is refused
+    // here, not by a failed allocation that would abort the process.
+    let h = if f_max > 0.0 {
+        1.0 / (32.0 * f_max)
+    } else {
+        f64::INFINITY
+    };
+    let pieces = |w: &[f64]| ((w[1] - w[0]) / h).ceil().max(1.0);
+    let count: f64 = breaks.windows(2).map(pieces).sum();
+    if count.is_nan() || count > MAX_PIECES {
+        return Err(Error::parameter(
+            "motion",
+            format!(
+                "is too long to average: {:.4} periods of its highest frequency ({} Hz); at most {:.0} \
+                 are averaged in one call: average one period or a shorter span",
+                span * f_max,
+                f_max,
+                MAX_PIECES / 32.0,
+            ),
+        ));
+    }
     if f_max > 0.0 {
-        let h = 1.0 / (32.0 * f_max);
-        let mut refined = Vec::with_capacity(breaks.len());
+        let mut refined = Vec::with_capacity(count as usize + 1);
         for w in breaks.windows(2) {
-            let k = ((w[1] - w[0]) / h).ceil().max(1.0) as usize;
+            let k = pieces(w) as usize;
             refined.extend((0..k).map(|i| w[0] + (w[1] - w[0]) * i as f64 / k as f64));
         }
         refined.push(span);
         breaks = refined;
-    }
-    if breaks.len() > 2_000_000 {
-        return Err(Error::parameter(
-            "motion",
-            format!(
-                "is too long to average: {} periods of its highest frequency",
-                span * f_max
-            ),
-        ));
     }
     let unit = |t: f64| {
         let u = motion.velocity(t);

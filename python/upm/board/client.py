@@ -21,7 +21,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .._errors import BoardError
+from .._arrays import integer, real
+from .._errors import BoardError, ParameterError
 from .._extras import need
 from . import protocol as p
 
@@ -60,6 +61,11 @@ class Board:
     """
 
     def __init__(self, url: str, *, timeout: float = 0.25, retries: int = 3, heartbeat: float = 0.05) -> None:
+        if not isinstance(url, str) or not url:
+            raise ParameterError(f"url must be a pyserial URL or device path (str); got {url!r}")
+        timeout = real("timeout", timeout, low=0.0, low_open=True, high=60.0)
+        retries = integer("retries", retries, low=0, high=1000)
+        heartbeat = real("heartbeat", heartbeat, low=1e-3, high=10.0)
         serial = need("serial", "board", "upm.board.Board", "pyserial")
         try:
             self._port = serial.serial_for_url(url, baudrate=921600, timeout=0.005)
@@ -89,6 +95,12 @@ class Board:
         self._beater = threading.Thread(target=self._beat_loop, name="upm-board-heartbeat", daemon=True)
         try:
             self.info = self.hello()
+            dog = self.info.watchdog_ms / 1000.0
+            if dog > 0 and heartbeat > dog / 2:
+                raise ParameterError(
+                    f"heartbeat must be at most half the board's watchdog ({1000 * dog:g} ms), or the board "
+                    f"stops between beats; got {heartbeat:g} s"
+                )
         except BaseException:
             self.close(stop=False)
             raise

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -207,10 +208,22 @@ class LoadedLog:
 
 
 def load_log(path: str | Path) -> LoadedLog:
-    """Read a log written by :meth:`Log.save` (or :meth:`Loop.run` with ``log=``)."""
-    with np.load(Path(path), allow_pickle=False) as z:
-        data = {k: z[k] for k in z.files if k != "meta"}
-        meta = json.loads(str(z["meta"]))
+    """Read a log written by :meth:`Log.save` (or :meth:`Loop.run` with ``log=``);
+    :class:`upm.ParameterError` naming the file when it is missing or not such a log."""
+    file = Path(path)
+    if not file.is_file():
+        raise ParameterError(f"path: no log at {str(file)!r}")
+    try:
+        with np.load(file, allow_pickle=False) as z:
+            if not hasattr(z, "files") or "meta" not in z.files:
+                raise ValueError("it holds no run metadata")
+            data = {k: z[k] for k in z.files if k != "meta"}
+            meta = json.loads(str(z["meta"]))
+    except (OSError, ValueError, TypeError, AttributeError, EOFError, zipfile.BadZipFile, KeyError) as error:
+        raise ParameterError(
+            f"path: {str(file)!r} is not a log written by Log.save (an .npz archive with its run's "
+            f"metadata): {error}"
+        ) from error
     return LoadedLog(data, meta)
 
 

@@ -10,7 +10,7 @@ again.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -121,6 +121,10 @@ class SortTask:
         The parts' radius [m]: on the first cycle, a side given more parts than its region holds
         (beyond ``line``, ``margin / 2`` from the edges, as a hexagonal packing) is refused with a
         :class:`upm.ParameterError`; :meth:`fit_line` places the line for a count.
+    ignore : collection of str
+        Labels of parts the sort leaves where they are. A part whose label is neither in ``sides``
+        nor here is refused on the first cycle (:class:`upm.ParameterError`): a sort that reports
+        done with a part of an unexpected colour left unsorted would be silently wrong.
     """
 
     NEAR, FAR = 2.0, 0.3
@@ -139,7 +143,18 @@ class SortTask:
         clear: float = 0.003,
         free_y: bool = False,
         part_radius: float | None = None,
+        ignore: Collection[str] = (),
     ) -> None:
+        if not isinstance(sides, Mapping):
+            raise ParameterError(
+                f"sides must map labels to -1 (left) or +1 (right), e.g. {{'red': -1, 'blue': 1}}; got "
+                f"{type(sides).__name__} {sides!r}"
+            )
+        if isinstance(ignore, str) or not all(isinstance(lab, str) for lab in ignore):
+            raise ParameterError(f"ignore must be a collection of labels (str); got {ignore!r}")
+        self.ignore = frozenset(ignore)
+        if self.ignore & set(sides):
+            raise ParameterError(f"ignore and sides share labels {sorted(self.ignore & set(sides))}")
         self.free_y = bool(free_y)
         self.part_radius = (
             None if part_radius is None else real("part_radius", part_radius, low=0.0, low_open=True)
@@ -193,7 +208,14 @@ class SortTask:
         )
 
     def _fits(self, state: State) -> None:
-        """:class:`upm.ParameterError` when a side is given more parts than its region holds."""
+        """:class:`upm.ParameterError` when a part's label is neither sorted nor ignored, or a side
+        is given more parts than its region holds."""
+        unknown = sorted({lab for lab in state.labels if lab not in self.sides and lab not in self.ignore})
+        if unknown:
+            raise ParameterError(
+                f"SortTask: parts labelled {unknown} are on the plate, but sides only names "
+                f"{sorted(self.sides)}: give each label a side, or pass ignore={unknown} to leave them be"
+            )
         if self.part_radius is None:
             return
         room = self.capacity(self.line, self.part_radius, plate_size=2 * self.half, margin=self.margin)

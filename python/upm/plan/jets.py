@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._arrays import as_float
 from .._errors import ParameterError, ShapeError
 from ..actuation import Axis, Plate
-from ..drive import DriveLimits
+from ..drive import DriveLimits, drive_frequency
 from ..motion import PlateMotion
 from ..pulses import Pulse, program
 from .sizing import (
@@ -85,7 +85,7 @@ def jet_pulses(
         raise ShapeError(f"parts and steps must both have shape (M, 2); got {p.shape} and {s.shape}")
     mu_f, mu_s_f = friction(mu, mu_s)
     positive("amplitude", amplitude)
-    positive("frequency", frequency)
+    drive_frequency("frequency", frequency)
     if rho is None:
         gaps = np.hypot(*(p[:, None, :] - p[None, :, :]).transpose(2, 0, 1))
         gaps[np.diag_indices(len(p))] = np.inf
@@ -97,8 +97,11 @@ def jet_pulses(
     rise = period if attack is None else positive("attack", attack)
     items: list[Pulse] = []
     sequence = range(len(p)) if order is None else [int(i) for i in np.asarray(order).reshape(-1)]
-    if any(not 0 <= i < len(p) for i in sequence):
-        raise ParameterError(f"order must list part indices in 0..{len(p) - 1}; got {list(sequence)}")
+    if any(not 0 <= i < len(p) for i in sequence) or len(set(sequence)) != len(sequence):
+        raise ParameterError(
+            f"order must list distinct part indices in 0..{len(p) - 1} (each part's step is made once); "
+            f"got {list(sequence)}"
+        )
     for i in sequence:
         length = float(np.hypot(*s[i]))
         if length <= min_step:
@@ -160,7 +163,7 @@ class JetPlanner:
         self.mu = positive("mu", mu)
         self.mu_s = mu_s
         self.amplitude = positive("amplitude", amplitude)
-        self.frequency = positive("frequency", frequency)
+        self.frequency = drive_frequency("frequency", frequency)
         self.rho, self.max_rho = rho, positive("max_rho", max_rho)
         self.attack = 9.0 / self.frequency if attack is None else float(attack)
         self.min_step = float(min_step)

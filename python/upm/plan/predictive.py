@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 
 from .. import _core
 from .._errors import ParameterError
-from ..drive import DriveLimits
+from ..drive import DriveLimits, drive_frequency
 from ..motion import PlateMotion
 from ..pulses import Pulse
 from ..sim import Disk, simulate_batch
@@ -153,7 +153,7 @@ class PredictivePlanner:
         self.mu = _positive("mu", mu)
         self.mu_s = None if mu_s is None else _positive("mu_s", mu_s)
         self.part_radius = None if part_radius is None else _positive("part_radius", part_radius)
-        self.frequencies = tuple(_positive("frequencies", f) for f in frequencies)
+        self.frequencies = tuple(drive_frequency("frequencies", f) for f in frequencies)
         self.on_times = tuple(_positive("on_times", t) for t in on_times)
         if not self.frequencies or not self.on_times:
             raise ParameterError("frequencies and on_times must each hold at least one value")

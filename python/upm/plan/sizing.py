@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._arrays import as_float, real
 from .._errors import ConvergenceError, ParameterError
 from ..actuation import Axis, Plate
-from ..drive import DriveLimits
+from ..drive import DriveLimits, drive_frequency
 from ..motion import PlateMotion
 from ..pulses import Pulse
 from ..sim import simulate, simulate_batch
@@ -51,7 +51,7 @@ FloatArray = NDArray[np.float64]
 def harmonics_of(waveform: Waveform | None, amplitude: float, frequency: float) -> Harmonics:
     if waveform is None:
         positive("amplitude", amplitude)
-        positive("frequency", frequency)
+        drive_frequency("frequency", frequency)
         return Harmonics([amplitude, -amplitude / 2], [0.0, 0.0], frequency)
     if isinstance(waveform, TwoHarmonic):
         waveform = waveform.to_harmonics()
@@ -60,6 +60,7 @@ def harmonics_of(waveform: Waveform | None, amplitude: float, frequency: float) 
             "waveform must be a single upm.Harmonics or upm.TwoHarmonic (the angular velocity, rad/s); "
             f"got {waveform!r}"
         )
+    drive_frequency("waveform's frequency", float(waveform.frequency))
     return waveform
 
 
@@ -199,6 +200,8 @@ def trim_rests(
     """
     pos = as_float("parts", parts).reshape(-1, 2).copy()
     mu_f = positive("mu", mu)
+    if isinstance(pulses, Pulse) or not all(isinstance(p, Pulse) for p in pulses):
+        raise ParameterError(f"pulses must be a list of upm.Pulse; got {pulses!r}")
     out: list[Pulse] = []
     for pulse in pulses:
         if pulse.kind == "rest" or not len(pos):

@@ -39,6 +39,11 @@ BLOB_RING = 0.75
 BLOB_AREA = 1.25
 
 
+#: Two references closer than this (distance of log colour ratios, about 5 % a channel) cannot be
+#: told apart by a camera: a palette that has them is refused.
+SAME_COLOUR = 0.05
+
+
 @dataclass(frozen=True)
 class Palette:
     """Reference colours of the part kinds, relative to the plate's colour (so that a lighting
@@ -66,6 +71,19 @@ class Palette:
             v = as_float(f"colors[{name!r}]", c)
             if v.shape != (3,) or np.any(v <= 0) or np.any(v > 255):
                 raise VisionError(f"colour {name!r} must be 3 BGR levels in (0, 255]; got {c!r}")
+        if not (
+            isinstance(self.tolerance, (int, float)) and math.isfinite(self.tolerance) and self.tolerance > 0
+        ):
+            raise VisionError(f"tolerance must be finite and > 0; got {self.tolerance!r}")
+        refs, names = self.ratios(), self.labels
+        for i in range(len(refs)):
+            for j in range(i):
+                if np.linalg.norm(refs[i] - refs[j]) < SAME_COLOUR:
+                    raise VisionError(
+                        f"colors {names[j]!r} and {names[i]!r} are the same colour to a camera (log ratio "
+                        f"{np.linalg.norm(refs[i] - refs[j]):.3g} apart, under {SAME_COLOUR:g}): one label "
+                        "would never be assigned; give each kind a colour of its own"
+                    )
 
     @property
     def labels(self) -> tuple[str, ...]:

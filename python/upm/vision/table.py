@@ -247,6 +247,11 @@ def _fit_line(points: FloatArray) -> tuple[FloatArray, FloatArray]:
     return np.append(normal, normal @ centre), res[keep]
 
 
+#: The least share of its convex hull the plate's bright region fills (a plate: 0.99 clear, lower
+#: with parts or an arm over its edge).
+MIN_SOLIDITY = 0.8
+
+
 def find_table(frame: ArrayLike, plate_size: float | tuple[float, float] = PLATE_SIZE) -> Table:
     """Find the plate in a camera frame (docs/spec.md §8).
 
@@ -292,9 +297,18 @@ def find_table(frame: ArrayLike, plate_size: float | tuple[float, float] = PLATE
             f"no table found: the largest bright region covers {cv2.contourArea(region) / (w * h):.1%} "
             "of the frame (a plate needs 5%)"
         )
+    hull = cv2.convexHull(region)
+    solidity = cv2.contourArea(region) / max(cv2.contourArea(hull), 1.0)
+    if solidity < MIN_SOLIDITY:
+        # a plate is a convex quadrilateral, parts and arms cut into its outline only at its edge;
+        # noise or texture gives a ragged bright region (seen: 0.43-0.61 on random frames)
+        raise VisionError(
+            f"no table found: the largest bright region is ragged (it fills {solidity:.0%} of its convex "
+            f"hull; a plate fills at least {MIN_SOLIDITY:.0%}): noise, texture or no plate in view"
+        )
     # the edge of the plate region's convex hull: parts and arms cutting into the plate are bridged
     edges = np.zeros_like(grey)
-    cv2.polylines(edges, [cv2.convexHull(region)], True, 255, 1)
+    cv2.polylines(edges, [hull], True, 255, 1)
     hough = _hough_sides(edges, (w, h))
     lines = np.column_stack([np.cos(hough[:, 1]), np.sin(hough[:, 1]), hough[:, 0]])
     corners = _order(_quad(lines))
