@@ -40,7 +40,7 @@ help: ## list the targets
 install: $(VENV)/.built ## create .venv, install the dependencies, build the extension (release)
 
 .PHONY: demo
-demo: $(VENV)/.built ## the main job: 8 chips sorted by colour through the full loop (camera, vision, jets, board protocol, emulator); figures in out/
+demo: $(VENV)/.built ## the main job: 8 chips sorted by colour through the full loop (camera, vision, the predictive planner planning while the plate plays, board protocol, emulator); figures in out/
 	$(PY) -m upm.cli demo sort8 --board --planner predictive --pipeline 6 --out out
 	$(PY) -m upm.cli figures --out out/figures
 

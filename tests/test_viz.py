@@ -144,6 +144,14 @@ def test_bad_recordings_are_refused(tmp_path):
         viz.Recorder(tmp_path / "x.rrd", max_queue=1)
     with pytest.raises(upm.ParameterError, match="no recording"):
         viz.read_recording(tmp_path / "missing.rrd")
+    # `upm replay` on a file that is not a recording exited 0 with a picture of the welcome page
+    fake = tmp_path / "not-a-recording.rrd"
+    fake.write_bytes(b"just some bytes, not rerun's")
+    from upm.viz.replay import replay
+
+    with pytest.raises(upm.ParameterError, match="not a rerun recording"):
+        replay(fake, png=tmp_path / "x.png")
+    assert not (tmp_path / "x.png").exists()
 
 
 def test_a_slow_recorder_drops_and_says_so(tmp_path, monkeypatch):

@@ -55,6 +55,12 @@ def _check(path: str | Path) -> Path:
         raise ParameterError(f"FILE: no recording at {str(path)!r}")
     if path.suffix != ".rrd":
         raise ParameterError(f"FILE must be a .rrd recording; got {str(path)!r}")
+    with path.open("rb") as f:
+        head = f.read(4)
+    if not (len(head) == 4 and head[:3] == b"RRF" and head[3:].isdigit()):
+        # rerun's file header ("RRF" and the format's version): anything else opened the viewer on
+        # its welcome page and exited 0
+        raise ParameterError(f"FILE: {str(path)!r} is not a rerun recording (no RRF header)")
     return path
 
 
