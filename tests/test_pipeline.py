@@ -154,3 +154,27 @@ def replace_rest(pulse, rest):
     from dataclasses import replace
 
     return replace(pulse, rest=rest)
+
+
+def test_a_kept_plan_learns_the_pulse_error_not_the_prediction_it_was_made_from():
+    # planned ahead from predicted positions 4 mm off where the parts then turn out to be: the kept
+    # pulse is learnt from as a step from where they were seen (the serial loop's view)
+    from upm.plan.goals import PositionsView, StepsGoal
+
+    planner = PredictivePlanner(LIMITS, mu=0.3, adapt=False)
+    predicted = np.array([[-0.05, 0.02], [0.06, -0.03]])
+    goal = StepsGoal(predicted + np.array([[0.02, 0.0], [0.0, 0.02]]))
+    pulses, token = planner.speculate(PositionsView(predicted), goal)
+    assert pulses
+    _, _, (pulse, ids, start, final), _ = token
+    seen = predicted + np.array([[0.004, 0.0], [0.0, -0.004]])
+    planner.adopt(token, ids[::-1], seen[::-1])  # any order of ids
+    kept_pulse, kept_ids, kept_start, kept_final = planner._last
+    assert kept_pulse is pulse
+    np.testing.assert_array_equal(kept_ids, ids)
+    np.testing.assert_allclose(kept_start, seen)
+    np.testing.assert_allclose(kept_final - kept_start, final - start)  # the predicted step itself
+    np.testing.assert_allclose(planner.expected[1], kept_final)
+    # the parts then move exactly by the predicted step: the step error learnt is zero (it was 4 mm)
+    planner._correct(ids, kept_final)
+    np.testing.assert_allclose(planner.step_errors, 0.0, atol=1e-12)

@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -579,8 +579,23 @@ class PredictivePlanner:
     def adopt(self, token: object, ids: NDArray[np.int64], positions: FloatArray) -> None:
         """Keep a plan from :meth:`speculate`: learn from the pulse that has just played (the parts
         ``ids`` seen at ``positions``), then take the state the kept plan leaves."""
-        self._correct(np.asarray(ids, dtype=np.int64), np.asarray(positions, dtype=np.float64))
-        self._plate, self._t_next, self._last, self.expected = token  # type: ignore[misc]
+        seen_ids = np.asarray(ids, dtype=np.int64)
+        seen = np.asarray(positions, dtype=np.float64)
+        self._correct(seen_ids, seen)
+        plate, t_next, last, _ = cast(tuple[FloatArray, float, Any, Any], token)
+        self._plate, self._t_next = plate, t_next
+        if last is None:
+            self._last, self.expected = None, None
+            return
+        # the kept plan was made from where the parts were predicted to be; each part's predicted
+        # step now starts where it is seen, so what the next frame teaches (steps, friction,
+        # gains) is the pulse's own error, not the last prediction's as well
+        pulse, last_ids, start, final = last
+        index = {int(i): k for k, i in enumerate(seen_ids)}
+        now = np.array([seen[index[int(i)]] if int(i) in index else start[k] for k, i in enumerate(last_ids)])
+        shifted = now + (final - start)
+        self._last = (pulse, last_ids, now, shifted)
+        self.expected = (last_ids.copy(), shifted.copy())
 
     def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]:
         """Without a task: the pulse that best brings each part to ``positions + steps`` (NaN
