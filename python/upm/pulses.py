@@ -61,6 +61,19 @@ def _unit(name: str, value: ArrayLike) -> FloatArray:
 
 
 _KINDS = ("rotation", "translation", "jet", "field", "rest")
+_REAL = (int, float, np.floating, np.integer)
+
+
+def _pair(name: str, value: object) -> tuple[float, float]:
+    """A pulse's stored point or direction: two finite reals (checked in pure Python: every
+    candidate pulse of a planning cycle passes here)."""
+    if not (
+        isinstance(value, (tuple, list))
+        and len(value) == 2
+        and all(isinstance(v, _REAL) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+    ):
+        raise ParameterError(f"{name} must be two finite numbers (x, y); got {value!r}")
+    return float(value[0]), float(value[1])
 
 
 def _finite(name: str, value: float, low: float = 0.0, strict: bool = False) -> float:
@@ -100,12 +113,17 @@ class Pulse:
         playable: `ParameterError` naming the field otherwise."""
         if self.kind not in _KINDS:
             raise ParameterError(f"kind must be one of {_KINDS}; got {self.kind!r}")
-        vector("center", self.center, 2)
-        drive_frequency("frequency", self.frequency)
+        _pair("center", self.center)
+        # the builders pass times, frequency and a jet's radius and amplitude as given: they are
+        # checked and stored as floats here, once a pulse
+        put = object.__setattr__
+        put(self, "frequency", drive_frequency("frequency", self.frequency))
         if self.kind == "rest":
-            _finite("rest", self.rest, strict=True)
+            put(self, "rest", _finite("rest", self.rest, strict=True))
         else:
-            self._times(self.attack, self.sustain, self.decay, self.rest)
+            times = self._times(self.attack, self.sustain, self.decay, self.rest)
+            for name, value in zip(("attack", "sustain", "decay", "rest"), times, strict=True):
+                put(self, name, value)
         if self.kind in ("rotation", "translation"):
             _playable(self.waveform)
             base = float(self.waveform.frequency)  # type: ignore[union-attr]
@@ -114,12 +132,11 @@ class Pulse:
                     f"frequency must be the waveform's ({base:g} Hz); got {self.frequency:g}"
                 )
         if self.kind in ("translation", "jet"):
-            d = vector("direction", self.direction, 2)
-            if not abs(math.hypot(*d) - 1.0) < 1e-6:
+            if not abs(math.hypot(*_pair("direction", self.direction)) - 1.0) < 1e-6:
                 raise ParameterError(f"direction must be a unit vector; got {self.direction!r}")
         if self.kind == "jet":
-            _finite("rho", self.rho, strict=True)
-            _finite("amplitude", self.amplitude, strict=True)
+            put(self, "rho", _finite("rho", self.rho, strict=True))
+            put(self, "amplitude", _finite("amplitude", self.amplitude, strict=True))
         if self.kind == "field" and not isinstance(self.plate_motion, PlateMotion):
             got = type(self.plate_motion).__name__
             raise ParameterError(f"plate_motion must be a upm.PlateMotion for a field pulse; got {got}")
@@ -143,7 +160,10 @@ class Pulse:
             "rotation",
             (float(cx), float(cy)),
             float(waveform.frequency),
-            *cls._times(attack, sustain, decay, rest),
+            attack,
+            sustain,
+            decay,
+            rest,
             waveform=waveform,
         )
 
@@ -165,7 +185,10 @@ class Pulse:
             "translation",
             (0.0, 0.0),
             float(waveform.frequency),
-            *cls._times(attack, sustain, decay, rest),
+            attack,
+            sustain,
+            decay,
+            rest,
             waveform=waveform,
             direction=(float(d[0]), float(d[1])),
         )
@@ -190,11 +213,14 @@ class Pulse:
         return cls(
             "jet",
             (float(cx), float(cy)),
-            drive_frequency("frequency", frequency),
-            *cls._times(attack, sustain, decay, rest),
+            frequency,
+            attack,
+            sustain,
+            decay,
+            rest,
             direction=(float(d[0]), float(d[1])),
-            rho=_finite("rho", rho, strict=True),
-            amplitude=_finite("amplitude", amplitude, strict=True),
+            rho=rho,
+            amplitude=amplitude,
         )
 
     @classmethod
@@ -220,7 +246,10 @@ class Pulse:
             "field",
             (float(cx), float(cy)),
             frequency,
-            *cls._times(attack, sustain, decay, rest),
+            attack,
+            sustain,
+            decay,
+            rest,
             plate_motion=motion,
         )
 

@@ -215,11 +215,11 @@ def load_log(path: str | Path) -> LoadedLog:
         raise ParameterError(f"path: no log at {str(file)!r}")
     try:
         with np.load(file, allow_pickle=False) as z:
-            if not hasattr(z, "files") or "meta" not in z.files:
+            if "meta" not in z.files:
                 raise ValueError("it holds no run metadata")
             data = {k: z[k] for k in z.files if k != "meta"}
             meta = json.loads(str(z["meta"]))
-    except (OSError, ValueError, TypeError, AttributeError, EOFError, zipfile.BadZipFile, KeyError) as error:
+    except (OSError, ValueError, TypeError, EOFError, zipfile.BadZipFile, KeyError) as error:
         raise ParameterError(
             f"path: {str(file)!r} is not a log written by Log.save (an .npz archive with its run's "
             f"metadata): {error}"

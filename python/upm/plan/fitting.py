@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["FACTORS", "best_factor", "learn"]
+__all__ = ["FACTORS", "best_factor", "learn", "restarted"]
 
 FACTORS = np.array([0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4])
 """Factors on the friction estimate the last pulse is predicted again with."""
@@ -29,6 +29,21 @@ def best_factor(factors: NDArray[np.float64], err: NDArray[np.float64]) -> float
             if aa > 0:
                 f = float(np.exp(np.clip(-bb / (2 * aa), x0, x2)))
     return f
+
+
+def restarted(last: tuple[Any, ...], ids: NDArray[np.int64], pos: NDArray[np.float64]) -> tuple[Any, ...]:
+    """A pulse's record (the pulse, its parts' ids, where they started, where they were predicted
+    to end) with each part's predicted step restarted where it is seen now (parts ``ids`` at
+    ``pos``; parts not seen keep theirs). A plan made ahead starts from where the parts were
+    predicted to be: kept, :func:`learn` then sees the pulse's own error, not the last
+    prediction's as well."""
+    pulse, last_ids, start, final = last
+    index = {int(i): k for k, i in enumerate(ids)}
+    now = np.array(start, dtype=np.float64, copy=True)
+    for k, i in enumerate(last_ids):
+        if int(i) in index:
+            now[k] = pos[index[int(i)]]
+    return pulse, last_ids, now, now + (final - start)
 
 
 def learn(planner: Any, last: tuple[Any, ...], ids: NDArray[np.int64], pos: NDArray[np.float64]) -> None:

@@ -43,7 +43,7 @@ from ..motion import PlateMotion
 from ..pulses import Pulse
 from ..sim import Disk, simulate_batch
 from .candidates import Candidates, aligned_centres, generate
-from .fitting import learn
+from .fitting import learn, restarted
 from .goals import PositionsView, StepsGoal
 from .macros import MacroTable
 from .sizing import positive as _positive
@@ -584,18 +584,8 @@ class PredictivePlanner:
         self._correct(seen_ids, seen)
         plate, t_next, last, _ = cast(tuple[FloatArray, float, Any, Any], token)
         self._plate, self._t_next = plate, t_next
-        if last is None:
-            self._last, self.expected = None, None
-            return
-        # the kept plan was made from where the parts were predicted to be; each part's predicted
-        # step now starts where it is seen, so what the next frame teaches (steps, friction,
-        # gains) is the pulse's own error, not the last prediction's as well
-        pulse, last_ids, start, final = last
-        index = {int(i): k for k, i in enumerate(seen_ids)}
-        now = np.array([seen[index[int(i)]] if int(i) in index else start[k] for k, i in enumerate(last_ids)])
-        shifted = now + (final - start)
-        self._last = (pulse, last_ids, now, shifted)
-        self.expected = (last_ids.copy(), shifted.copy())
+        self._last = None if last is None else restarted(last, seen_ids, seen)
+        self.expected = None if self._last is None else (self._last[1].copy(), self._last[3].copy())
 
     def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]:
         """Without a task: the pulse that best brings each part to ``positions + steps`` (NaN
