@@ -142,7 +142,7 @@ __all__ = [
 
 #: Subpackages that load on first use (``upm.plot.sweep(...)`` after ``import upm``): each pulls in
 #: its extra (matplotlib, OpenCV, pyserial, ...) only when it is used.
-_ON_USE = ("board", "control", "desk", "plant", "plate6", "plot", "vision", "viz")
+_ON_USE = ("board", "control", "desk", "envs", "plant", "plate6", "plot", "vision", "viz")
 
 
 def __getattr__(name: str) -> object:

@@ -124,6 +124,17 @@ class PlateMotion:
     def is_spatial(self) -> bool: ...
     def normal(self, t: _F) -> _F: ...
     @staticmethod
+    def pulses(
+        kind: NDArray[np.int64],
+        center: _F,
+        direction: _F,
+        amplitude: _F,
+        frequency: _F,
+        attack: _F,
+        sustain: _F,
+        rho: float,
+    ) -> list[PlateMotion]: ...
+    @staticmethod
     def rest(duration: float) -> PlateMotion: ...
     @staticmethod
     def from_samples(t: _F, u: _F) -> PlateMotion: ...
@@ -164,6 +175,7 @@ def simulate(
     world_mu: _F | None = None,
     world_mu_s: _F | None = None,
     polygons: list[tuple[int, _F, _F | None]] | None = None,
+    world_positions: _F | None = None,
 ) -> tuple[_F, _F, _F, NDArray[np.bool_], _F, _F, _F, NDArray[np.bool_], _F]: ...
 def simd_info() -> tuple[str, list[str]]: ...
 

@@ -334,7 +334,7 @@ def _run(
     threads: int | None = None,
     contacts: dict[str, Any] | None = None,
     progress: Callable[[float], object] | None = None,
-    worlds: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+    worlds: tuple[NDArray[np.float64], ...] | None = None,
 ) -> tuple[Any, ...]:
     step = real("dt", dt, low=0.0, low_open=True)
     span = real("duration", duration, low=0.0, low_open=True)
@@ -389,6 +389,7 @@ def _run(
         progress=report,
         world_mu=None if worlds is None else worlds[0],
         world_mu_s=None if worlds is None else worlds[1],
+        world_positions=None if worlds is None or len(worlds) < 3 else worlds[2],
         polygons=polygons,
         **(contacts or {}),
     )
@@ -534,6 +535,7 @@ def simulate_batch(
     walls_move_with_plate: bool = False,
     contact_iterations: int = 4,
     progress: Callable[[float], object] | None = None,
+    starts: ArrayLike | None = None,
 ) -> SimResult:
     """:func:`simulate` for ``B`` independent worlds (one motion each, the same parts), in parallel.
 
@@ -545,15 +547,29 @@ def simulate_batch(
 
     ``mu`` and ``mu_s`` may differ from world to world (a friction sweep): shape ``(B, M)``, or
     ``(B, 1)`` for one value per world; all the worlds still run in one parallel call.
+
+    ``starts (B, M, 2)`` [m]: each world starts its parts there instead of at ``parts``' positions
+    (a vector of environments, each with its own layout; ``parts`` still gives their kinds, sizes
+    and velocities).
     """
     cores = _cores(motions)
     contact = _contact(parts, plate_size, contacts, restitution, part_friction, walls, walls_move_with_plate,
                        contact_iterations)  # fmt: skip
-    friction = _per_world(len(cores), parts, mu, mu_s)
+    friction = _per_world(len(cores), parts, mu, mu_s, force=starts is not None)
     worlds = None
     if friction is not None:  # every world in the same parallel run, each with its own rows
         mu, mu_s = friction[0][0], friction[1][0]
         worlds = (np.ascontiguousarray(friction[0]), np.ascontiguousarray(friction[1]))
+    if starts is not None:
+        m = _parts(parts)[0].shape[0]
+        at = as_float("starts", starts)
+        if at.shape != (len(cores), m, 2):
+            raise ShapeError(
+                f"starts must have shape ({len(cores)}, {m}, 2) (world, part, xy); got {at.shape}"
+            )
+        if not np.all(np.isfinite(at)):
+            raise ParameterError("starts must be finite")
+        worlds = (*worlds, np.ascontiguousarray(at.reshape(-1, 2)))  # type: ignore[misc]
     t, pos, vel, stuck, angles, spins, left, gone, flight = _run(
         cores, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact,
         _progress(progress), worlds=worlds,
@@ -570,13 +586,13 @@ def _progress(progress: Any) -> Callable[[float], object] | None:
 
 
 def _per_world(
-    b: int, parts: Any, mu: ArrayLike, mu_s: ArrayLike | None
+    b: int, parts: Any, mu: ArrayLike, mu_s: ArrayLike | None, force: bool = False
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
     """``(mu, mu_s)`` as ``(B, M)`` for ``b`` worlds when either is given per world (shape
-    ``(B, M)`` or ``(B, 1)``); None when both are shared by every world."""
+    ``(B, M)`` or ``(B, 1)``) or ``force``; None when both are shared by every world."""
     mu_a = as_float("mu", mu)
     mu_s_a = None if mu_s is None else as_float("mu_s", mu_s)
-    if mu_a.ndim < 2 and (mu_s_a is None or mu_s_a.ndim < 2):
+    if not force and mu_a.ndim < 2 and (mu_s_a is None or mu_s_a.ndim < 2):
         return None
     m = _parts(parts)[0].shape[0]
 

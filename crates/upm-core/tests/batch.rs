@@ -3,7 +3,7 @@
 
 use upm_core::motion::PlateMotion;
 use upm_core::sim::{
-    little_work, simulate, simulate_batch, simulate_stacked, Config, Parts, WorldFriction,
+    little_work, simulate, simulate_batch, simulate_stacked, Config, Parts, WorldRows,
 };
 use upm_core::{Error, Harmonics, Waveform};
 
@@ -188,16 +188,30 @@ fn jets_of_one_timing_in_worlds_of_a_few_points_are_bitwise_each_alone() {
 }
 
 /// Runs `motions` on `parts` in one batch, each world with its own friction (a row of `m`
-/// values each), and checks each world against it run alone with its row; returns how many of
-/// its parts left the plate.
-fn each_alone_with_its_friction(motions: &[PlateMotion], parts: &Parts, cfg: &Config) -> usize {
+/// values each) and, with `moved`, its own start (the parts shifted by a world's own offset), and
+/// checks each world against it run alone with its rows; returns how many of its parts left the
+/// plate.
+fn each_alone_with_its_rows(
+    motions: &[PlateMotion],
+    parts: &Parts,
+    cfg: &Config,
+    moved: bool,
+) -> usize {
     let (b, m) = (motions.len(), parts.position.len());
     let mu: Vec<f64> = (0..b * m).map(|k| 0.15 + 0.01 * (k % 13) as f64).collect();
     let mu_s: Vec<f64> = mu.iter().map(|u| u * 1.3).collect();
-    let friction = WorldFriction {
+    let start: Vec<[f64; 2]> = (0..b * m)
+        .map(|k| {
+            let p = parts.position[k % m];
+            let w = (k / m) as f64;
+            [p[0] + 0.003 * w, p[1] - 0.002 * (w % 5.0)]
+        })
+        .collect();
+    let friction = WorldRows {
         mu: &mu,
         mu_s: &mu_s,
         width: m,
+        position: moved.then_some(&start[..]),
     };
     let all = simulate_stacked(motions, &parts.view(), cfg, None, Some(&friction), |_| {
         Ok::<(), Error>(())
@@ -209,6 +223,11 @@ fn each_alone_with_its_friction(motions: &[PlateMotion], parts: &Parts, cfg: &Co
         let own = Parts {
             mu: mu[w * m..(w + 1) * m].to_vec(),
             mu_s: mu_s[w * m..(w + 1) * m].to_vec(),
+            position: if moved {
+                start[w * m..(w + 1) * m].to_vec()
+            } else {
+                parts.position.clone()
+            },
             ..parts.clone()
         };
         let alone = simulate(motion, &own, cfg).unwrap();
@@ -229,7 +248,15 @@ fn each_alone_with_its_friction(motions: &[PlateMotion], parts: &Parts, cfg: &Co
 #[test]
 fn each_world_of_a_batch_keeps_its_own_friction() {
     let cfg = config(1.0 / 35.0 / 100.0, 0.3, None, 10);
-    each_alone_with_its_friction(&motions(10), &parts(6), &cfg);
+    each_alone_with_its_rows(&motions(10), &parts(6), &cfg, false);
+}
+
+#[test]
+fn each_world_of_a_batch_starts_from_its_own_layout() {
+    // (a vector of environments): grouped points, ungrouped ones with a plate edge, and disks
+    let cfg = config(1.0 / 35.0 / 100.0, 0.3, Some(0.4), 10);
+    each_alone_with_its_rows(&motions(19), &parts(6), &cfg, true);
+    each_alone_with_its_rows(&motions(3), &parts(40), &cfg, true);
 }
 
 #[test]
@@ -341,7 +368,7 @@ fn groups_of_whole_vectors_in_one_block_are_bitwise_each_world_alone() {
     // with friction per world, parts leaving the plate, every 7th step recorded.
     let cfg = config(1.0 / 35.0 / 100.0, 0.6, Some(0.12), 7);
     for (m, b) in [(8, 11), (16, 7), (24, 5)] {
-        let left = each_alone_with_its_friction(&motions(b), &parts(m), &cfg);
+        let left = each_alone_with_its_rows(&motions(b), &parts(m), &cfg, false);
         assert!(left > 0, "{m} points: some leave the plate");
     }
     // A state that is not finite is named, as in any run.

@@ -103,6 +103,64 @@ impl PlateMotion {
         PyArray1::from_vec(py, a.concat()).reshape([n, 3])
     }
 
+    /// `B` enveloped pulses in one call (the environments' batch of actions): `kind` 0 a
+    /// translation along `direction` and 1 a rotation about `center`, each at speed
+    /// `amplitude (cos wt - cos 2wt / 2)`; 2 a jet of radius `rho`; 3 a rest of the pulse's
+    /// length. Raised-cosine `attack`, `sustain`, and a decay as long as the attack.
+    #[staticmethod]
+    #[allow(clippy::too_many_arguments)]
+    fn pulses(
+        py: Python<'_>,
+        kind: PyReadonlyArray1<'_, i64>,
+        center: PyReadonlyArray2<'_, f64>,
+        direction: PyReadonlyArray2<'_, f64>,
+        amplitude: PyReadonlyArray1<'_, f64>,
+        frequency: PyReadonlyArray1<'_, f64>,
+        attack: PyReadonlyArray1<'_, f64>,
+        sustain: PyReadonlyArray1<'_, f64>,
+        rho: f64,
+    ) -> PyResult<Vec<Self>> {
+        let (kind, center, direction) = (kind.as_array(), center.as_array(), direction.as_array());
+        let (amplitude, frequency) = (amplitude.as_array(), frequency.as_array());
+        let (attack, sustain) = (attack.as_array(), sustain.as_array());
+        let n = kind.len();
+        let rows = [
+            center.shape()[0],
+            direction.shape()[0],
+            amplitude.len(),
+            frequency.len(),
+            attack.len(),
+            sustain.len(),
+        ];
+        if rows.iter().any(|&r| r != n) || center.shape()[1] != 2 || direction.shape()[1] != 2 {
+            return Err(shape_error(
+                py,
+                format!("pulses: every argument needs {n} rows (center and direction (B, 2)); got {rows:?}"),
+            ));
+        }
+        (0..n)
+            .map(|i| {
+                let (a, s, f, amp) = (attack[i], sustain[i], frequency[i], amplitude[i]);
+                let c = [center[[i, 0]], center[[i, 1]]];
+                let d = [direction[[i, 0]], direction[[i, 1]]];
+                let wave = || -> upm_core::Result<Waveform> {
+                    Ok(upm_core::Harmonics::new(vec![amp, -amp / 2.0], vec![0.0; 2], f)?.into())
+                };
+                let m = match kind[i] {
+                    0 => wave().and_then(|w| CoreMotion::translation(d, w)),
+                    1 => wave().and_then(|w| CoreMotion::rotation(c, w)),
+                    2 => CoreMotion::jet(c, d, rho, amp, f),
+                    3 => return wrap(py, CoreMotion::rest(2.0 * a + s)),
+                    k => Err(Error::parameter(
+                        "kind",
+                        format!("must be 0, 1, 2 or 3; got {k}"),
+                    )),
+                };
+                wrap(py, m.and_then(|m| m.with_envelope(a, s, a)))
+            })
+            .collect()
+    }
+
     #[staticmethod]
     fn rest(py: Python<'_>, duration: f64) -> PyResult<Self> {
         wrap(py, CoreMotion::rest(duration))
@@ -310,7 +368,7 @@ fn view2<'a>(a: &'a PyReadonlyArray2<'_, f64>) -> std::borrow::Cow<'a, [f64]> {
 
 /// Simulates point and disk parts under each of `motions` (B worlds); arrays carry a batch axis.
 #[pyfunction]
-#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4, world_mu=None, world_mu_s=None, polygons=None))]
+#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4, world_mu=None, world_mu_s=None, polygons=None, world_positions=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -339,6 +397,7 @@ pub fn simulate<'py>(
     world_mu: Option<PyReadonlyArray2<'py, f64>>,
     world_mu_s: Option<PyReadonlyArray2<'py, f64>>,
     polygons: Option<Vec<PolygonArg<'py>>>,
+    world_positions: Option<PyReadonlyArray2<'py, f64>>,
 ) -> PyResult<Bound<'py, PyTuple>> {
     // Polygon parts: (part, vertices (K, 2) in its frame, three feet (3, 2) or None), checked
     // convex and counter-clockwise, the feet carrying it.
@@ -429,10 +488,22 @@ pub fn simulate<'py>(
             ))
         }
     };
-    let friction = worlds.as_ref().map(|(mu, mu_s, width)| sim::WorldFriction {
+    // Start positions per world, (B * M, 2): with the friction rows only (the Python layer gives both).
+    let world_start = world_positions
+        .as_ref()
+        .map(|p| pair_view(py, "world_positions", p))
+        .transpose()?;
+    if world_start.is_some() && worlds.is_none() {
+        return Err(crate::errors::to_py(
+            py,
+            Error::parameter("world_positions", "need world_mu and world_mu_s"),
+        ));
+    }
+    let friction = worlds.as_ref().map(|(mu, mu_s, width)| sim::WorldRows {
         mu,
         mu_s,
         width: *width,
+        position: world_start.as_deref(),
     });
     // A run of little work runs on this thread (the core keeps it there on any pool; a kept pool
     // of `threads` would only add its hand-off).

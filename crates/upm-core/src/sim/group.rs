@@ -20,7 +20,7 @@ use super::kernel::{self, Jets, Plate};
 use super::points::{write, Base, Points, Source, PLANAR, STUCK};
 use super::record::{Rec, Recorder, RunState, Stacked};
 use super::timing::{self, by_timing};
-use super::{half_side, moves_with_plate, Config, Error, PartsView, WorldFriction};
+use super::{half_side, moves_with_plate, Config, Error, PartsView, WorldRows};
 use crate::motion::{Columns, JetStint, Phases, PlateMotion};
 
 /// Worlds with at most this many point parts (and nothing else) are run in groups.
@@ -104,7 +104,7 @@ pub(super) fn simulate<E, B>(
     motions: &[&PlateMotion],
     parts: &PartsView,
     cfg: &Config,
-    friction: Option<&WorldFriction>,
+    friction: Option<&WorldRows>,
     steps: usize,
     block: usize,
     mut recorder: Recorder,
@@ -159,7 +159,7 @@ where
 /// Where a group reads its worlds' points from as their first block starts.
 struct Start<'a, 'p> {
     parts: &'a PartsView<'p>,
-    friction: Option<&'a WorldFriction<'a>>,
+    friction: Option<&'a WorldRows<'a>>,
     not_finite: &'a AtomicBool,
 }
 

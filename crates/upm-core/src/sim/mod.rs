@@ -55,7 +55,7 @@ pub use config::Config;
 pub use contact::Contacts;
 use disks::{run_disks, DiskState};
 pub use kernel::{simd, Simd};
-pub use parts::{Parts, PartsView, WorldFriction};
+pub use parts::{Parts, PartsView, WorldRows};
 pub use points::CHUNK_PARTS;
 pub use record::Stacked;
 use record::{recorded_rows, Rec, Recorder};
@@ -243,7 +243,7 @@ pub fn simulate_stacked<E, B>(
     parts: &PartsView,
     cfg: &Config,
     contacts: Option<&Contacts>,
-    friction: Option<&WorldFriction>,
+    friction: Option<&WorldRows>,
     between: B,
 ) -> std::result::Result<Stacked, E>
 where
@@ -262,7 +262,7 @@ pub fn simulate_stacked_refs<E, B>(
     parts: &PartsView,
     cfg: &Config,
     contacts: Option<&Contacts>,
-    friction: Option<&WorldFriction>,
+    friction: Option<&WorldRows>,
     mut between: B,
 ) -> std::result::Result<Stacked, E>
 where

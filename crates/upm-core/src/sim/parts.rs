@@ -269,24 +269,36 @@ impl PartsView<'_> {
     }
 }
 
-/// Friction coefficients per world of a batch: world `b`'s parts take `mu` and `mu_s` from rows
-/// `b * width .. (b + 1) * width`, `width` the number of parts or 1 (one value for all its parts).
+/// What differs from world to world of a batch: world `b`'s parts take `mu` and `mu_s` from rows
+/// `b * width .. (b + 1) * width`, `width` the number of parts or 1 (one value for all its parts),
+/// and, when `position` is given, their start from its rows `b * m .. (b + 1) * m` (a vector of
+/// environments, each with its own layout).
 #[derive(Debug, Clone, Copy)]
-pub struct WorldFriction<'a> {
+pub struct WorldRows<'a> {
     /// Sliding friction, `worlds * width` values.
     pub mu: &'a [f64],
     /// Static friction, `worlds * width` values.
     pub mu_s: &'a [f64],
     /// Values per world: 1 or the number of parts.
     pub width: usize,
+    /// Start positions [m], `worlds * parts` values, or `None`: every world starts as `parts`.
+    pub position: Option<&'a [[f64; 2]]>,
 }
 
-impl<'a> WorldFriction<'a> {
+impl<'a> WorldRows<'a> {
     /// Checks the lengths against `worlds` worlds of `parts` parts.
     pub fn check(&self, worlds: usize, parts: usize) -> Result<()> {
         let ok = (self.width == 1 || self.width == parts)
             && self.mu.len() == worlds * self.width
             && self.mu_s.len() == worlds * self.width;
+        if let Some(p) = self.position {
+            if p.len() != worlds * parts {
+                return Err(Error::Shape(format!(
+                    "positions per world must hold {worlds} x {parts} pairs; got {}",
+                    p.len()
+                )));
+            }
+        }
         if ok {
             return Ok(());
         }
@@ -305,9 +317,13 @@ impl<'a> WorldFriction<'a> {
         'a: 'p,
     {
         let r = b * self.width..(b + 1) * self.width;
+        let m = parts.len();
         PartsView {
             mu: &self.mu[r.clone()],
             mu_s: &self.mu_s[r],
+            position: self
+                .position
+                .map_or(parts.position, |p| &p[b * m..(b + 1) * m]),
             ..*parts
         }
     }
@@ -328,25 +344,27 @@ mod tests {
         let view = parts.view();
         let mu = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6];
         let mu_s = [0.2, 0.3, 0.4, 0.5, 0.6, 0.7];
-        let f = WorldFriction {
+        let f = WorldRows {
             mu: &mu,
             mu_s: &mu_s,
             width: 2,
+            position: None,
         };
         f.check(3, 2).unwrap();
         let w = f.world(&view, 2);
         assert_eq!((w.mu(0), w.mu(1), w.mu_s(1)), (0.5, 0.6, 0.7));
         assert_eq!(w.position, view.position);
-        let one = WorldFriction {
+        let one = WorldRows {
             mu: &mu[..3],
             mu_s: &mu_s[..3],
             width: 1,
+            position: None,
         };
         one.check(3, 2).unwrap();
         assert_eq!(one.world(&view, 1).mu(1), 0.2); // one value for every part of world 1
         assert!(matches!(f.check(2, 2), Err(Error::Shape(_))));
         assert!(matches!(one.check(4, 2), Err(Error::Shape(_))));
-        let odd = WorldFriction { width: 3, ..f };
+        let odd = WorldRows { width: 3, ..f };
         assert!(odd.check(2, 2).is_err());
     }
 }
