@@ -87,15 +87,18 @@ class MujocoGoto(gym.Env[np.ndarray, np.ndarray]):
         return self._obs(), 0.0, False, False, {}
 
 
-def random_policy(env_id: str, episodes: int, seed: int, **kw: Any) -> tuple[float, float]:
-    """Success rate and median plate time [s] of uniformly random pulse actions."""
+def baseline(policy: str, env_id: str, episodes: int, seed: int, **kw: Any) -> tuple[float, float]:
+    """Success rate and median plate time [s] of ``policy`` (``random``: uniformly random pulse
+    actions; ``planner``: :class:`upm.envs.PlannerPolicy`) over ``episodes`` seeds."""
+    from upm.envs.policies import PlannerPolicy, RandomPolicy
+
     env = gym.make(env_id, **kw)
-    env.action_space.seed(seed)
+    act = RandomPolicy(env, seed) if policy == "random" else PlannerPolicy(env)
     wins, times = 0, []
     for k in range(episodes):
-        env.reset(seed=seed + k)
+        obs, _ = env.reset(seed=seed + k)
         while True:
-            _, _, term, trunc, info = env.step(env.action_space.sample())
+            obs, _, term, trunc, info = env.step(act(obs))
             if term or trunc:
                 wins += int(info["is_success"])
                 times.append(info["plate_time"])
@@ -140,13 +143,20 @@ def main() -> None:
             f"  MuJoCo Goto (engine peer)  {mj_rate:12,.1f} env-steps/s   "
             f"ours / peer = {ours_rate / mj_rate:,.0f}x"
         )
-    print("random policy (baseline), 8 points unless said:")
-    episodes = 2 if args.quick else 10
-    for env_id, extra in (("upm/Goto-v0", {}), ("upm/Sort-v0", {}), ("upm/Shape-v0", {"n_parts": 6})):
-        t0 = time.perf_counter()
-        win, plate = random_policy(env_id, episodes, 0, **{**kw, "max_plate_time": 30.0, **extra})
-        print(f"  {env_id:14s} success {win:4.0%}  median plate time {plate:5.1f} s "
-              f"({episodes} episodes, {time.perf_counter() - t0:.1f} s of wall time)")  # fmt: skip
+    episodes = 1 if args.quick else 5
+    print(f"baselines, {episodes} seeds, 60 s of plate time at most:")
+    tasks = (
+        ("upm/Goto-v0", {"n_parts": 4}),
+        ("upm/Sort-v0", {"n_parts": 8}),
+        ("upm/Shape-v0", {"n_parts": 6}),
+    )
+    for policy in ("random", "planner"):
+        for env_id, extra in tasks:
+            t0 = time.perf_counter()
+            win, plate = baseline(policy, env_id, episodes, 0, **{**kw, **extra})
+            wall = time.perf_counter() - t0
+            print(f"  {policy:8s} {env_id:14s} {extra['n_parts']} parts: success {win:4.0%}, "
+                  f"median plate time {plate:5.1f} s ({wall:.0f} s of wall time)")  # fmt: skip
 
 
 if __name__ == "__main__":

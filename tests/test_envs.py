@@ -216,3 +216,23 @@ def test_simulate_batch_starts_each_world_from_its_own_layout(contacts):
     assert not np.allclose(batch.positions[0, -1], batch.positions[1, -1])
     with pytest.raises(upm.ShapeError, match="starts"):
         upm.simulate_batch(motions, starts[0], starts=starts[:2], **kw)
+
+
+def test_the_planner_policy_assembles_a_small_shape_where_random_actions_do_not():
+    from upm.envs import PlannerPolicy, RandomPolicy
+
+    results = {}
+    for name in ("planner", "random"):
+        env = gym.make("upm/Shape-v0", n_parts=3, max_plate_time=40.0)
+        obs, info = env.reset(seed=0)
+        start = info["cost"]
+        act = PlannerPolicy(env) if name == "planner" else RandomPolicy(env, seed=0)
+        for _ in range(400):
+            obs, _, term, trunc, info = env.step(act(obs))
+            if term or trunc:
+                break
+        results[name] = (info["is_success"], info["cost"], start)
+    assert results["planner"][0] and results["planner"][1] < 0.1 * results["planner"][2]
+    assert not results["random"][0]
+    with pytest.raises(upm.ParameterError, match="action_space"):
+        PlannerPolicy(gym.make("upm/Goto-v0", action_space="library"))

@@ -13,15 +13,18 @@ gym = need("gymnasium", "gym", "upm.envs")
 
 from .actions import ACTION_SIZE, FREQUENCIES, ON_TIMES, PulseActions, library  # noqa: E402
 from .env import PlateEnv, PlateVectorEnv  # noqa: E402
+from .policies import PlannerPolicy, RandomPolicy  # noqa: E402
 
 __all__ = [
     "ACTION_SIZE",
     "FREQUENCIES",
     "IDS",
     "ON_TIMES",
+    "PlannerPolicy",
     "PlateEnv",
     "PlateVectorEnv",
     "PulseActions",
+    "RandomPolicy",
     "library",
 ]
 
