@@ -459,3 +459,21 @@ def test_the_edge_penalty_counts_band_depth_and_lost_parts() -> None:
     for bad in (-1e-3, 0.04, math.nan, "1"):
         with pytest.raises(upm.ParameterError, match="guard must be >= 0 and below edge"):
             PredictivePlanner(SimulatedUPM().limits, edge=0.04, guard=bad)
+
+
+def test_a_long_way_to_just_inside_the_edge_band_counts_a_part_lost_a_short_one_does_not() -> None:
+    # the edge penalty scores a part where a prediction error proportional to its way could put it
+    planner = PredictivePlanner(DriveLimits(), spread=0.15)
+    half = planner.limits.size / 2
+    end = np.array([[[half - 0.02, 0.0]]])  # 20 mm from the edge: in the band, outside the guard
+    far = np.array([[half - 0.22, 0.0]])  # 200 mm away: worst case 30 mm further, off the plate
+    near = np.array([[half - 0.03, 0.0]])  # 10 mm away: worst case 1.5 mm further
+    lost = planner._penalty(end, start=far)[0]
+    kept = planner._penalty(end, start=near)[0]
+    assert lost >= planner.lost_cost
+    assert 0 < kept < 0.1 * planner.lost_cost
+    assert planner._penalty(end)[0] == pytest.approx(
+        PredictivePlanner(DriveLimits(), spread=0.0)._penalty(end, start=far)[0]
+    )
+    with pytest.raises(upm.ParameterError, match="spread"):
+        PredictivePlanner(DriveLimits(), spread=2.0)

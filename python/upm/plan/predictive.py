@@ -90,6 +90,11 @@ class PredictivePlanner:
         of the edge or beyond it, a part counts as lost (``lost_cost`` [m of task cost]): a
         prediction is off by a millimetre or two (the median step error), so a pulse predicted to
         leave a part at the very edge may drop it.
+    spread : float
+        A prediction's error grows with the way a part travels: a part predicted to move ``d``
+        is scored by the edge penalty where it would be ``spread * d`` further toward the
+        nearer edge on each axis (its worst case). A long pulse that carries a part 20 cm to
+        just inside the band counts it lost; a short step to the same place does not.
     edge_weight : float
         The penalty per metre a part is predicted inside that band [m of cost per m]; the band's
         outer half counts five times more. A low weight lets a pulse nudge parts already near an
@@ -135,6 +140,7 @@ class PredictivePlanner:
         edge: float = 0.035,
         guard: float = 0.008,
         edge_weight: float = 1.0,
+        spread: float = 0.15,
         lost_cost: float = 10.0,
         min_gain: float = 1e-4,
         rerank: int = 4,
@@ -183,6 +189,9 @@ class PredictivePlanner:
             raise ParameterError(f"guard must be >= 0 and below edge ({self.edge:g} m); got {guard!r}")
         self.guard = float(guard)
         self.edge_weight = float(edge_weight)
+        if not (isinstance(spread, (int, float)) and 0 <= spread <= 1):
+            raise ParameterError(f"spread must be in [0, 1]; got {spread!r}")
+        self.spread = float(spread)
         self.lost_cost = float(lost_cost)
         self.min_gain = float(min_gain)
         self.rerank = int(rerank)
@@ -295,13 +304,19 @@ class PredictivePlanner:
         return m
 
     # -- scoring --------------------------------------------------------------------------------
-    def _penalty(self, q: FloatArray, overlaps: bool = True) -> FloatArray:
-        """Edge and overlap penalties ``(K,)`` [m of cost] for predicted positions ``(K, M, 2)``."""
+    def _penalty(self, q: FloatArray, overlaps: bool = True, start: FloatArray | None = None) -> FloatArray:
+        """Edge and overlap penalties ``(K,)`` [m of cost] for predicted positions ``(K, M, 2)``
+        of parts that were at ``start`` (broadcast against ``q``; the edge penalty then scores
+        each part's worst case, ``spread`` times its way further out)."""
         # lost_cost per part within guard of an edge or off the plate; inside the edge band
         # edge_weight per metre, and five times more in its outer half (the extension:
         # upm_core::plan::edge_penalty)
+        at = q
+        if start is not None and self.spread > 0:
+            way = np.hypot(q[..., 0] - start[..., 0], q[..., 1] - start[..., 1])
+            at = q + np.sign(q) * (self.spread * way)[..., None]
         out: FloatArray = _core.edge_penalty(
-            np.ascontiguousarray(q, dtype=np.float64), self.limits.size / 2, self.edge, self.edge_weight,
+            np.ascontiguousarray(at, dtype=np.float64), self.limits.size / 2, self.edge, self.edge_weight,
             self.lost_cost, self.guard,
         )  # fmt: skip
         if overlaps and self.part_radius is not None and q.shape[1] > 1:
@@ -318,7 +333,7 @@ class PredictivePlanner:
         still = np.broadcast_to(pos, final.shape)
         rest_cost = np.asarray(task.cost(state, still, durations), dtype=float) + self._penalty(pos[None])[0]
         safe = np.where(np.isfinite(final), final, still)
-        after = np.asarray(task.cost(state, safe, durations), dtype=float) + self._penalty(final)
+        after = np.asarray(task.cost(state, safe, durations), dtype=float) + self._penalty(final, start=pos)
         gain = rest_cost - after
         return gain, gain / durations
 
@@ -474,7 +489,8 @@ class PredictivePlanner:
         rest = np.asarray(task.cost(state, still, total), dtype=float)
         rest = rest + self._penalty(pos[None], overlaps=False)[0]
         cost = np.asarray(task.cost(state, after, total), dtype=float)
-        cost = cost + self._penalty(after.reshape(flat), overlaps=False).reshape(total.shape)
+        start = np.broadcast_to(safe[:, None], after.shape).reshape(flat)
+        cost = cost + self._penalty(after.reshape(flat), overlaps=False, start=start).reshape(total.shape)
         # a set-up step must keep every part out of the edge band (a prediction error there, over
         # the long pulse that follows, loses a part)
         lost = ~np.all(np.isfinite(final), axis=(1, 2)) | self._in_band(final)
@@ -514,7 +530,8 @@ class PredictivePlanner:
         rest = np.asarray(task.cost(state, still, total), dtype=float) + self._penalty(pos[None])[0]
         safe = np.where(np.isfinite(after), after, still)
         cost = np.asarray(task.cost(state, safe, total), dtype=float)
-        cost = cost + self._penalty(after.reshape(-1, m, 2)).reshape(total.shape)
+        start = np.broadcast_to(base, after.shape).reshape(-1, m, 2)
+        cost = cost + self._penalty(after.reshape(-1, m, 2), start=start).reshape(total.shape)
         per_second = (rest - cost) / total
         pick = np.argmax(per_second, axis=1)
         rows = np.arange(f)
