@@ -74,6 +74,8 @@ bench: $(VENV)/.built ## side-by-side benchmarks (ours vs the peer, ratios print
 	$(PY) -m pip install --quiet 'mujoco>=3.1' 'numba>=0.60'
 	$(PY) bench/integrator.py --mujoco
 	$(PY) bench/contacts.py
+	$(PY) -m pip install --quiet 'gymnasium>=1.2'
+	$(PY) bench/envs.py
 
 .PHONY: wheel
 wheel: $(VENV)/.deps ## the abi3 wheel (manylinux_2_17, stripped, linked with zig) and the sdist into dist/, then checked
