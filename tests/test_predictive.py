@@ -279,10 +279,12 @@ def test_a_pulse_that_leaves_a_part_at_the_edge_is_not_played() -> None:
     assert 0 < half - final[0, -1, 0] < guarded.guard  # on the plate, within the guard
     assert half - final[1, -1, 0] > 0.02
     view, goal = goals.PositionsView(pos), goals.StepsGoal(pos + steps)
-    best, gain, _ = PredictivePlanner(limits, guard=0.0, **kw).choose(goal, view, pulses)
-    assert best == 0 and gain[0] > gain[1] > 0  # without the guard the translation wins
-    best, gain, _ = guarded.choose(goal, view, pulses)
-    assert best == 1 and gain[0] < -1.0  # with it, the part counts as lost
+    # without the guard (nor the worst case of the part's way, `spread`) the translation wins
+    best, gain, _ = PredictivePlanner(limits, guard=0.0, spread=0.0, **kw).choose(goal, view, pulses)
+    assert best == 0 and gain[0] > gain[1] > 0
+    for alone in ({"spread": 0.0}, {"guard": 0.0}, {}):  # either one, or both, count the part lost
+        best, gain, _ = PredictivePlanner(limits, **alone, **kw).choose(goal, view, pulses)
+        assert best == 1 and gain[0] < -1.0, alone
 
 
 def test_a_pulse_is_scored_with_the_best_second_pulse_after_it() -> None:
