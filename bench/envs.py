@@ -37,16 +37,6 @@ import upm.envs
 from upm.envs.world import DT_FACTOR
 
 
-def cpu() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return "unknown CPU"
-
-
 class MujocoGoto(gym.Env[np.ndarray, np.ndarray]):
     """The engine peer: Goto with 8 parts on MuJoCo's driven plate, the same pulse actions."""
 
@@ -114,7 +104,8 @@ def main() -> None:
     args = ap.parse_args()
     secs = 1 if args.quick else args.seconds
     n = 64 if args.quick else args.envs
-    print(f"CPU: {cpu()}; upm {upm.__version__}, step build {upm.build_info().get('simd', '?')}; "
+    build = upm.build_info()
+    print(f"CPU: {build['cpu']}; upm {upm.__version__}, step build {build['simd']}; "
           f"gymnasium {gym.__version__}")  # fmt: skip
     kw = {"n_parts": 8, "max_plate_time": 60.0}
     ours = gym.make_vec("upm/Goto-v0", num_envs=n, vectorization_mode="vector_entry_point", **kw)

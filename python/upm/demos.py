@@ -46,6 +46,7 @@ from .drive import DriveLimits
 from .plan import PredictivePlanner
 from .plant import SimulatedUPM
 from .pulses import Pulse
+from .shapes import scatter
 from .solvers import corner_centers, ring_centers
 from .waveforms import Harmonics
 
@@ -91,16 +92,6 @@ class Demo:
     summary: str
     build: Callable[[bool, int], Setup]
     report: Callable[[Log, Setup, dict[str, Any]], list[str]]
-
-
-def scatter(rng: np.random.Generator, count: int, reach: float, gap: float) -> FloatArray:
-    """``count`` points in the square of half-side ``reach`` [m], at least ``gap`` apart."""
-    pts: list[FloatArray] = []
-    while len(pts) < count:
-        p = rng.uniform(-reach, reach, 2)
-        if all(np.hypot(*(p - q)) > gap for q in pts):
-            pts.append(p)
-    return np.array(pts)
 
 
 def _rectangle(cx: float, cy: float, w: float, h: float) -> FloatArray:

@@ -21,8 +21,9 @@ import numpy as np
 
 from ._errors import ParameterError
 from .control import GreedyLibraryPlanner, Log, ShapeTask, SortTask
-from .demos import CHIP, LIMITS, Demo, Setup, run_demo, scatter
+from .demos import CHIP, LIMITS, Demo, Setup, run_demo
 from .plan import PredictivePlanner
+from .shapes import scatter
 from .vision.synthetic import Camera
 
 __all__ = ["DEMOS", "SMALL_CHIP", "WASHER", "run_scale_demo", "shape_setup", "shape_targets", "sort_setup"]

@@ -32,7 +32,7 @@ from ._arrays import integer, point, real
 from ._errors import ParameterError, ShapeError
 from ._extras import need
 
-__all__ = ["LETTERS", "from_mask", "grid", "letter", "min_spacing", "ring"]
+__all__ = ["LETTERS", "from_mask", "grid", "letter", "min_spacing", "ring", "scatter"]
 
 FloatArray = NDArray[np.float64]
 
@@ -284,3 +284,21 @@ def min_spacing(points: ArrayLike) -> float:
     d = np.hypot(*(p[:, None] - p[None]).transpose(2, 0, 1))
     d[np.diag_indices(len(p))] = np.inf
     return float(d.min())
+
+
+def scatter(rng: np.random.Generator, count: int, reach: float, gap: float) -> NDArray[np.float64]:
+    """``count`` random points in the square of half-side ``reach`` [m], at least ``gap`` [m]
+    apart (a starting layout of parts): drawn one at a time from ``rng``, a draw too close to an
+    earlier point drawn again; `ParameterError` when ``200 count + 1000`` draws do not place them."""
+    pts: list[NDArray[np.float64]] = []
+    for _ in range(200 * count + 1000):
+        if len(pts) == count:
+            break
+        p = rng.uniform(-reach, reach, 2)
+        if all(np.hypot(*(p - q)) > gap for q in pts):
+            pts.append(p)
+    if len(pts) < count:
+        raise ParameterError(
+            f"{count} points {gap:g} m apart do not fit a square of half-side {reach:g} m; use fewer"
+        )
+    return np.array(pts).reshape(-1, 2)

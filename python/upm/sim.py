@@ -334,7 +334,7 @@ def _run(
     threads: int | None = None,
     contacts: dict[str, Any] | None = None,
     progress: Callable[[float], object] | None = None,
-    worlds: tuple[NDArray[np.float64], ...] | None = None,
+    worlds: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None] | None = None,
 ) -> tuple[Any, ...]:
     step = real("dt", dt, low=0.0, low_open=True)
     span = real("duration", duration, low=0.0, low_open=True)
@@ -389,7 +389,7 @@ def _run(
         progress=report,
         world_mu=None if worlds is None else worlds[0],
         world_mu_s=None if worlds is None else worlds[1],
-        world_positions=None if worlds is None or len(worlds) < 3 else worlds[2],
+        world_positions=None if worlds is None else worlds[2],
         polygons=polygons,
         **(contacts or {}),
     )
@@ -555,21 +555,9 @@ def simulate_batch(
     cores = _cores(motions)
     contact = _contact(parts, plate_size, contacts, restitution, part_friction, walls, walls_move_with_plate,
                        contact_iterations)  # fmt: skip
-    friction = _per_world(len(cores), parts, mu, mu_s, force=starts is not None)
-    worlds = None
-    if friction is not None:  # every world in the same parallel run, each with its own rows
-        mu, mu_s = friction[0][0], friction[1][0]
-        worlds = (np.ascontiguousarray(friction[0]), np.ascontiguousarray(friction[1]))
-    if starts is not None:
-        m = _parts(parts)[0].shape[0]
-        at = as_float("starts", starts)
-        if at.shape != (len(cores), m, 2):
-            raise ShapeError(
-                f"starts must have shape ({len(cores)}, {m}, 2) (world, part, xy); got {at.shape}"
-            )
-        if not np.all(np.isfinite(at)):
-            raise ParameterError("starts must be finite")
-        worlds = (*worlds, np.ascontiguousarray(at.reshape(-1, 2)))  # type: ignore[misc]
+    worlds = _per_world(len(cores), parts, mu, mu_s, starts)
+    if worlds is not None:  # every world in the same parallel run, each with its own rows
+        mu, mu_s = worlds[0][0], worlds[1][0]
     t, pos, vel, stuck, angles, spins, left, gone, flight = _run(
         cores, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact,
         _progress(progress), worlds=worlds,
@@ -586,13 +574,14 @@ def _progress(progress: Any) -> Callable[[float], object] | None:
 
 
 def _per_world(
-    b: int, parts: Any, mu: ArrayLike, mu_s: ArrayLike | None, force: bool = False
-) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
-    """``(mu, mu_s)`` as ``(B, M)`` for ``b`` worlds when either is given per world (shape
-    ``(B, M)`` or ``(B, 1)``) or ``force``; None when both are shared by every world."""
+    b: int, parts: Any, mu: ArrayLike, mu_s: ArrayLike | None, starts: ArrayLike | None
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None] | None:
+    """What differs from world to world, as the core reads it: ``(mu, mu_s)`` as ``(B, M)`` for
+    ``b`` worlds and the ``starts`` as ``(B M, 2)`` (or None), when either friction is given per
+    world (shape ``(B, M)`` or ``(B, 1)``) or ``starts`` is; None when the worlds share it all."""
     mu_a = as_float("mu", mu)
     mu_s_a = None if mu_s is None else as_float("mu_s", mu_s)
-    if not force and mu_a.ndim < 2 and (mu_s_a is None or mu_s_a.ndim < 2):
+    if starts is None and mu_a.ndim < 2 and (mu_s_a is None or mu_s_a.ndim < 2):
         return None
     m = _parts(parts)[0].shape[0]
 
@@ -604,4 +593,13 @@ def _per_world(
         return np.broadcast_to(a, (b, m))
 
     kinetic = worlds("mu", mu_a)
-    return kinetic, kinetic if mu_s_a is None else worlds("mu_s", mu_s_a)
+    static = kinetic if mu_s_a is None else worlds("mu_s", mu_s_a)
+    at = None
+    if starts is not None:
+        at = as_float("starts", starts)
+        if at.shape != (b, m, 2):
+            raise ShapeError(f"starts must have shape ({b}, {m}, 2) (world, part, xy); got {at.shape}")
+        if not np.all(np.isfinite(at)):
+            raise ParameterError("starts must be finite")
+        at = np.ascontiguousarray(at.reshape(-1, 2))
+    return np.ascontiguousarray(kinetic), np.ascontiguousarray(static), at

@@ -66,10 +66,11 @@ _CENTRES = {"rotation": (17, 0.75), "jet": (9, 0.5)}  # lattice nodes a side, ha
 _SAMPLES = 1024
 
 
-def _timing(kind: str, frequency: float, on: float) -> tuple[float, float]:
-    """Attack (= decay) and sustain [s]: 3 drive periods of ramp, jets 4 (as the planner's)."""
-    attack = min((4.0 if kind == "jet" else 3.0) / frequency, on / 2)
-    return attack, on - 2 * attack
+def _timing(jet: ArrayLike, frequency: ArrayLike, on: ArrayLike) -> tuple[Any, Any]:
+    """Attack (= decay) and sustain [s]: 3 drive periods of ramp, jets 4 (as the planner's), at
+    most half the on-time (scalars or arrays alike)."""
+    attack = np.minimum(np.where(jet, 4.0, 3.0) / np.asarray(frequency), np.asarray(on) / 2)
+    return attack, np.asarray(on) - 2 * attack
 
 
 @dataclass(frozen=True)
@@ -132,7 +133,7 @@ class PulseActions:
             reach = np.empty_like(force)
             for i, f in enumerate(FREQUENCIES):
                 for j, on in enumerate(ON_TIMES):
-                    a, s = _timing(kind, f, on)
+                    a, s = _timing(kind == "jet", f, on)
                     fo, ex = self.limits.reach(ph, f, a, s, a, samples=_SAMPLES)
                     force[i, j] = fo.reshape(len(centres), len(dirs))
                     reach[i, j] = ex.reshape(len(centres), len(dirs))
@@ -203,11 +204,11 @@ class PulseActions:
         f = np.asarray(FREQUENCIES)[d.frequency[at]]
         on = np.asarray(ON_TIMES)[d.on[at]]
         kind = d.kind[at]
-        attack = np.minimum(np.where(kind == 2, 4.0, 3.0) / f, on / 2)
+        attack, sustain = _timing(kind == 2, f, on)
         amp = d.amplitude[at]
         return _core.PlateMotion.pulses(
             np.where(amp == 0.0, 3, kind).astype(np.int64), np.ascontiguousarray(d.center[at]),
-            np.ascontiguousarray(d.direction[at]), amp, f, attack, on - 2 * attack, JET_RADIUS,
+            np.ascontiguousarray(d.direction[at]), amp, f, attack, sustain, JET_RADIUS,
         )  # fmt: skip
 
     def pulse(self, action: ArrayLike) -> Pulse:
@@ -216,7 +217,7 @@ class PulseActions:
         f, on, k, amp = FREQUENCIES[d.frequency[0]], ON_TIMES[d.on[0]], int(d.kind[0]), float(d.amplitude[0])
         if amp == 0.0:
             return Pulse.pause(on)
-        a, s = _timing(KINDS[k], f, on)
+        a, s = (float(x) for x in _timing(k == 2, f, on))
         if k == 2:
             return Pulse.jet(d.center[0], d.direction[0], JET_RADIUS, amp, f, a, s, a)
         wave = Harmonics([amp, -amp / 2], [0.0, 0.0], f)

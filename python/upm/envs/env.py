@@ -13,6 +13,7 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
+from .._arrays import integer
 from .._errors import ParameterError
 from .actions import ACTION_SIZE
 from .episodes import Episodes
@@ -128,19 +129,13 @@ class PlateVectorEnv(gym.vector.VectorEnv[NDArray[np.float32], Any, Any]):
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
         **kwargs: Any,
     ) -> None:
-        if (
-            isinstance(num_envs, bool)
-            or not isinstance(num_envs, (int, np.integer))
-            or not 1 <= num_envs <= 2**20
-        ):
-            raise ParameterError(f"num_envs must be an integer in [1, 2**20]; got {num_envs!r}")
         names = {"nextstep": AutoresetMode.NEXT_STEP, "disabled": AutoresetMode.DISABLED}
         key = autoreset_mode.value if isinstance(autoreset_mode, AutoresetMode) else autoreset_mode
         mode = names.get(str(key).replace("_", "").lower()) if isinstance(key, str) else None
         if mode is None:
             raise ParameterError(f"autoreset_mode must be NEXT_STEP or DISABLED; got {autoreset_mode!r}")
         self.metadata = {**self.metadata, "autoreset_mode": mode}
-        self.num_envs = int(num_envs)
+        self.num_envs = integer("num_envs", num_envs, low=1, high=2**20)
         self._e = Episodes(self.num_envs, task=task, **kwargs)
         self.single_observation_space, self.single_action_space = _spaces(self._e)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)

@@ -3,12 +3,12 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from .._arrays import integer, real
 from .._errors import ParameterError
 from ..drive import DriveLimits
 from .actions import ACTION_SIZE, library
@@ -18,15 +18,6 @@ __all__ = ["Episodes", "options"]
 
 FloatArray = NDArray[np.float64]
 ACTIONS = ("pulse", "library")
-
-
-def _number(name: str, value: Any, low: float, high: float = math.inf, *, strict: bool = True) -> float:
-    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
-    v = float(value) if ok else math.nan
-    if not (ok and math.isfinite(v) and (v > low if strict else v >= low) and v <= high):
-        bound = f"> {low:g}" if strict else f">= {low:g}"
-        raise ParameterError(f"{name} must be a finite number {bound} and <= {high:g}; got {value!r}")
-    return v
 
 
 def options(
@@ -47,11 +38,12 @@ def options(
     """The environments' keyword arguments, checked (`ParameterError` naming the first bad one)."""
     if task not in TASKS:
         raise ParameterError(f"task must be one of {TASKS}; got {task!r}")
-    if isinstance(n_parts, bool) or not isinstance(n_parts, (int, np.integer)) or not 1 <= n_parts <= 256:
-        raise ParameterError(f"n_parts must be an integer in [1, 256]; got {n_parts!r}")
+    n_parts = integer("n_parts", n_parts, low=1, high=256)
     if task == "sort" and n_parts < 2:
         raise ParameterError(f"n_parts must be >= 2 for a sort (a part of each colour); got {n_parts}")
-    radius = None if part_radius is None else _number("part_radius", part_radius, 0.0, 0.05)
+    radius = (
+        None if part_radius is None else real("part_radius", part_radius, low=0.0, high=0.05, low_open=True)
+    )
     if contacts not in (True, False):
         raise ParameterError(f"contacts must be True or False; got {contacts!r}")
     if contacts and radius is None:
@@ -62,14 +54,14 @@ def options(
         raise ParameterError(f"limits must be a upm.DriveLimits; got {type(limits).__name__}")
     if action_space not in ACTIONS:
         raise ParameterError(f"action_space must be one of {ACTIONS}; got {action_space!r}")
-    friction = _number("mu", mu, 0.0, 2.0)
-    static = None if mu_s is None else _number("mu_s", mu_s, friction, 2.0, strict=False)
+    friction = real("mu", mu, low=0.0, high=2.0, low_open=True)
+    static = None if mu_s is None else real("mu_s", mu_s, low=friction, high=2.0)
     return {
-        "task": task, "n_parts": int(n_parts), "part_radius": radius, "mu": friction, "mu_s": static,
+        "task": task, "n_parts": n_parts, "part_radius": radius, "mu": friction, "mu_s": static,
         "limits": limits, "action_space": action_space, "contacts": bool(contacts),
-        "max_plate_time": _number("max_plate_time", max_plate_time, 0.0, 1e6),
-        "tolerance": _number("tolerance", tolerance, 0.0, 0.1),
-        "lost_penalty": _number("lost_penalty", lost_penalty, 0.0, 1e6, strict=False), "shape": shape,
+        "max_plate_time": real("max_plate_time", max_plate_time, low=0.0, high=1e6, low_open=True),
+        "tolerance": real("tolerance", tolerance, low=0.0, high=0.1, low_open=True),
+        "lost_penalty": real("lost_penalty", lost_penalty, low=0.0, high=1e6), "shape": shape,
     }  # fmt: skip
 
 

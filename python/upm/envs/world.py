@@ -21,7 +21,6 @@ Tasks (the cost is the control task's own, :mod:`upm.control`):
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,7 +32,8 @@ from ..control.state import State
 from ..control.tasks import SortTask
 from ..drive import DriveLimits
 from ..motion import PlateMotion
-from ..plan.sizing import slide_to_rest
+from ..plan.sizing import settle_time, slide_to_rest, stopping_time
+from ..shapes import scatter
 from ..sim import Disk, simulate_batch
 from .actions import FREQUENCIES, ON_TIMES, Decoded, PulseActions
 
@@ -70,14 +70,15 @@ class Plates:
         if m == 0:
             return out, durations
         keys = d.frequency * len(ON_TIMES) + d.on
+        # lost parts wait far off the plate, apart (their results are dropped)
+        park = np.stack([10.0 + 0.1 * np.arange(m), np.full(m, 10.0)], 1)
+        half = self.limits.size / 2
         for key in np.unique(keys[moving]):
             rows = np.nonzero(moving & (keys == key))[0]
             f, t_on = FREQUENCIES[key // len(ON_TIMES)], ON_TIMES[key % len(ON_TIMES)]
             motions = [PlateMotion(c) for c in self.actions.motions(d, rows)]
             start = positions[rows]
             lost = ~np.all(np.isfinite(start), axis=2)
-            # lost parts wait far off the plate, apart (their results are dropped)
-            park = np.stack([10.0 + 0.1 * np.arange(m), np.full(m, 10.0)], 1)
             start = np.where(lost[..., None], park[None], start)
             dt = 1.0 / (DT_FACTOR * 2 * f)  # (every pulse's highest harmonic: twice its base)
             if self.contacts:
@@ -90,7 +91,6 @@ class Plates:
                 final, stop = slide_to_rest(run.positions[:, -1], run.velocities[:, -1], self.mu)
                 final[np.asarray(run.left_plate)] = np.nan
                 stop = t_on + np.max(np.where(lost, 0.0, stop), axis=1, initial=0.0)
-            half = self.limits.size / 2
             with np.errstate(invalid="ignore"):
                 final[np.any(np.abs(final) > half, axis=2)] = np.nan  # slid off the plate
             final[lost] = np.nan
@@ -102,7 +102,7 @@ class Plates:
         self, motions: list[PlateMotion], start: FloatArray, on: float, dt: float
     ) -> tuple[FloatArray, FloatArray]:
         """Colliding disks (rapier): the pulse, then the plate at rest until every part stops."""
-        coast = 1.05 * on * (self.mu_s / self.mu) + 0.02  # a part gains <= mu_s g on, loses mu g off
+        coast = settle_time(on, self.mu, self.mu_s, None)
         horizon = on + coast
         seq = [PlateMotion.sequence([mo, PlateMotion.rest(coast + 1e-3)]) for mo in motions]
         parts = [Disk((float(x), float(y)), float(self.radius or 0.0)) for x, y in start[0]]
@@ -113,9 +113,10 @@ class Plates:
         )  # fmt: skip
         final = run.positions[:, -1].copy()
         final[np.asarray(run.left_plate)] = np.nan
-        moving = ~np.all(np.asarray(run.stuck), axis=2) & (run.t >= on - 1e-9)[None]  # (B, T)
-        last = np.where(moving.any(axis=1), run.t[::-1][np.argmax(moving[:, ::-1], axis=1)], on)
-        return final, np.maximum(last + (run.t[1] - run.t[0]), on)
+        stuck = np.asarray(run.stuck)
+        every_t = run.t[1] - run.t[0]  # a part last seen moving stops within a record after
+        stop = [on + stopping_time(run.t, stuck[w], on) + every_t for w in range(len(stuck))]
+        return final, np.asarray(stop)
 
 
 class Task:
@@ -160,20 +161,14 @@ class Task:
             if np.max(np.abs(self.shape_points)) > self.half - 0.03:
                 raise ParameterError(f"n_parts = {n_parts} do not fit a {shape} on the plate; use fewer")
 
-    def _scatter(
-        self, rng: np.random.Generator, extent: float, avoid: FloatArray | None = None
-    ) -> FloatArray:
-        """``M`` points uniform in ``+-extent`` at least ``gap`` apart (and from ``avoid``)."""
-        out: list[FloatArray] = []
-        for _ in range(200 * self.m + 1000):
-            if len(out) == self.m:
-                break
-            p = rng.uniform(-extent, extent, 2)
-            if all(np.hypot(*(p - q)) >= self.gap for q in out):
-                out.append(p)
-        if len(out) < self.m:
-            raise ParameterError(f"n_parts = {self.m} do not fit the plate's middle at this size; use fewer")
-        return np.array(out)
+    def _scatter(self, rng: np.random.Generator, extent: float) -> FloatArray:
+        """``M`` points uniform in ``+-extent`` at least ``gap`` apart (:func:`upm.shapes.scatter`)."""
+        try:
+            return scatter(rng, self.m, extent, self.gap)
+        except ParameterError:
+            raise ParameterError(
+                f"n_parts = {self.m} do not fit the plate's middle at this size; use fewer"
+            ) from None
 
     def layout(self, rng: np.random.Generator) -> tuple[FloatArray, FloatArray]:
         """A new episode's parts ``(M, 2)`` and goals ``(M, 2)`` (goto's; zeros otherwise)."""
@@ -220,6 +215,3 @@ class Task:
             near = np.all(np.hypot(d[..., 0], d[..., 1]) <= self.tolerance, axis=1)
         both: BoolArray = whole & near
         return both
-
-    def describe(self) -> dict[str, Any]:
-        return {"task": self.name, "n_parts": self.m, "tolerance": self.tolerance}
