@@ -310,6 +310,30 @@ def test_the_scale_demos_build_their_shapes_and_refuse_bad_options(tmp_path):
         run_scale_demo("sort32", tmp_path, planner="magic")
 
 
+def test_every_scale_demo_sets_up_its_parts_apart_on_the_plate():
+    # sort32's start used to ask for 32 chips in a square that holds 25: the demo never began
+    from upm.scale_demos import DEMOS
+
+    for name, demo in DEMOS.items():
+        for seed in range(1, 6):
+            setup = demo.build(False, seed)
+            n = len(setup.parts)
+            assert n == len(setup.labels) and np.all(np.abs(setup.parts) <= 0.15)
+            assert shapes.min_spacing(setup.parts) > 2.2 * setup.radius, (name, seed)
+
+
+def test_scatter_falls_back_to_a_jittered_lattice_and_refuses_what_no_lattice_holds():
+    rng = np.random.default_rng(0)
+    dense = shapes.scatter(rng, 36, 0.1, 0.032)  # 6 x 6 cells of 33 mm: random placement jams
+    assert dense.shape == (36, 2) and shapes.min_spacing(dense) >= 0.032
+    assert np.all(np.abs(dense) <= 0.1)
+    a = shapes.scatter(np.random.default_rng(5), 36, 0.1, 0.032)
+    b = shapes.scatter(np.random.default_rng(5), 36, 0.1, 0.032)
+    assert np.array_equal(a, b)
+    with pytest.raises(upm.ParameterError, match="at most 36"):
+        shapes.scatter(rng, 37, 0.1, 0.032)
+
+
 def test_a_hundred_washers_keep_their_ids_through_the_loops_tracker():
     from upm.control.loop import loop_tracker
     from upm.demos import scatter

@@ -95,13 +95,15 @@ def shape_setup(quick: bool, seed: int, parts: int, shape: str, planner: str = "
 
 def sort_setup(quick: bool, seed: int, count: int, radius: float, planner: str = "predictive") -> Setup:
     """The scale sorts' set-up: ``count`` chips of ``radius`` [m], half red and half blue,
-    scattered by ``seed`` between the lines, which :meth:`~upm.control.SortTask.fit_line` places
-    so that each side holds its chips."""
+    scattered by ``seed`` over a square about the centre reaching 2 cm past the lines, or wider
+    where that square cannot hold them apart (at most 15 cm); the lines are placed by
+    :meth:`~upm.control.SortTask.fit_line` so that each side holds its chips."""
     rng = np.random.default_rng(seed)
     labels = ["red"] * (count // 2) + ["blue"] * (count - count // 2)
     margin = 0.08
     line = SortTask.fit_line(count - count // 2, radius, margin=margin)
-    parts = scatter(rng, count, min(0.15, line + 0.02), 2.3 * radius)
+    gap = 2.3 * radius
+    parts = scatter(rng, count, min(0.15, max(line + 0.02, 0.51 * math.ceil(math.sqrt(count)) * gap)), gap)
     task = SortTask({"red": -1, "blue": 1}, margin=margin, spacing=2.4 * radius, max_step=0.025, line=line,
                     part_radius=radius)  # fmt: skip
     view = {"camera": CAMERA, "radius": radius}

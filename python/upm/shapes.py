@@ -288,17 +288,30 @@ def min_spacing(points: ArrayLike) -> float:
 
 def scatter(rng: np.random.Generator, count: int, reach: float, gap: float) -> NDArray[np.float64]:
     """``count`` random points in the square of half-side ``reach`` [m], at least ``gap`` [m]
-    apart (a starting layout of parts): drawn one at a time from ``rng``, a draw too close to an
-    earlier point drawn again; `ParameterError` when ``200 count + 1000`` draws do not place them."""
+    apart (a starting layout of parts), drawn from ``rng``.
+
+    Points are drawn one at a time, a draw too close to an earlier point drawn again. When
+    ``200 count + 1000`` draws do not place them all (random sequential placement jams near half
+    the square covered), the points are ``count`` random cells of the coarsest square lattice of
+    cells at least ``gap`` wide, each point jittered within its cell's slack. `ParameterError`
+    when that lattice has fewer than ``count`` cells."""
     pts: list[NDArray[np.float64]] = []
     for _ in range(200 * count + 1000):
         if len(pts) == count:
-            break
+            return np.array(pts).reshape(-1, 2)
         p = rng.uniform(-reach, reach, 2)
         if all(np.hypot(*(p - q)) > gap for q in pts):
             pts.append(p)
-    if len(pts) < count:
+    if len(pts) == count:
+        return np.array(pts).reshape(-1, 2)
+    k = int(2 * reach // gap) if gap > 0 else count
+    if k * k < count:
         raise ParameterError(
-            f"{count} points {gap:g} m apart do not fit a square of half-side {reach:g} m; use fewer"
+            f"{count} points {gap:g} m apart do not fit a square of half-side {reach:g} m "
+            f"(at most {k * k}); use fewer, or a larger square"
         )
-    return np.array(pts).reshape(-1, 2)
+    cell = 2 * reach / k
+    cells = rng.choice(k * k, size=count, replace=False)
+    centre = (np.stack([cells % k, cells // k], axis=1) + 0.5) * cell - reach
+    slack = (cell - gap) / 2
+    return np.asarray(centre + rng.uniform(-slack, slack, (count, 2)), dtype=np.float64)
