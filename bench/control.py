@@ -160,8 +160,9 @@ def table(tasks: list[str], planners: list[str], seeds: int) -> None:
 
 
 def scale_run(task: str, n: int, name: str, seed: int) -> dict[str, float]:
-    """One run of the scaling table through the full loop (the scale demos' set-ups: sorts of
-    poker chips up to 32, of 20 mm chips beyond; the letter L of 10 mm washers)."""
+    """One run of the scaling table through the full loop as ``upm demo`` runs it (the scale
+    demos' set-ups: sorts of poker chips up to 32, of 20 mm chips beyond; the letter L of 10 mm
+    washers; the predictive planner plans while the plate plays)."""
     from upm.scale_demos import CHIP, SMALL_CHIP, shape_setup, sort_setup
 
     if task == "sort":
@@ -171,7 +172,8 @@ def scale_run(task: str, n: int, name: str, seed: int) -> dict[str, float]:
     plant = SimulatedUPM(plate=LIMITS.plate, axes=LIMITS.axes, stroke=LIMITS.stroke, parts=setup.parts,
                          seed=seed, part_radius=setup.radius)  # fmt: skip
     camera = plant.camera(setup.labels, seed=seed, **setup.view)
-    loop = control.Loop(plant, camera, setup.planner, setup.task, part_radius=setup.radius)
+    loop = control.Loop(plant, camera, setup.planner, setup.task, part_radius=setup.radius,
+                        pipeline=setup.pipeline, keep_frames=setup.keep_frames)  # fmt: skip
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         start = time.perf_counter()

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PAGES = {"docs/envs.md": ("gymnasium",)}  # page: the optional modules it needs
+PAGES = {"docs/envs.md": ("gymnasium",), "docs/vision.md": ("cv2",)}  # page: the optional modules it needs
 
 
 def blocks(page: Path) -> list[str]:

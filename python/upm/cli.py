@@ -295,6 +295,12 @@ def _main(argv: list[str]) -> int:
         default=20.0,
         help="with --screenshot: seconds to let the viewer load (up to as many more until it holds still)",
     )
+    c = commands.add_parser(
+        "calibrate", help="calibrate the camera from frames of a ChArUco board (upm[vision])"
+    )
+    from .cli_calibrate import arguments as calibrate_arguments
+
+    calibrate_arguments(c)
     k = commands.add_parser("desk", help="the live desk: steer parts by hand in a browser (upm[desk])")
     from .desk.cli import arguments as desk_arguments
 
@@ -307,6 +313,14 @@ def _main(argv: list[str]) -> int:
             return replay(args.file, web=args.web, png=args.screenshot, port=args.port, wait=args.wait)
         except UpmError as error:
             print(f"upm replay: {error}", file=sys.stderr)
+            return 2
+    if args.command == "calibrate":
+        from .cli_calibrate import run as calibrate_run
+
+        try:
+            return calibrate_run(args)
+        except UpmError as error:
+            print(f"upm calibrate: {error}", file=sys.stderr)
             return 2
     if args.command == "desk":
         from .desk.cli import run as desk_run

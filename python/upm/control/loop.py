@@ -52,8 +52,9 @@ class Loop:
     task : Task
     part_radius : float
         Part radius [m] (for vision).
-    table : upm.vision.Table, optional
-        The plate in the image (default: found in the first frame).
+    table : upm.vision.Table, upm.vision.Calibration or path, optional
+        The plate in the image: a calibration (or the file ``upm calibrate`` wrote) maps pixels
+        to the plate through the lens; default: found from its outline in the first frame.
     plate_size : float
         Side of the plate [m] (for finding the table).
     palette : upm.vision.Palette, optional
@@ -92,6 +93,7 @@ class Loop:
         pipeline: float | None = None,
     ) -> None:
         from ..vision import THESIS_PALETTE, find_table
+        from ..vision.calibration import table_of
 
         self.device: Device = as_device(device)
         if not hasattr(camera, "read"):
@@ -124,7 +126,7 @@ class Loop:
         self.pipeline = None if pipeline is None else float(pipeline)
         self._find_table = find_table
         self.palette = THESIS_PALETTE if palette is None else palette
-        self.table = table
+        self.table: Any = table_of(table, self.plate_size)
         self.search = search
         self.tracker: Any = None
         self.plate_time = 0.0

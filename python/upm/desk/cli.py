@@ -40,6 +40,12 @@ def arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--watchdog", type=float, default=1.0, help="seconds without the page before the plate stops"
     )
+    parser.add_argument(
+        "--calibration",
+        default=None,
+        metavar="FILE",
+        help="with --board: the camera calibration (upm calibrate); default: the plate found by its outline",
+    )
 
 
 def simulated(*, six_axis: bool = False, seed: int = 1, contacts: bool = True, **options: Any) -> Desk:
@@ -72,10 +78,15 @@ def simulated(*, six_axis: bool = False, seed: int = 1, contacts: bool = True, *
     return desk
 
 
-def hardware(board_url: str, camera: str | None, watchdog: float = 1.0, part_radius: float = 0.0195) -> Desk:
+def hardware(board_url: str, camera: str | None, watchdog: float = 1.0, part_radius: float = 0.0195,
+             calibration: str | None = None) -> Desk:  # fmt: skip
     """A desk on a board (``board_url``: a serial port or pyserial URL) and a camera (an OpenCV
     index, or ``tcp://host:port`` of a :class:`upm.vision.RemoteCamera`): the predictive planner
-    on a four-motor board, field pulses on a six-axis one; STOP sends the board STOP."""
+    on a four-motor board, field pulses on a six-axis one; STOP sends the board STOP.
+    ``calibration``: the file ``upm calibrate`` wrote (pixels to the plate through the lens)."""
+    from ..vision.calibration import Calibration
+
+    lens = None if calibration is None else Calibration.load(calibration)  # refused before the board opens
     from ..board import Board
     from ..control import BoardDevice, FieldPlanner, PredictivePlanner
 
@@ -104,6 +115,7 @@ def hardware(board_url: str, camera: str | None, watchdog: float = 1.0, part_rad
         resume_device=link.clear_stop,
         gather=link.six_axis,
         watchdog=watchdog,
+        table=lens,
     )
 
 
@@ -112,7 +124,9 @@ def run(args: argparse.Namespace) -> int:
     from .server import DeskServer
 
     if args.board is not None:
-        desk = hardware(args.board, args.camera, args.watchdog, args.part_radius)
+        desk = hardware(args.board, args.camera, args.watchdog, args.part_radius, args.calibration)
+    elif args.calibration is not None:
+        raise ParameterError("--calibration is for a real camera (--board and --camera)")
     else:
         desk = simulated(six_axis=args.six_axis, seed=args.seed, watchdog=args.watchdog)
     desk.start()

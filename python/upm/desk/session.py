@@ -63,6 +63,9 @@ class Desk:
     stop_device, resume_device : callable, optional
         What STOP calls besides ending the cycle (a board's ``Board.stop``), and what a new
         command calls before the plate moves again (``Board.clear_stop``).
+    table : Table, Calibration or path, optional
+        The plate in the camera: a calibration (``upm calibrate``'s file) maps pixels through the
+        lens; default: found from the plate's outline in the first frame.
     """
 
     MIN_CYCLE = 0.25
@@ -83,8 +86,10 @@ class Desk:
         frame_rate: float = 10.0,
         stop_device: Any = None,
         resume_device: Any = None,
+        table: Any = None,
     ) -> None:
         from ..vision import THESIS_PALETTE, find_table
+        from ..vision.calibration import table_of
 
         if not hasattr(device, "execute"):
             raise ParameterError(f"device must have execute(pulses); got {type(device).__name__}")
@@ -113,7 +118,7 @@ class Desk:
         acknowledgement of STOP; on the simulated plate, the end of the pulse being played); and
         ``latency`` [s] to the control thread idle."""
         frame = self._read()
-        self.table = find_table(frame, plate_size)
+        self.table = table_of(table, plate_size) or find_table(frame, plate_size)
         self.tracker = loop_tracker(self.table, part_radius, self.palette, self.parts.max_step)
         self.tracks = self.tracker.update(frame)
         self.frame = frame

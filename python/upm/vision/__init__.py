@@ -16,6 +16,7 @@ except ImportError:  # tested with cv2 blocked in a subprocess
     ) from None
 
 from .._errors import VisionError
+from .calibration import Calibration, CharucoBoard, calibrate, find_board
 from .parts import THESIS_PALETTE, Palette, Parts, find_parts
 from .poses import Poses, find_poses
 from .remote import RemoteCamera
@@ -25,6 +26,8 @@ from .tracker import Tracker, Tracks
 __all__ = [
     "PLATE_SIZE",
     "THESIS_PALETTE",
+    "Calibration",
+    "CharucoBoard",
     "Palette",
     "Parts",
     "Poses",
@@ -33,6 +36,8 @@ __all__ = [
     "Tracker",
     "Tracks",
     "VisionError",
+    "calibrate",
+    "find_board",
     "find_parts",
     "find_poses",
     "find_table",

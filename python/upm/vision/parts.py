@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 from .. import _core
 from .._arrays import as_float, check_range, instance, integer, real
 from .._errors import VisionError
-from .table import Table, check_frame, project
+from .table import Table, check_frame
 
 __all__ = ["Palette", "Parts", "find_parts"]
 
@@ -175,20 +175,29 @@ class Rectifier:
         self.background: F32 | None = None
 
     def warp(self, frame: NDArray[np.uint8]) -> NDArray[np.uint8]:
-        """The top view (H, W, C) of a camera frame."""
-        img = cv2.warpPerspective(frame, self.top_from_camera, self.size, flags=cv2.INTER_LINEAR,
-                                  borderMode=cv2.BORDER_REPLICATE)  # fmt: skip
+        """The top view (H, W, C) of a camera frame (through the lens of a calibrated table)."""
+        if self.table.lens is not None:
+            mx, my = self._camera_maps()
+            img = cv2.remap(frame, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        else:
+            img = cv2.warpPerspective(frame, self.top_from_camera, self.size, flags=cv2.INTER_LINEAR,
+                                      borderMode=cv2.BORDER_REPLICATE)  # fmt: skip
         return np.asarray(img if img.ndim == 3 else img[..., None], np.uint8)
+
+    def _camera_maps(self) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+        """The camera pixel (x, y) of every top-view pixel (computed once)."""
+        if not hasattr(self, "_maps"):
+            w, h = self.size
+            ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
+            top = np.stack([xs, ys], axis=-1).reshape(-1, 2)
+            cam = self.table.to_camera(self.to_plate(top)).reshape(h, w, 2)
+            self._maps = (cam[..., 0].astype(np.float32), cam[..., 1].astype(np.float32))
+        return self._maps
 
     def patches(self, frame: NDArray[np.uint8], origins: NDArray[np.intp], n: int) -> F32:
         """``n x n`` windows (N, n, n, C) of the top view whose top-left pixels are ``origins``,
         sampled in one ``cv2.remap`` call from the camera frame."""
-        if not hasattr(self, "_maps"):
-            w, h = self.size
-            ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
-            cam = project(np.asarray(np.linalg.inv(self.top_from_camera)), np.stack([xs, ys], axis=-1))
-            self._maps = (cam[..., 0].astype(np.float32), cam[..., 1].astype(np.float32))
-        mx, my = self._maps
+        mx, my = self._camera_maps()
         sx = np.concatenate([mx[oy : oy + n, ox : ox + n] for ox, oy in origins])
         sy = np.concatenate([my[oy : oy + n, ox : ox + n] for ox, oy in origins])
         out = cv2.remap(frame, sx, sy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)

@@ -18,7 +18,7 @@ import functools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import cv2
 import numpy as np
@@ -28,7 +28,10 @@ from .._arrays import as_float, check_range
 from .._errors import ParameterError, ShapeError
 from .table import PLATE_SIZE, plate_corners, project
 
-__all__ = ["COLORS", "Camera", "Frame", "Truth", "VirtualCamera", "render"]
+if TYPE_CHECKING:
+    from .calibration import CharucoBoard
+
+__all__ = ["COLORS", "Camera", "Frame", "Truth", "VirtualCamera", "render", "render_board", "through_lens"]
 
 FloatArray = NDArray[np.float64]
 
@@ -69,6 +72,10 @@ class Camera:
         Offset of the plate's image from the image centre [px].
     height : float
         Height of the camera above the plate [m] (perspective strength).
+    distortion : float
+        Radial lens distortion: the fraction by which a point at the image's corner is pushed out
+        (> 0, pincushion) or pulled in (< 0, barrel) from where a pinhole would see it; OpenCV's
+        ``k1`` only (:attr:`dist_coeffs`). 0: a pinhole.
     """
 
     size: tuple[int, int] = (640, 480)
@@ -78,6 +85,7 @@ class Camera:
     yaw: float = 0.03
     shift: tuple[float, float] = (0.0, 0.0)
     height: float = 1.2
+    distortion: float = 0.0
 
     def __post_init__(self) -> None:
         w, h = self.size
@@ -88,22 +96,74 @@ class Camera:
         check_range("tilt", as_float("tilt", self.tilt), low=-1.0, high=1.0)
         check_range("yaw", as_float("yaw", self.yaw), low=-math.pi / 4, high=math.pi / 4, low_open=True,
                     high_open=True)  # fmt: skip
+        check_range("distortion", as_float("distortion", self.distortion), low=-0.2, high=0.2)
 
     @property
-    def camera_from_plate(self) -> FloatArray:
-        """The homography ``(3, 3)`` from plate coordinates [m] to camera pixels."""
+    def intrinsics(self) -> FloatArray:
+        """The camera matrix ``(3, 3)`` [px]."""
         w, h = self.size
         f = self.fill * h * self.height / self.plate_size
-        k = np.array([[f, 0.0, w / 2 + self.shift[0]], [0.0, f, h / 2 + self.shift[1]], [0.0, 0.0, 1.0]])
+        return np.array([[f, 0.0, w / 2 + self.shift[0]], [0.0, f, h / 2 + self.shift[1]], [0.0, 0.0, 1.0]])
+
+    @property
+    def dist_coeffs(self) -> FloatArray:
+        """OpenCV's distortion ``(k1, k2, p1, p2, k3)`` of :attr:`distortion`."""
+        w, h = self.size
+        corner = math.hypot(w / 2, h / 2) / self.intrinsics[0, 0]  # the corner's normalised radius
+        return np.array([self.distortion / corner**2, 0.0, 0.0, 0.0, 0.0])
+
+    @property
+    def pose(self) -> tuple[FloatArray, FloatArray]:
+        """The plate's pose in the camera: rotation ``(3, 3)`` and translation ``(3,)`` [m]
+        (``camera = rotation @ plate + translation``)."""
         # camera axes seen from above: x along the plate's x, y along the plate's -y, z down
         down = np.diag([1.0, -1.0, -1.0])
         ct, st, cy, sy = math.cos(self.tilt), math.sin(self.tilt), math.cos(self.yaw), math.sin(self.yaw)
         tilt = np.array([[1.0, 0.0, 0.0], [0.0, ct, -st], [0.0, st, ct]])
         yaw = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
-        r = yaw @ tilt @ down
-        t = np.array([0.0, 0.0, self.height])
-        m = k @ np.column_stack([r[:, 0], r[:, 1], t])
+        return yaw @ tilt @ down, np.array([0.0, 0.0, self.height])
+
+    @property
+    def camera_from_plate(self) -> FloatArray:
+        """The homography ``(3, 3)`` from plate coordinates [m] to camera pixels of a pinhole
+        (before the lens's :attr:`distortion`, which :meth:`distort` adds)."""
+        r, t = self.pose
+        m = self.intrinsics @ np.column_stack([r[:, 0], r[:, 1], t])
         return np.asarray(m / m[2, 2], dtype=np.float64)
+
+    def distort(self, pixels: ArrayLike) -> FloatArray:
+        """Where the lens moves pinhole pixels ``(..., 2)`` to."""
+        p = np.asarray(pixels, dtype=np.float64)
+        if self.distortion == 0:
+            return p.copy()
+        k = self.intrinsics
+        c, f = k[:2, 2], k[0, 0]
+        n = (p - c) / f
+        return np.asarray(c + f * n * (1 + self.dist_coeffs[0] * np.sum(n * n, axis=-1, keepdims=True)))
+
+
+@functools.lru_cache(maxsize=8)
+def _lens_maps(camera: Camera) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """For every pixel of a distorted frame, the pinhole pixel it shows (the inverse of
+    :meth:`Camera.distort`, by fixed-point iteration: ``|k1| r^2 <= 0.2`` converges fast)."""
+    w, h = camera.size
+    k = camera.intrinsics
+    c, f, k1 = k[:2, 2], k[0, 0], camera.dist_coeffs[0]
+    ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
+    seen = (np.stack([xs, ys], axis=-1) - c) / f
+    ideal = seen.copy()
+    for _ in range(30):
+        ideal = seen / (1 + k1 * np.sum(ideal * ideal, axis=-1, keepdims=True))
+    px = c + f * ideal
+    return px[..., 0].astype(np.float32), px[..., 1].astype(np.float32)
+
+
+def through_lens(camera: Camera, image: NDArray[np.float32]) -> NDArray[np.float32]:
+    """A pinhole frame as the camera's lens shows it (unchanged without :attr:`Camera.distortion`)."""
+    if camera.distortion == 0:
+        return image
+    mx, my = _lens_maps(camera)
+    return np.asarray(cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE), np.float32)
 
 
 @dataclass(frozen=True)
@@ -332,6 +392,7 @@ def render(
             seen = cov if occl is None else cov * (1.0 - occl[y0 : y0 + cov.shape[0], x0 : x0 + cov.shape[1]])
             visible[k] = min(float(seen.sum()) / area, 1.0)
 
+    image = through_lens(camera, image)
     image *= _lighting(camera.size, float(gradient), float(vignette))
     if blur > 0:
         image = np.asarray(cv2.GaussianBlur(image, (0, 0), blur), np.float32)
@@ -341,13 +402,58 @@ def render(
         image += gen.standard_normal(image.shape, dtype=np.float32) * np.float32(noise)
     out = np.clip(image + np.float32(0.5), 0, 255).astype(np.uint8)  # rounds: values are >= 0
     truth = Truth(
-        corners=corners,
-        centers=project(hom, pos) if m else np.zeros((0, 2)),
+        corners=camera.distort(corners),
+        centers=camera.distort(project(hom, pos)) if m else np.zeros((0, 2)),
         positions=pos.copy(),
         labels=kinds,
         visible=visible,
     )
     return Frame(out, truth)
+
+
+def render_board(
+    camera: Camera,
+    board: CharucoBoard,
+    pose: ArrayLike | None = None,
+    *,
+    noise: float = 2.0,
+    blur: float = 0.7,
+    rng: np.random.Generator | int | None = 0,
+) -> NDArray[np.uint8]:
+    """A frame of a ChArUco ``board`` (:class:`upm.vision.CharucoBoard`) over the empty plate,
+    through the camera's lens: lying flat at its centre (``pose`` None) or held at ``pose``
+    ``(rx, ry, rz, x, y, z)`` (a rotation vector [rad] and the board's centre [m], plate frame).
+    The board is drawn 4 x 4 supersampled (area-weighted edges, as parts are)."""
+    check_range("noise", as_float("noise", noise), low=0.0)
+    check_range("blur", as_float("blur", blur), low=0.0)
+    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    w, h = camera.size
+    r_pb, t_pb = board.plate_from_board(pose)
+    r_cp, t_cp = camera.pose
+    r_cb, t_cb = r_cp @ r_pb, r_cp @ t_pb + t_cp
+    k = camera.intrinsics
+    depth = float(np.linalg.norm(t_cb))
+    texture = board.image(float(np.clip(1.5 * _SS * k[0, 0] / depth, 1000.0, 1e5)))
+    bw, bh = board.size
+    sx, sy = texture.shape[1] / bw, texture.shape[0] / bh
+    metres = np.array([[1 / sx, 0.0, 0.5 / sx], [0.0, 1 / sy, 0.5 / sy], [0.0, 0.0, 1.0]])
+    fine = np.array([[_SS, 0.0, (_SS - 1) / 2], [0.0, _SS, (_SS - 1) / 2], [0.0, 0.0, 1.0]])
+    m = fine @ k @ np.column_stack([r_cb[:, 0], r_cb[:, 1], t_cb]) @ metres
+    big = (w * _SS, h * _SS)
+    warped = [cv2.warpPerspective(t, m, big, flags=cv2.INTER_LINEAR, borderValue=0)
+              for t in (texture, np.full_like(texture, 255))]  # fmt: skip
+    shade, cover = (cv2.resize(t.astype(np.float32), (w, h), interpolation=cv2.INTER_AREA) for t in warped)
+    cover = np.asarray(cover, np.float32) / np.float32(255.0)
+    image = _empty_plate(camera, tuple(COLORS["background"]), tuple(COLORS["plate"])).copy()
+    ink = (20.0 + shade * (215.0 / 255.0))[..., None]  # black squares 20, white 235 grey levels
+    image += cover[..., None] * (ink - image)
+    image = through_lens(camera, image)
+    image *= _lighting(camera.size, 0.1, 0.05)
+    if blur > 0:
+        image = np.asarray(cv2.GaussianBlur(image, (0, 0), blur), np.float32)
+    if noise > 0:
+        image += gen.standard_normal(image.shape, dtype=np.float32) * np.float32(noise)
+    return np.asarray(np.clip(image + np.float32(0.5), 0, 255), dtype=np.uint8)
 
 
 class _HasParts(Protocol):

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -18,6 +19,9 @@ from numpy.typing import ArrayLike, NDArray
 from .._arrays import as_float, check_range
 from .._errors import ShapeError, VisionError
 from ..drive import PLATE_SIZE  # the side of the thesis's plate [m] (16 in), re-exported here
+
+if TYPE_CHECKING:
+    from .calibration import Calibration
 
 __all__ = ["PLATE_SIZE", "Table", "check_frame", "find_table", "plate_corners", "project"]
 
@@ -95,7 +99,11 @@ class Table:
     image_size : (int, int)
         Width and height of the frames it was found in [px].
     residual : float
-        RMS distance [px] of the edge points from the four fitted sides.
+        RMS distance [px] of the edge points from the four fitted sides (a calibrated table:
+        the calibration's reprojection error).
+    lens : Calibration or None
+        A calibrated camera (:meth:`upm.vision.Calibration.table`): pixels map to the plate
+        through its lens model, and the homographies are only its best straight approximation.
     """
 
     corners: FloatArray
@@ -104,6 +112,7 @@ class Table:
     camera_from_plate: FloatArray
     image_size: tuple[int, int]
     residual: float = 0.0
+    lens: Calibration | None = None
 
     @classmethod
     def from_corners(cls, corners: ArrayLike, plate_size: float | tuple[float, float] = PLATE_SIZE,
@@ -130,10 +139,14 @@ class Table:
 
     def to_plate(self, pixels: ArrayLike) -> FloatArray:
         """Camera pixels ``(..., 2)`` to plate coordinates [m]."""
+        if self.lens is not None:
+            return self.lens.to_plate(pixels)
         return project(self.plate_from_camera, pixels)
 
     def to_camera(self, points: ArrayLike) -> FloatArray:
         """Plate coordinates [m] ``(..., 2)`` to camera pixels."""
+        if self.lens is not None:
+            return self.lens.to_camera(points)
         return project(self.camera_from_plate, points)
 
     def contains(self, points: ArrayLike, margin: float = 0.0) -> NDArray[np.bool_]:
