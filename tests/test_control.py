@@ -328,3 +328,28 @@ def test_a_short_demo_writes_its_outputs(tmp_path):
     assert json.loads((tmp_path / "racetrack" / "metrics.json").read_text())["cycles"] == 3
     # every part moved forward along the flow, the inner ones turning through larger angles
     assert all(a > 0 for a in m["angles"]) and m["angles"][0] > m["angles"][-1]
+
+
+def test_the_displacement_planner_plays_no_program_that_carries_parts_away():
+    # large steps in different directions about four corner centres: sequential rotations far from
+    # linear once carried a part away from its goal (the corners demo then diverged, 136 -> 103 mm)
+    from upm.demos import DEMOS
+    from upm.plan.displacements import MAX_MISS
+    from upm.pulses import program
+
+    planner = DEMOS["corners"].build(False, 1).planner
+    goals = np.array([[0.02, 0.06], [-0.06, 0.03]])
+    rng = np.random.default_rng(0)
+    for _ in range(6):
+        pos = rng.uniform(-0.08, 0.08, (2, 2))
+        way = goals - pos
+        steps = way * np.minimum(1, 0.015 / np.linalg.norm(way, axis=1, keepdims=True))
+        motion = program(planner.plan(pos, steps))
+        run = upm.simulate(motion, pos, duration=motion.duration, dt=1 / (200 * motion.max_frequency), mu=0.3,
+                           record_every=10**9)  # fmt: skip
+        moved = run.positions[-1] - pos
+        # each part ends nearer its goal, and the steps played are a fraction of those asked,
+        # missed by at most MAX_MISS of their own size
+        assert np.all(np.linalg.norm(goals - run.positions[-1], axis=1) < np.linalg.norm(way, axis=1))
+        scale = float(np.sum(moved * steps) / np.sum(steps * steps))
+        assert np.linalg.norm(moved - scale * steps) <= MAX_MISS * np.linalg.norm(scale * steps) + 1e-4

@@ -47,6 +47,12 @@ __all__ = ["DisplacementPlanner", "plan_pulses", "plan_to_motion", "sustain_for_
 FloatArray = NDArray[np.float64]
 
 
+#: The largest simulated miss of a program, as a fraction of its steps, that
+#: :class:`DisplacementPlanner` plays; beyond it the steps are halved (a miss over half the step
+#: can carry a part away from its goal).
+MAX_MISS = 0.5
+
+
 def plan_to_motion(
     plan: RotationPlan | DisplacementPlan,
     waveform: Waveform | None = None,
@@ -384,6 +390,16 @@ class DisplacementPlanner:
                 self.h.cos * top / AMPLITUDE_TOP, self.h.sin * top / AMPLITUDE_TOP, float(self.h.frequency)
             )
 
+    def _miss(self, pulses: list[Pulse], pos: FloatArray, steps: FloatArray) -> float:
+        """How far the program's simulated steps (point parts, ideal plate) miss ``steps``, as a
+        fraction of their size."""
+        motion = program(pulses)
+        dt = 1.0 / (200.0 * motion.max_frequency) if motion.max_frequency > 0 else motion.duration / 10
+        run = simulate(motion, pos, duration=motion.duration, dt=dt, mu=self.mu, mu_s=self.mu_s,
+                       record_every=max(1, int(motion.duration / dt)))  # fmt: skip
+        size = float(np.linalg.norm(steps))
+        return float(np.linalg.norm(run.positions[-1] - pos - steps)) / size if size > 0 else 0.0
+
     def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]:
         pos, st = np.asarray(positions, float), np.nan_to_num(np.asarray(steps, float))  # free: stay
         if len(pos) == 0 or not np.any(st):
@@ -406,7 +422,7 @@ class DisplacementPlanner:
         pulses: list[Pulse] = []
         for halvings in range(1, 6):
             with warnings.catch_warnings():
-                warnings.simplefilter("ignore", PlanWarning)  # the loop measures and corrects the miss
+                warnings.simplefilter("ignore", PlanWarning)  # the miss is measured below
                 try:
                     pulses = plan_pulses(
                         plan,
@@ -418,11 +434,17 @@ class DisplacementPlanner:
                         intensity="amplitude",
                         sustain=self.sustain,
                     )
-                    break
                 except ParameterError:  # an arc beyond what a pulse reaches: half the steps
-                    plan = solve_displacements(
-                        pos, st * 0.5**halvings, self.centers, rcond=self.rcond, damping=self.damping
-                    )
+                    pulses = []
+            if pulses and (halvings == 5 or self._miss(pulses, pos, plan.predicted_steps) <= MAX_MISS):
+                break
+            # a program that misses its steps by more than half (simulated: large steps in
+            # different directions, sequential rotations far from linear) carries the parts
+            # elsewhere, away from their goals; half the steps, as the thesis's closed loop does
+            pulses = []
+            plan = solve_displacements(
+                pos, st * 0.5**halvings, self.centers, rcond=self.rcond, damping=self.damping
+            )
         if not pulses:
             return []
         return trim_rests([p for p in pulses if p.kind != "rest"], pos, mu=self.mu, mu_s=self.mu_s)
