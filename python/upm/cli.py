@@ -199,6 +199,10 @@ def sweep_command(config: Path | None, listing: bool, n_jobs: int | None, quiet:
     return 0
 
 
+#: Subcommands run by their own module's ``run(args)`` (its ``arguments(parser)`` adds the options).
+DELEGATED = {"calibrate": ".cli_calibrate", "desk": ".desk.cli"}
+
+
 def main(argv: list[str] | None = None) -> int:
     """The ``upm`` command. Errors end it with a one-line message and exit code 2 (1: a demo's
     task was not done; 130: interrupted), never a traceback."""
@@ -314,21 +318,14 @@ def _main(argv: list[str]) -> int:
         except UpmError as error:
             print(f"upm replay: {error}", file=sys.stderr)
             return 2
-    if args.command == "calibrate":
-        from .cli_calibrate import run as calibrate_run
+    if args.command in DELEGATED:  # commands whose options and work live in their own module
+        import importlib
 
+        run = importlib.import_module(DELEGATED[args.command], __package__).run
         try:
-            return calibrate_run(args)
+            return int(run(args))
         except UpmError as error:
-            print(f"upm calibrate: {error}", file=sys.stderr)
-            return 2
-    if args.command == "desk":
-        from .desk.cli import run as desk_run
-
-        try:
-            return desk_run(args)
-        except UpmError as error:
-            print(f"upm desk: {error}", file=sys.stderr)
+            print(f"upm {args.command}: {error}", file=sys.stderr)
             return 2
     if args.command == "demo":
         ahead = None if args.pipeline is None else args.pipeline / 1000  # mm on the command line
