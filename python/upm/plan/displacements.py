@@ -394,9 +394,12 @@ class DisplacementPlanner:
         """How far the program's simulated steps (point parts, ideal plate) miss ``steps``, as a
         fraction of their size."""
         motion = program(pulses)
-        dt = 1.0 / (200.0 * motion.max_frequency) if motion.max_frequency > 0 else motion.duration / 10
-        run = simulate(motion, pos, duration=motion.duration, dt=dt, mu=self.mu, mu_s=self.mu_s,
-                       record_every=max(1, int(motion.duration / dt)))  # fmt: skip
+        duration = float(motion.duration or 0.0)  # a program of pulses ends
+        if duration <= 0:
+            return 1.0
+        dt = 1.0 / (200.0 * motion.max_frequency) if motion.max_frequency > 0 else duration / 10
+        run = simulate(motion, pos, duration=duration, dt=dt, mu=self.mu, mu_s=self.mu_s,
+                       record_every=max(1, int(duration / dt)))  # fmt: skip
         size = float(np.linalg.norm(steps))
         return float(np.linalg.norm(run.positions[-1] - pos - steps)) / size if size > 0 else 0.0
 
