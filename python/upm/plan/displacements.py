@@ -53,6 +53,20 @@ FloatArray = NDArray[np.float64]
 MAX_MISS = 0.5
 
 
+def program_steps(pulses: list[Pulse], parts: FloatArray, mu: float, mu_s: float | None,
+                  g: float = 9.81) -> FloatArray:  # fmt: skip
+    """The steps ``(M, 2)`` [m] that ``pulses`` played one after another give point ``parts`` on
+    an ideal plate (the exact integrator at 1/200 of the highest frequency's period)."""
+    motion = program(pulses)
+    duration = float(motion.duration or 0.0)  # a program of pulses ends
+    if duration <= 0:
+        return np.zeros_like(parts)
+    dt = 1.0 / (200.0 * motion.max_frequency) if motion.max_frequency > 0 else duration / 10
+    run = simulate(motion, parts, duration=duration, dt=dt, mu=mu, mu_s=mu_s, g=g,
+                   record_every=max(1, int(duration / dt)))  # fmt: skip
+    return np.asarray(run.positions[-1] - parts, dtype=np.float64)
+
+
 def plan_to_motion(
     plan: RotationPlan | DisplacementPlan,
     waveform: Waveform | None = None,
@@ -134,7 +148,7 @@ def plan_pulses(
             raise ParameterError(f"refine must be an integer >= 0; got {refine!r}")
         return _pulse_program(
             plan, h, mu_f, mu_s_f, positive("g", g), attack, rest, intensity, sustain, refine
-        )
+        )[0]
     raise ParameterError(f"plan must be a RotationPlan or a DisplacementPlan; got {type(plan).__name__}")
 
 
@@ -149,7 +163,9 @@ def _pulse_program(
     intensity: str,
     sustain: float | None,
     refine: int,
-) -> list[Pulse]:
+) -> tuple[list[Pulse], float | None]:
+    """The pulses of a DisplacementPlan (:func:`plan_pulses`) and, when refined, how far their
+    simulated steps miss the plan's, as a fraction of its steps."""
     d = np.array(plan.strengths, dtype=np.float64)
     if d.ndim != 1:
         raise ShapeError("plan must be a single plan, not a batch")
@@ -161,7 +177,7 @@ def _pulse_program(
     targets = np.concatenate([plan.predicted_steps[:, 0], plan.predicted_steps[:, 1]])
     biggest = float(np.max(np.abs(d))) if n else 0.0
     if biggest == 0.0:
-        return [Pulse.pause(period)]
+        return [Pulse.pause(period)], 0.0
     kappa = 0.5 * 0.2386 * mu * g * 1.2386  # step ≈ kappa * on-time^2 for slow parts
     tables = [
         PulseTable(centers[j], parts, h, rise, hold, intensity, mu, mu_s, g, rest, kappa, biggest, period)
@@ -228,19 +244,14 @@ def _pulse_program(
         return items or [Pulse.pause(period)]
 
     if not refine:
-        return pulses(d)
+        return pulses(d), None
 
     # Refinement on the whole program: pulses follow one another, so each one starts from where
     # the previous ones left the parts (the second-order error of 5.4.4). Simulate the program with
     # the exact integrator and correct the arc lengths by the measured miss, with the single-pulse
     # effects as the Jacobian, while the miss shrinks.
     def miss(arcs: np.ndarray) -> np.ndarray:
-        motion = program(pulses(arcs))
-        duration = motion.duration or period
-        dt = 1.0 / (200.0 * motion.max_frequency) if motion.max_frequency > 0 else duration / 10
-        run = simulate(motion, parts, duration=duration, dt=dt, mu=mu, mu_s=mu_s, g=g,
-                       record_every=max(1, int(duration / dt)))  # fmt: skip
-        moved = run.positions[-1] - parts
+        moved = program_steps(pulses(arcs), parts, mu, mu_s, g)
         out: np.ndarray = targets - np.concatenate([moved[:, 0], moved[:, 1]])
         return out
 
@@ -275,7 +286,7 @@ def _pulse_program(
             PlanWarning,
             stacklevel=3,
         )
-    return pulses(d)
+    return pulses(d), miss_rel
 
 
 def sustain_for_displacement(
@@ -390,19 +401,6 @@ class DisplacementPlanner:
                 self.h.cos * top / AMPLITUDE_TOP, self.h.sin * top / AMPLITUDE_TOP, float(self.h.frequency)
             )
 
-    def _miss(self, pulses: list[Pulse], pos: FloatArray, steps: FloatArray) -> float:
-        """How far the program's simulated steps (point parts, ideal plate) miss ``steps``, as a
-        fraction of their size."""
-        motion = program(pulses)
-        duration = float(motion.duration or 0.0)  # a program of pulses ends
-        if duration <= 0:
-            return 1.0
-        dt = 1.0 / (200.0 * motion.max_frequency) if motion.max_frequency > 0 else duration / 10
-        run = simulate(motion, pos, duration=duration, dt=dt, mu=self.mu, mu_s=self.mu_s,
-                       record_every=max(1, int(duration / dt)))  # fmt: skip
-        size = float(np.linalg.norm(steps))
-        return float(np.linalg.norm(run.positions[-1] - pos - steps)) / size if size > 0 else 0.0
-
     def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]:
         pos, st = np.asarray(positions, float), np.nan_to_num(np.asarray(steps, float))  # free: stay
         if len(pos) == 0 or not np.any(st):
@@ -423,23 +421,21 @@ class DisplacementPlanner:
                     pos, st * (self.max_arc / biggest), self.centers, rcond=self.rcond, damping=self.damping
                 )
         pulses: list[Pulse] = []
+        mu_s = self.mu if self.mu_s is None else float(self.mu_s)
         for halvings in range(1, 6):
             with warnings.catch_warnings():
-                warnings.simplefilter("ignore", PlanWarning)  # the miss is measured below
+                warnings.simplefilter("ignore", PlanWarning)  # the miss is weighed below
                 try:
-                    pulses = plan_pulses(
-                        plan,
-                        self.h,
-                        mu=self.mu,
-                        mu_s=self.mu_s,
-                        attack=self.attack,
-                        refine=self.refine,
-                        intensity="amplitude",
-                        sustain=self.sustain,
-                    )
+                    pulses, miss = _pulse_program(plan, self.h, self.mu, mu_s, 9.81, self.attack, None,
+                                                  "amplitude", self.sustain, self.refine)  # fmt: skip
                 except ParameterError:  # an arc beyond what a pulse reaches: half the steps
-                    pulses = []
-            if pulses and (halvings == 5 or self._miss(pulses, pos, plan.predicted_steps) <= MAX_MISS):
+                    pulses, miss = [], None
+            if pulses and miss is None:  # not refined: simulated here
+                asked = plan.predicted_steps
+                size = float(np.linalg.norm(asked))
+                moved = program_steps(pulses, pos, self.mu, mu_s)
+                miss = float(np.linalg.norm(moved - asked)) / size if size > 0 else 0.0
+            if pulses and (halvings == 5 or (miss is not None and miss <= MAX_MISS)):
                 break
             # a program that misses its steps by more than half (simulated: large steps in
             # different directions, sequential rotations far from linear) carries the parts

@@ -36,7 +36,6 @@ from typing import Any, Protocol, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import _core
 from .._errors import ParameterError
 from ..drive import DriveLimits, drive_frequency
 from ..motion import PlateMotion
@@ -46,6 +45,7 @@ from .candidates import Candidates, aligned_centres, generate
 from .fitting import learn, restarted
 from .goals import PositionsView, StepsGoal
 from .macros import MacroTable
+from .penalties import in_band, penalty
 from .sizing import positive as _positive
 from .sizing import separate, slide_to_rest
 
@@ -305,26 +305,11 @@ class PredictivePlanner:
 
     # -- scoring --------------------------------------------------------------------------------
     def _penalty(self, q: FloatArray, overlaps: bool = True, start: FloatArray | None = None) -> FloatArray:
-        """Edge and overlap penalties ``(K,)`` [m of cost] for predicted positions ``(K, M, 2)``
-        of parts that were at ``start`` (broadcast against ``q``; the edge penalty then scores
-        each part's worst case, ``spread`` times its way further out)."""
-        # lost_cost per part within guard of an edge or off the plate; inside the edge band
-        # edge_weight per metre, and five times more in its outer half (the extension:
-        # upm_core::plan::edge_penalty)
-        at = q
-        if start is not None and self.spread > 0:
-            way = np.hypot(q[..., 0] - start[..., 0], q[..., 1] - start[..., 1])
-            at = q + np.sign(q) * (self.spread * way)[..., None]
-        out: FloatArray = _core.edge_penalty(
-            np.ascontiguousarray(at, dtype=np.float64), self.limits.size / 2, self.edge, self.edge_weight,
-            self.lost_cost, self.guard,
-        )  # fmt: skip
-        if overlaps and self.part_radius is not None and q.shape[1] > 1:
-            # half the depth of every overlap of two parts (upm_core::plan::overlap_penalty: a
-            # sweep along x, not all pairs)
-            reach = 2.05 * self.part_radius
-            out = out + 0.5 * _core.overlap_penalty(np.ascontiguousarray(q, dtype=np.float64), reach)
-        return out
+        """:func:`.penalties.penalty` of predicted positions ``(K, M, 2)`` by this planner's edge,
+        loss and spread settings (and overlaps of its parts' radius, with ``overlaps``)."""
+        return penalty(q, half=self.limits.size / 2, edge=self.edge, edge_weight=self.edge_weight,
+                       lost_cost=self.lost_cost, guard=self.guard, spread=self.spread,
+                       part_radius=self.part_radius if overlaps else None, start=start)  # fmt: skip
 
     def _score(
         self, task: _CostTask, state: Any, pos: FloatArray, final: FloatArray, durations: FloatArray
@@ -499,10 +484,7 @@ class PredictivePlanner:
         return out
 
     def _in_band(self, q: FloatArray) -> NDArray[np.bool_]:
-        """Whether any part of each layout ``(K, M, 2)`` lies in the edge band or beyond."""
-        half = self.limits.size / 2
-        out: NDArray[np.bool_] = np.any(np.abs(np.nan_to_num(q)) > half - self.edge, axis=(1, 2))
-        return out
+        return in_band(q, self.limits.size / 2, self.edge)
 
     def _pairs(
         self,

@@ -24,6 +24,7 @@ writes the result as JSON; ``upm calibrate --print-board`` writes the board at t
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Sequence
@@ -243,10 +244,8 @@ class Calibration:
 
     def table(self, plate_size: float | tuple[float, float] = PLATE_SIZE) -> Table:
         """The plate as this camera sees it, mapped through the lens (for the loop and the desk)."""
-        corners = self.to_camera(plate_corners(plate_size))
-        t = Table.from_corners(corners, plate_size, self.image_size)
-        return Table(t.corners, t.plate_size, t.plate_from_camera, t.camera_from_plate, self.image_size,
-                     self.rms, lens=self)  # fmt: skip
+        straight = Table.from_corners(self.to_camera(plate_corners(plate_size)), plate_size, self.image_size)
+        return dataclasses.replace(straight, residual=self.rms, lens=self)
 
     def save(self, path: str | Path) -> Path:
         """Write the calibration as JSON (:meth:`load` reads it)."""

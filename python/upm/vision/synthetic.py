@@ -276,6 +276,21 @@ def _empty_plate(
     return image
 
 
+def _develop(camera: Camera, image: NDArray[np.float32], gradient: float, vignette: float, blur: float,
+             noise: float, gen: np.random.Generator, grey: bool = False) -> NDArray[np.uint8]:  # fmt: skip
+    """A drawn pinhole frame as the camera delivers it: through the lens, uneven light, lens blur,
+    grey if asked, pixel noise, rounded to 8 bits."""
+    image = through_lens(camera, image)
+    image *= _lighting(camera.size, float(gradient), float(vignette))
+    if blur > 0:
+        image = np.asarray(cv2.GaussianBlur(image, (0, 0), blur), np.float32)
+    if grey:
+        image = np.asarray(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), np.float32)
+    if noise > 0:
+        image += gen.standard_normal(image.shape, dtype=np.float32) * np.float32(noise)
+    return np.asarray(np.clip(image + np.float32(0.5), 0, 255), dtype=np.uint8)  # rounds: values >= 0
+
+
 def render(
     camera: Camera,
     positions: ArrayLike,
@@ -392,15 +407,7 @@ def render(
             seen = cov if occl is None else cov * (1.0 - occl[y0 : y0 + cov.shape[0], x0 : x0 + cov.shape[1]])
             visible[k] = min(float(seen.sum()) / area, 1.0)
 
-    image = through_lens(camera, image)
-    image *= _lighting(camera.size, float(gradient), float(vignette))
-    if blur > 0:
-        image = np.asarray(cv2.GaussianBlur(image, (0, 0), blur), np.float32)
-    if grey:
-        image = np.asarray(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), np.float32)
-    if noise > 0:
-        image += gen.standard_normal(image.shape, dtype=np.float32) * np.float32(noise)
-    out = np.clip(image + np.float32(0.5), 0, 255).astype(np.uint8)  # rounds: values are >= 0
+    out = _develop(camera, image, gradient, vignette, blur, noise, gen, grey)
     truth = Truth(
         corners=camera.distort(corners),
         centers=camera.distort(project(hom, pos)) if m else np.zeros((0, 2)),
@@ -447,13 +454,7 @@ def render_board(
     image = _empty_plate(camera, tuple(COLORS["background"]), tuple(COLORS["plate"])).copy()
     ink = (20.0 + shade * (215.0 / 255.0))[..., None]  # black squares 20, white 235 grey levels
     image += cover[..., None] * (ink - image)
-    image = through_lens(camera, image)
-    image *= _lighting(camera.size, 0.1, 0.05)
-    if blur > 0:
-        image = np.asarray(cv2.GaussianBlur(image, (0, 0), blur), np.float32)
-    if noise > 0:
-        image += gen.standard_normal(image.shape, dtype=np.float32) * np.float32(noise)
-    return np.asarray(np.clip(image + np.float32(0.5), 0, 255), dtype=np.uint8)
+    return _develop(camera, image, 0.1, 0.05, blur, noise, gen)
 
 
 class _HasParts(Protocol):
