@@ -140,6 +140,8 @@ def main() -> None:
         ("upm/Goto-v0", {"n_parts": 4}),
         ("upm/Sort-v0", {"n_parts": 8}),
         ("upm/Shape-v0", {"n_parts": 6}),
+        ("upm/Orient-v0", {"n_parts": 1}),
+        ("upm/Orient-v0", {"n_parts": 3}),
     )
     for policy in ("random", "planner"):
         for env_id, extra in tasks:

@@ -113,7 +113,7 @@ def test_the_same_seed_gives_the_same_episode_bit_for_bit():
     assert not np.array_equal(a, c)
 
 
-@pytest.mark.parametrize("env_id,parts", [("upm/Goto-v0", 3), ("upm/Shape-v0", 4)])
+@pytest.mark.parametrize("env_id,parts", [("upm/Goto-v0", 3), ("upm/Shape-v0", 4), ("upm/Orient-v0", 2)])
 def test_the_vector_env_equals_single_envs_bit_for_bit_through_autoresets(env_id, parts):
     n, kw = 6, {"n_parts": parts, "max_plate_time": 1.2}
     vec = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kw)

@@ -176,6 +176,7 @@ def simulate(
     world_mu_s: _F | None = None,
     polygons: list[tuple[int, _F, _F | None]] | None = None,
     world_positions: _F | None = None,
+    world_angles: _F | None = None,
 ) -> tuple[_F, _F, _F, NDArray[np.bool_], _F, _F, _F, NDArray[np.bool_], _F]: ...
 def simd_info() -> tuple[str, list[str]]: ...
 

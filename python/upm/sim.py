@@ -21,9 +21,16 @@ from ._arrays import as_float, integer, items, real
 from ._arrays import threads as pool
 from ._errors import ParameterError, ShapeError
 from ._extras import need
+from ._memory import check_memory as _check_memory
 from .motion import PlateMotion
 
 __all__ = ["Disk", "Point", "SimResult", "simulate", "simulate_batch"]
+
+#: What differs per world, as the extension reads it: ``mu`` and ``mu_s`` ``(B, M)``, the start
+#: positions ``(B M, 2)`` and angles ``(B M,)`` (or None).
+_Worlds = tuple[
+    NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None, NDArray[np.float64] | None
+]
 
 
 class Point(NamedTuple):
@@ -245,59 +252,8 @@ def _per_part(name: str, value: ArrayLike, m: int) -> np.ndarray:
     return np.ascontiguousarray(a.reshape(-1), dtype=np.float64)
 
 
-#: Bytes a recorded part-state takes in the result: position and velocity (4 float64), stuck
-#: (bool), angle and spin (2 float64).
-RECORD_BYTES = 49
-#: The run's peak memory over the result's size: the result is written once, in place, for a
-#: single world and a batch alike (measured 0.68 for points, whose zero angles and spins are never
-#: touched; about 1 plus the parts' state for disks).
-PEAK_FACTOR = 1.25
-#: Results whose peak stays below this many bytes are not checked against the available memory.
-SMALL_RESULT = 16 << 20
-
-
-def available_memory() -> int | None:
-    """Bytes of memory this process can still use: the smaller of the machine's available memory
-    (``MemAvailable``) and the address-space limit (``ulimit -v``); None if unknown."""
-    limits = []
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    limits.append(int(line.split()[1]) * 1024)
-    except (OSError, ValueError):
-        pass
-    try:
-        import resource
-
-        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
-        if soft != resource.RLIM_INFINITY:
-            limits.append(int(soft))
-    except (ImportError, OSError, ValueError):
-        pass
-    return min(limits) if limits else None
-
-
 #: The most integrator steps one call may take (about ten minutes for one part at 50 ns a step).
 MAX_STEPS = 10**10
-
-
-def _check_memory(worlds: int, parts: int, duration: float, dt: float, every: int) -> None:
-    """`ParameterError` when the recorded result cannot fit in memory, before anything runs (a
-    failed allocation in the extension would abort the process)."""
-    steps = max(1, math.ceil(duration / dt - 1e-9))
-    rows = steps // every + 1 + (steps % every != 0)
-    need = float(worlds) * rows * max(parts, 1) * RECORD_BYTES
-    if need * PEAK_FACTOR <= SMALL_RESULT:
-        return  # no machine that runs Python misses this much (the planners make many such calls)
-    have = available_memory()
-    if have is not None and need * PEAK_FACTOR > 0.9 * have:
-        raise ParameterError(
-            f"record_every is too small for this machine's memory: the result would hold "
-            f"{worlds} x {rows} x {parts} part-states ({need / 1e9:.3g} GB, about "
-            f"{need * PEAK_FACTOR / 1e9:.3g} GB while it is assembled) but {have / 1e9:.3g} GB of memory is "
-            f"available: raise record_every (now {every}), simulate fewer parts, or split the batch"
-        )
 
 
 _inner = attrgetter("_inner")
@@ -334,7 +290,7 @@ def _run(
     threads: int | None = None,
     contacts: dict[str, Any] | None = None,
     progress: Callable[[float], object] | None = None,
-    worlds: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None] | None = None,
+    worlds: _Worlds | None = None,
 ) -> tuple[Any, ...]:
     step = real("dt", dt, low=0.0, low_open=True)
     span = real("duration", duration, low=0.0, low_open=True)
@@ -390,6 +346,7 @@ def _run(
         world_mu=None if worlds is None else worlds[0],
         world_mu_s=None if worlds is None else worlds[1],
         world_positions=None if worlds is None else worlds[2],
+        world_angles=None if worlds is None else worlds[3],
         polygons=polygons,
         **(contacts or {}),
     )
@@ -550,7 +507,8 @@ def simulate_batch(
 
     ``starts (B, M, 2)`` [m]: each world starts its parts there instead of at ``parts``' positions
     (a vector of environments, each with its own layout; ``parts`` still gives their kinds, sizes
-    and velocities).
+    and velocities); ``(B, M, 3)``: and at these angles [rad] (polygons' poses: each frame's origin
+    and angle, as :meth:`upm.Polygon.moved` takes them).
     """
     cores = _cores(motions)
     contact = _contact(parts, plate_size, contacts, restitution, part_friction, walls, walls_move_with_plate,
@@ -575,10 +533,11 @@ def _progress(progress: Any) -> Callable[[float], object] | None:
 
 def _per_world(
     b: int, parts: Any, mu: ArrayLike, mu_s: ArrayLike | None, starts: ArrayLike | None
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None] | None:
+) -> _Worlds | None:
     """What differs from world to world, as the core reads it: ``(mu, mu_s)`` as ``(B, M)`` for
     ``b`` worlds and the ``starts`` as ``(B M, 2)`` (or None), when either friction is given per
-    world (shape ``(B, M)`` or ``(B, 1)``) or ``starts`` is; None when the worlds share it all."""
+    world (shape ``(B, M)`` or ``(B, 1)``) or ``starts`` is, with the start angles ``(B M,)`` when
+    ``starts`` holds them; None when the worlds share it all."""
     mu_a = as_float("mu", mu)
     mu_s_a = None if mu_s is None else as_float("mu_s", mu_s)
     if starts is None and mu_a.ndim < 2 and (mu_s_a is None or mu_s_a.ndim < 2):
@@ -594,12 +553,16 @@ def _per_world(
 
     kinetic = worlds("mu", mu_a)
     static = kinetic if mu_s_a is None else worlds("mu_s", mu_s_a)
-    at = None
+    at = turn = None
     if starts is not None:
         at = as_float("starts", starts)
-        if at.shape != (b, m, 2):
-            raise ShapeError(f"starts must have shape ({b}, {m}, 2) (world, part, xy); got {at.shape}")
+        if at.shape not in ((b, m, 2), (b, m, 3)):
+            raise ShapeError(
+                f"starts must have shape ({b}, {m}, 2) (world, part, xy) or ({b}, {m}, 3) (and the "
+                f"angle); got {at.shape}"
+            )
         if not np.all(np.isfinite(at)):
             raise ParameterError("starts must be finite")
-        at = np.ascontiguousarray(at.reshape(-1, 2))
-    return np.ascontiguousarray(kinetic), np.ascontiguousarray(static), at
+        turn = np.ascontiguousarray(at[..., 2].reshape(-1)) if at.shape[-1] > 2 else None
+        at = np.ascontiguousarray(at[..., :2].reshape(-1, 2))  # (B M, 2)
+    return np.ascontiguousarray(kinetic), np.ascontiguousarray(static), at, turn

@@ -212,6 +212,7 @@ fn each_alone_with_its_rows(
         mu_s: &mu_s,
         width: m,
         position: moved.then_some(&start[..]),
+        angle: None,
     };
     let all = simulate_stacked(motions, &parts.view(), cfg, None, Some(&friction), |_| {
         Ok::<(), Error>(())

@@ -56,6 +56,45 @@ fn a_part_spinning_in_place_slows_by_the_mean_distance_over_the_gyration_squared
 }
 
 #[test]
+fn a_spin_at_the_edge_of_sticking_with_a_trace_of_translation_steps_without_error() {
+    // Newton stalls at the kink at 0 here; the step is then the closed-form bound by Moreau's
+    // decomposition, no longer than (1 - 1/gauge) of the free twist
+    let p = Stepper::new(
+        Polygon::new(
+            "rect",
+            &[[-0.02, -0.01], [0.02, -0.01], [0.02, 0.01], [-0.02, 0.01]],
+        )
+        .unwrap(),
+    );
+    let c = 0.3 * 9.81 / 1680.0;
+    let k2 = p.gyration * p.gyration;
+    let edge = c * p.mean_distance / k2; // the spin one step's friction stops
+                                         // the case an environment met: a spin about the rotation's centre, the plate at 35 Hz
+    let met = [
+        4.057074677797014e-11,
+        -1.3747949125035572e-10,
+        0.12470613882083903,
+    ];
+    let mut cases = vec![met];
+    for e in [-1e-9, -1e-12, 0.0, 1e-13, 1e-12, 1e-10, 1e-8, 1e-7] {
+        for trace in [0.0, 1e-12, 3e-10, 1e-9] {
+            cases.push([trace, -3.3 * trace, edge * (1.0 + e)]);
+        }
+    }
+    for free in cases {
+        let st = p.step(free, c, c, false, None).unwrap();
+        let size = (free[0].powi(2) + free[1].powi(2) + k2 * free[2].powi(2)).sqrt();
+        let got = (st.w[0].powi(2) + st.w[1].powi(2) + k2 * st.w[2].powi(2)).sqrt();
+        assert!(got <= 1e-6 * size, "{free:?} -> {st:?}");
+        assert!(st.w[2] * free[2] >= 0.0, "{free:?} -> {st:?}"); // never turned back
+    }
+    // well past the edge, the closed form of a part spinning down in place
+    let spin = edge * 1.001;
+    let st = p.step([0.0, 0.0, spin], c, c, false, None).unwrap();
+    assert!((st.w[2] - (spin - edge)).abs() < 1e-9 * spin, "{st:?}");
+}
+
+#[test]
 fn the_step_is_the_minimiser_stuck_exactly_inside_the_limit_set() {
     let shape = pentagon();
     let p = Stepper::new(shape.clone());

@@ -368,7 +368,7 @@ fn view2<'a>(a: &'a PyReadonlyArray2<'_, f64>) -> std::borrow::Cow<'a, [f64]> {
 
 /// Simulates point and disk parts under each of `motions` (B worlds); arrays carry a batch axis.
 #[pyfunction]
-#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4, world_mu=None, world_mu_s=None, polygons=None, world_positions=None))]
+#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4, world_mu=None, world_mu_s=None, polygons=None, world_positions=None, world_angles=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -398,6 +398,7 @@ pub fn simulate<'py>(
     world_mu_s: Option<PyReadonlyArray2<'py, f64>>,
     polygons: Option<Vec<PolygonArg<'py>>>,
     world_positions: Option<PyReadonlyArray2<'py, f64>>,
+    world_angles: Option<PyReadonlyArray1<'py, f64>>,
 ) -> PyResult<Bound<'py, PyTuple>> {
     // Polygon parts: (part, vertices (K, 2) in its frame, three feet (3, 2) or None), checked
     // convex and counter-clockwise, the feet carrying it.
@@ -499,11 +500,20 @@ pub fn simulate<'py>(
             Error::parameter("world_positions", "need world_mu and world_mu_s"),
         ));
     }
+    // Start angles per world, (B * M,): with the positions only.
+    let world_turn = world_angles.as_ref().map(view);
+    if world_turn.is_some() && world_start.is_none() {
+        return Err(crate::errors::to_py(
+            py,
+            Error::parameter("world_angles", "need world_positions"),
+        ));
+    }
     let friction = worlds.as_ref().map(|(mu, mu_s, width)| sim::WorldRows {
         mu,
         mu_s,
         width: *width,
         position: world_start.as_deref(),
+        angle: world_turn.as_deref(),
     });
     // A run of little work runs on this thread (the core keeps it there on any pool; a kept pool
     // of `threads` would only add its hand-off).

@@ -38,29 +38,41 @@ def _render_mode(mode: str | None) -> str | None:
 
 def _frame(e: Episodes, row: int) -> NDArray[np.uint8]:
     """The synthetic camera's frame of plate ``row`` (RGB): red and blue chips for a sort,
-    pennies otherwise; lost parts are not drawn."""
+    polygons for an orientation, pennies otherwise; lost parts are not drawn."""
     from ..vision.synthetic import Camera, render
 
     q = e.positions[row]
     here = np.all(np.isfinite(q), axis=1)
-    labels = ["red" if s < 0 else "blue" for s in e.task.sides] if e.task.name == "sort" else ["penny"] * e.m
-    radius = e.o["part_radius"] or 0.0095
-    seen = [lab for lab, h in zip(labels, here, strict=True) if h]
-    frame = render(Camera(plate_size=e.limits.size), q[here], seen,
-                   radius=radius, rng=0)  # fmt: skip
+    camera = Camera(plate_size=e.limits.size)
+    polygon = e.o["polygon"]
+    if polygon is not None:  # drawn about their centroids
+        centres = q[here, :2] + polygon.centroid_offset(q[here, 2])
+        outline = polygon.vertices - polygon.centroid
+        frame = render(camera, centres, "part", angles=q[here, 2], shapes={"part": outline},
+                       colors={"part": (40, 160, 230)}, rng=0)  # fmt: skip
+    else:
+        sort = e.task.name == "sort"
+        labels = ["red" if s < 0 else "blue" for s in e.task.sides] if sort else ["penny"] * e.m
+        radius = e.o["part_radius"] or 0.0095
+        seen = [lab for lab, h in zip(labels, here, strict=True) if h]
+        frame = render(camera, q[here], seen, radius=radius, rng=0)
     out: NDArray[np.uint8] = np.ascontiguousarray(frame.image[..., ::-1])
     return out
 
 
 class PlateEnv(gym.Env[NDArray[np.float32], Any]):
-    """One vibrating plate and its parts (``upm/Goto-v0``, ``upm/Sort-v0``, ``upm/Shape-v0``).
+    """One vibrating plate and its parts (``upm/Goto-v0``, ``upm/Sort-v0``, ``upm/Shape-v0``,
+    ``upm/Orient-v0``).
 
     Keywords (all checked; `ParameterError` naming a bad one): ``task`` (``goto``, ``sort``,
-    ``shape``), ``n_parts`` (8), ``part_radius`` [m] (None: points), ``mu`` (0.3), ``mu_s``,
+    ``shape``, ``orient``), ``n_parts`` (8; Orient-v0 1), ``part_radius`` [m] (None: points),
+    ``mu`` (0.3), ``mu_s``,
     ``limits`` (a :class:`upm.DriveLimits`), ``action_space`` (``"pulse"``: a ``Box`` of 7 numbers,
     :mod:`upm.envs.actions`; ``"library"``: ``Discrete`` over a fixed motion library),
     ``contacts`` (rapier; needs ``part_radius``), ``max_plate_time`` [s] (60: truncated after it),
-    ``tolerance`` [m] (3.7 mm), ``lost_penalty`` (1 per part lost), ``shape`` (``ring``, ``grid``).
+    ``tolerance`` [m] (3.7 mm), ``lost_penalty`` (1 per part lost), ``shape`` (``ring``, ``grid``);
+    for ``orient``, ``polygon`` (a :class:`upm.Polygon` or ``"triangle"``, ``"square"``,
+    ``"rectangle"`` (default), ``"hexagon"``) and ``angle_tolerance`` [deg] (5).
 
     Reward: the decrease of the task's cost [m] per second of plate time, less ``lost_penalty``
     per part lost. Terminated when the task is done (or every part is lost).
@@ -93,7 +105,7 @@ class PlateEnv(gym.Env[NDArray[np.float32], Any]):
 
     @property
     def positions(self) -> NDArray[np.float64]:
-        """The parts [m], ``(M, 2)`` (NaN: lost)."""
+        """The parts [m], ``(M, 2)`` (polygons' poses ``(M, 3)``, the angle [rad]; NaN: lost)."""
         out: NDArray[np.float64] = self._e.positions[0].copy()
         return out
 

@@ -12,6 +12,7 @@ from .._arrays import integer, real
 from .._errors import ParameterError
 from ..drive import DriveLimits
 from .actions import ACTION_SIZE, library
+from .orient import OrientTask, polygon_of
 from .world import TASKS, Plates, Task
 
 __all__ = ["Episodes", "options"]
@@ -34,11 +35,18 @@ def options(
     tolerance: float = 0.0037,
     lost_penalty: float = 1.0,
     shape: str = "ring",
+    polygon: Any = "rectangle",
+    angle_tolerance: float = 5.0,
 ) -> dict[str, Any]:
     """The environments' keyword arguments, checked (`ParameterError` naming the first bad one)."""
     if task not in TASKS:
         raise ParameterError(f"task must be one of {TASKS}; got {task!r}")
     n_parts = integer("n_parts", n_parts, low=1, high=256)
+    outline = polygon_of(polygon) if task == "orient" else None
+    if task == "orient" and contacts:
+        raise ParameterError(
+            "contacts=True is not available for task 'orient' (polygons slide without contacts)"
+        )
     if task == "sort" and n_parts < 2:
         raise ParameterError(f"n_parts must be >= 2 for a sort (a part of each colour); got {n_parts}")
     radius = (
@@ -62,6 +70,8 @@ def options(
         "max_plate_time": real("max_plate_time", max_plate_time, low=0.0, high=1e6, low_open=True),
         "tolerance": real("tolerance", tolerance, low=0.0, high=0.1, low_open=True),
         "lost_penalty": real("lost_penalty", lost_penalty, low=0.0, high=1e6), "shape": shape,
+        "polygon": outline,
+        "angle_tolerance": real("angle_tolerance", angle_tolerance, low=0.0, high=180.0, low_open=True),
     }  # fmt: skip
 
 
@@ -74,14 +84,19 @@ class Episodes:
         self.n, self.m = n, o["n_parts"]
         self.limits: DriveLimits = o["limits"]
         self.half = self.limits.size / 2
-        self.task = Task(o["task"], self.m, self.limits, o["part_radius"], o["tolerance"], o["shape"])
-        self.plates = Plates(self.limits, o["mu"], o["mu_s"], o["part_radius"], o["contacts"])
+        self.task: Task | OrientTask
+        if o["task"] == "orient":
+            self.task = OrientTask(self.m, self.limits, o["polygon"], o["tolerance"], o["angle_tolerance"])
+        else:
+            self.task = Task(o["task"], self.m, self.limits, o["part_radius"], o["tolerance"], o["shape"])
+        self.plates = Plates(self.limits, o["mu"], o["mu_s"], o["part_radius"], o["contacts"], o["polygon"])
         self.library = library() if o["action_space"] == "library" else None
-        self.positions = np.zeros((n, self.m, 2))
-        self.goals = np.zeros((n, self.m, 2))
+        dim = 3 if o["polygon"] is not None else 2  # polygons' poses: x, y and the angle
+        self.positions = np.zeros((n, self.m, dim))
+        self.goals = np.zeros((n, self.m, dim))
         self.time = np.zeros(n)
         self.cost = np.zeros(n)
-        self.obs_size = 5 * self.m
+        self.obs_size = (9 if dim == 3 else 5) * self.m
 
     def reset(self, rows: NDArray[np.int64], rngs: list[np.random.Generator]) -> None:
         """New layouts for ``rows``, each drawn from its own generator."""
@@ -125,8 +140,12 @@ class Episodes:
 
     def observe(self) -> NDArray[np.float32]:
         """Observations ``(n, 5 M)``: positions and targets over half the plate's side (a lost
-        part's 0), then 1 for each part on the plate and 0 for a lost one."""
+        part's 0), then 1 for each part on the plate and 0 for a lost one (polygons' ``(n, 9
+        M)``: :meth:`upm.envs.orient.OrientTask.observe`)."""
         q = self.positions
+        if isinstance(self.task, OrientTask):
+            poses = np.clip(self.task.observe(q, self.goals), -2.0, 2.0)
+            return poses.astype(np.float32)
         here = np.all(np.isfinite(q), axis=2)
         targets = self.task.targets(q, self.goals)
         scale = 1.0 if self.task.name == "sort" else 1.0 / self.half

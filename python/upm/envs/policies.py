@@ -13,6 +13,7 @@ from ..control._steps import PointTargets
 from ..control.shape import ShapeTask
 from ..control.state import State
 from ..plan import PredictivePlanner
+from ..plan.orient import PosePlanner
 from .actions import ACTION_SIZE, library
 from .env import PlateEnv
 
@@ -55,9 +56,12 @@ class PlannerPolicy:
     predicts every candidate action (the motion library, and pulse actions at each part: jets
     toward its target and rotations about it, at two amplitudes) with the planner's model and
     plays the one with the best predicted gain per second of plate time (its look-ahead and
-    pairs included). It reads the env's exact state, not the float32 observation."""
+    pairs included). It reads the env's exact state, not the float32 observation.
 
-    def __init__(self, env: Any, planner: PredictivePlanner | None = None) -> None:
+    For ``upm/Orient-v0`` the planner is :class:`upm.plan.orient.PosePlanner` (its rollouts of
+    the polygons' exact friction and its pose score), over the same candidate actions."""
+
+    def __init__(self, env: Any, planner: PredictivePlanner | PosePlanner | None = None) -> None:
         plate = getattr(env, "unwrapped", env)
         if not isinstance(plate, PlateEnv):
             raise ParameterError(f"env must be a upm.envs.PlateEnv (or wrap one); got {type(plate).__name__}")
@@ -66,9 +70,15 @@ class PlannerPolicy:
         if e.library is not None:
             raise ParameterError("PlannerPolicy plays pulse actions: make the env with action_space='pulse'")
         o = e.o
-        self.planner = planner or PredictivePlanner(
-            e.limits, mu=o["mu"], mu_s=o["mu_s"], part_radius=o["part_radius"]
-        )
+        self.planner: Any = planner
+        if planner is None and o["polygon"] is not None:
+            self.planner = PosePlanner(o["polygon"], e.limits, mu=o["mu"], mu_s=o["mu_s"])
+        elif planner is None:
+            radius = o["part_radius"]
+            self.planner = PredictivePlanner(e.limits, mu=o["mu"], mu_s=o["mu_s"], part_radius=radius)
+        want = PosePlanner if o["polygon"] is not None else PredictivePlanner
+        if not isinstance(self.planner, want):
+            raise ParameterError(f"planner must be a upm.plan.{want.__name__} for this env; got {planner!r}")
         self.library = library()
         self._shape: ShapeTask | None = None
 
@@ -109,14 +119,39 @@ class PlannerPolicy:
         acts[:, 3] = (acts[:, 3] + 1) % 2 - 1  # angles into [-1, 1)
         return np.clip(acts, -1, 1)
 
+    def _poses(self) -> tuple[Any, State]:
+        """The orientation's state as the candidates read it: each part's target as its step."""
+        e = self.env._e
+        q = e.positions[0]
+        ids = np.nonzero(np.all(np.isfinite(q), axis=1))[0]
+        state = State(0, float(e.time[0]), ids.astype(np.int64), q[ids, :2], ("part",) * len(ids), 0.0)
+        return _Goals(e.goals[0][ids, :2], e.task.tolerance), state
+
     def __call__(self, obs: Any = None) -> NDArray[np.float32]:
-        task, state = self._task()
+        orient = isinstance(self.planner, PosePlanner)
+        task, state = self._poses() if orient else self._task()
         acts = self.candidates(state, task)
         decode = self.env._e.plates.actions.pulse
         pulses = [decode(a) for a in acts]
         moving = [k for k, p in enumerate(pulses) if p.kind != "rest"]
-        best, _, _ = self.planner.choose(task, state, [pulses[k] for k in moving], state.ids)
+        if orient:
+            best = self._best_pose([pulses[k] for k in moving], state.ids)
+        else:
+            best, _, _ = self.planner.choose(task, state, [pulses[k] for k in moving], state.ids)
         if best is None:  # nothing gains: the weakest short pulse (a near rest)
             return np.array([-1, 0, 0, 0, -1, 0, -1], dtype=np.float32)
         out: NDArray[np.float32] = acts[moving[best]].astype(np.float32).reshape(ACTION_SIZE)
         return out
+
+    def _best_pose(self, pulses: list[Any], ids: NDArray[np.int64]) -> int | None:
+        """The pulse whose predicted poses score best per second of plate time, or None when
+        none lowers the pose score."""
+        if not pulses or not len(ids):
+            return None
+        e = self.env._e
+        poses, targets = e.positions[0][ids], e.goals[0][ids]
+        now = float(self.planner.score(poses, targets))
+        after = self.planner.score(self.planner.predict(poses, pulses), targets)
+        gain = (now - after) / np.array([p.duration for p in pulses])
+        best = int(np.argmax(gain))
+        return best if gain[best] > 0 else None

@@ -15,7 +15,8 @@ Tasks (the cost is the control task's own, :mod:`upm.control`):
 * ``sort``: the first half of the parts to the left of ``-line``, the others to the right of
   ``+line``; :class:`~upm.control.SortTask`'s cost;
 * ``shape``: the parts onto a shape's points (:mod:`upm.shapes`), assigned anew every step
-  (:func:`upm.control.shape.assign`); :class:`~upm.control.ShapeTask`'s cost.
+  (:func:`upm.control.shape.assign`); :class:`~upm.control.ShapeTask`'s cost;
+* ``orient``: polygons to target poses (:mod:`upm.envs.orient`).
 """
 
 from __future__ import annotations
@@ -33,9 +34,11 @@ from ..control.tasks import SortTask
 from ..drive import DriveLimits
 from ..motion import PlateMotion
 from ..plan.sizing import settle_time, slide_to_rest, stopping_time
+from ..polygon import Polygon
 from ..shapes import scatter
 from ..sim import Disk, simulate_batch
 from .actions import FREQUENCIES, ON_TIMES, Decoded, PulseActions
+from .orient import play_polygons
 
 __all__ = ["DT_FACTOR", "TASKS", "Plates", "Task"]
 
@@ -44,7 +47,7 @@ BoolArray = NDArray[np.bool_]
 
 #: Integrator steps per period of a pulse's highest harmonic (the predictive planner's).
 DT_FACTOR = 24
-TASKS = ("goto", "sort", "shape")
+TASKS = ("goto", "sort", "shape", "orient")
 SHAPES = ("ring", "grid")
 
 
@@ -52,17 +55,23 @@ class Plates:
     """Plays decoded pulses on ``B`` plates of parts at once."""
 
     def __init__(
-        self, limits: DriveLimits, mu: float, mu_s: float | None, radius: float | None, contacts: bool
+        self,
+        limits: DriveLimits,
+        mu: float,
+        mu_s: float | None,
+        radius: float | None,
+        contacts: bool,
+        polygon: Polygon | None = None,
     ) -> None:
         self.limits, self.mu = limits, float(mu)
         self.mu_s = self.mu if mu_s is None else float(mu_s)
-        self.radius, self.contacts = radius, bool(contacts)
+        self.radius, self.contacts, self.polygon = radius, bool(contacts), polygon
         self.actions = PulseActions(limits)
 
     def play(self, positions: FloatArray, d: Decoded) -> tuple[FloatArray, FloatArray]:
-        """Where the parts ``(B, M, 2)`` (NaN: lost) are once they have stopped after each
-        world's pulse, and each world's plate time [s]."""
-        m = positions.shape[1]
+        """Where the parts ``(B, M, 2)`` (poses ``(B, M, 3)`` of polygons; NaN: lost) are once
+        they have stopped after each world's pulse, and each world's plate time [s]."""
+        m, dim = positions.shape[1], positions.shape[2]
         out = positions.copy()
         on = np.asarray(ON_TIMES)[d.on]
         durations = on.copy()
@@ -71,7 +80,7 @@ class Plates:
             return out, durations
         keys = d.frequency * len(ON_TIMES) + d.on
         # lost parts wait far off the plate, apart (their results are dropped)
-        park = np.stack([10.0 + 0.1 * np.arange(m), np.full(m, 10.0)], 1)
+        park = np.stack([10.0 + 0.1 * np.arange(m), np.full(m, 10.0), np.zeros(m)], 1)[:, :dim]
         half = self.limits.size / 2
         for key in np.unique(keys[moving]):
             rows = np.nonzero(moving & (keys == key))[0]
@@ -81,7 +90,10 @@ class Plates:
             lost = ~np.all(np.isfinite(start), axis=2)
             start = np.where(lost[..., None], park[None], start)
             dt = 1.0 / (DT_FACTOR * 2 * f)  # (every pulse's highest harmonic: twice its base)
-            if self.contacts:
+            if self.polygon is not None:
+                final, stop = play_polygons(self.polygon, motions, start, t_on, dt, self.mu, self.mu_s,
+                                            self.limits.size)  # fmt: skip
+            elif self.contacts:
                 final, stop = self._disks(motions, start, t_on, dt)
             else:
                 run = simulate_batch(
@@ -92,7 +104,7 @@ class Plates:
                 final[np.asarray(run.left_plate)] = np.nan
                 stop = t_on + np.max(np.where(lost, 0.0, stop), axis=1, initial=0.0)
             with np.errstate(invalid="ignore"):
-                final[np.any(np.abs(final) > half, axis=2)] = np.nan  # slid off the plate
+                final[np.any(np.abs(final[..., :2]) > half, axis=2)] = np.nan  # slid off the plate
             final[lost] = np.nan
             out[rows] = final
             durations[rows] = stop

@@ -272,7 +272,7 @@ impl PartsView<'_> {
 /// What differs from world to world of a batch: world `b`'s parts take `mu` and `mu_s` from rows
 /// `b * width .. (b + 1) * width`, `width` the number of parts or 1 (one value for all its parts),
 /// and, when `position` is given, their start from its rows `b * m .. (b + 1) * m` (a vector of
-/// environments, each with its own layout).
+/// environments, each with its own layout), and likewise their start angle from `angle`.
 #[derive(Debug, Clone, Copy)]
 pub struct WorldRows<'a> {
     /// Sliding friction, `worlds * width` values.
@@ -283,6 +283,8 @@ pub struct WorldRows<'a> {
     pub width: usize,
     /// Start positions [m], `worlds * parts` values, or `None`: every world starts as `parts`.
     pub position: Option<&'a [[f64; 2]]>,
+    /// Start angles [rad], `worlds * parts` values, or `None`: every world starts as `parts`.
+    pub angle: Option<&'a [f64]>,
 }
 
 impl<'a> WorldRows<'a> {
@@ -296,6 +298,14 @@ impl<'a> WorldRows<'a> {
                 return Err(Error::Shape(format!(
                     "positions per world must hold {worlds} x {parts} pairs; got {}",
                     p.len()
+                )));
+            }
+        }
+        if let Some(a) = self.angle {
+            if a.len() != worlds * parts {
+                return Err(Error::Shape(format!(
+                    "angles per world must hold {worlds} x {parts} values; got {}",
+                    a.len()
                 )));
             }
         }
@@ -324,6 +334,7 @@ impl<'a> WorldRows<'a> {
             position: self
                 .position
                 .map_or(parts.position, |p| &p[b * m..(b + 1) * m]),
+            angle: self.angle.map(|a| &a[b * m..(b + 1) * m]).or(parts.angle),
             ..*parts
         }
     }
@@ -349,6 +360,7 @@ mod tests {
             mu_s: &mu_s,
             width: 2,
             position: None,
+            angle: None,
         };
         f.check(3, 2).unwrap();
         let w = f.world(&view, 2);
@@ -359,6 +371,7 @@ mod tests {
             mu_s: &mu_s[..3],
             width: 1,
             position: None,
+            angle: None,
         };
         one.check(3, 2).unwrap();
         assert_eq!(one.world(&view, 1).mu(1), 0.2); // one value for every part of world 1
@@ -366,5 +379,18 @@ mod tests {
         assert!(matches!(one.check(4, 2), Err(Error::Shape(_))));
         let odd = WorldRows { width: 3, ..f };
         assert!(odd.check(2, 2).is_err());
+        let turns = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6];
+        let turned = WorldRows {
+            angle: Some(&turns),
+            ..f
+        };
+        turned.check(3, 2).unwrap();
+        assert_eq!(turned.world(&view, 1).angle(1), 0.4);
+        assert!(WorldRows {
+            angle: Some(&turns[..4]),
+            ..f
+        }
+        .check(3, 2)
+        .is_err());
     }
 }
