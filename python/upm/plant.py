@@ -25,7 +25,7 @@ from .actuation import Axis, Plate
 from .drive import DEFAULT_PLATE, PLATE_SIZE, DriveLimits, StrokeError, flexures, wrench_matrix
 from .motion import PlateMotion
 from .polygon import Polygon
-from .sim import Disk, simulate
+from .sim import Disk, _gravity, simulate
 
 if TYPE_CHECKING:
     from .vision.synthetic import Camera, VirtualCamera
@@ -96,6 +96,26 @@ def _min_gap(positions: FloatArray, gone: NDArray[np.bool_], radius: float) -> f
     return float(np.linalg.norm(p[:, i] - p[:, j], axis=-1).min() - 2 * radius)
 
 
+def _friction(mu: Any, mu_s: Any, m: int) -> tuple[Any, Any]:
+    """``mu`` and ``mu_s`` checked: each one value or ``(m,)`` values, finite, ``mu > 0`` and
+    ``mu_s >= mu`` (a float stays a float)."""
+    out: list[Any] = []
+    for name, value in (("mu", mu), ("mu_s", mu_s)):
+        if value is None:
+            out.append(None)
+            continue
+        a = as_float(name, value)
+        if a.ndim > 1 or (a.ndim == 1 and a.shape != (m,)):
+            raise ShapeError(f"{name} must be one value or one per part ({m},); got shape {a.shape}")
+        low = 0.0 if name == "mu" else out[0]
+        if not np.all(np.isfinite(a)) or np.any(a <= 0.0) or (low is not None and np.any(a < low)):
+            raise ParameterError(
+                f"{name} must be finite, > 0{' and >= mu' if name == 'mu_s' else ''}; got {value!r}"
+            )
+        out.append(float(a) if a.ndim == 0 else np.array(a))
+    return out[0], out[1]
+
+
 @dataclass
 class SimulatedUPM:
     """A simulated plate with four motors, two accelerometers and parts on it.
@@ -122,8 +142,12 @@ class SimulatedUPM:
     snr_db : float or None
         Sensor noise relative to ``full_scale`` (None: none).
     parts : (M, 2) array_like
-        Part positions [m]; ``mu``, ``mu_s`` their friction. A part whose centre leaves the plate
+        Part positions [m]; ``mu``, ``mu_s`` their friction: one value, or one per part (``(M,)``:
+        parts of different materials, or worn). A part whose centre leaves the plate
         (``plate_size`` [m] square, centred on the origin) falls off: its row becomes NaN.
+    tilt : (float, float)
+        The plate's slope [rad] along x and along y (a plate that is not level: :func:`upm.simulate`'s
+        ``tilt``; gravity pulls every part downhill, in the integrator's every step).
     part_radius : float or None
         Parts are disks of this radius [m] that collide with each other (``upm.simulate`` with
         ``contacts=True``, ``restitution`` and ``part_friction``); ``None``: point parts that pass
@@ -147,8 +171,8 @@ class SimulatedUPM:
     snr_db: float | None = 60.0
     sample_rate: float = 5000.0
     parts: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
-    mu: float = 0.3
-    mu_s: float | None = None
+    mu: Any = 0.3
+    mu_s: Any = None
     seed: int = 0
     plate_size: float = PLATE_SIZE
     stroke: float = 0.010
@@ -159,6 +183,7 @@ class SimulatedUPM:
     restitution: float = 0.5
     part_friction: float = 0.3
     gap_every: int = 20
+    tilt: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self) -> None:
         parts = np.array(as_float("parts", self.parts), dtype=np.float64)
@@ -167,9 +192,15 @@ class SimulatedUPM:
         if parts.ndim != 2 or parts.shape[1] != 2:
             raise ShapeError(f"parts must have shape (M, 2) [m]; got {parts.shape}")
         self.parts = parts
-        self.mu = real("mu", self.mu, low=0.0, low_open=True)
-        if self.mu_s is not None:
-            self.mu_s = real("mu_s", self.mu_s, low=self.mu)
+        self.mu, self.mu_s = _friction(self.mu, self.mu_s, len(parts))
+        _gravity(9.81, self.tilt)  # checked now, not at the first pulse
+        self.tilt = (float(self.tilt[0]), float(self.tilt[1]))
+        slope = math.hypot(math.tan(self.tilt[0]), math.tan(self.tilt[1]))
+        if slope >= float(np.min(self.mu_s if self.mu_s is not None else self.mu)):
+            raise ParameterError(
+                f"tilt {self.tilt} is steeper than the parts' friction angle (slope {slope:.3g} >= mu_s): "
+                "they would slide off a plate at rest"
+            )
         self.seed = integer("seed", self.seed, low=0)
         self.restitution = real("restitution", self.restitution, low=0.0, high=1.0)
         self.part_friction = real("part_friction", self.part_friction, low=0.0)
@@ -309,7 +340,7 @@ class SimulatedUPM:
         n = len(velocity)
         t = np.arange(n + 1) / self.sample_rate
         u = np.vstack([velocity, np.zeros((1, 3))])
-        coast = 2.0 * n / self.sample_rate * ((self.mu_s or self.mu) / self.mu) + 0.01
+        coast = 2.0 * n / self.sample_rate * self._grip() + 0.01
         motion = PlateMotion.sequence(
             [PlateMotion.from_samples(t, u[:, 0], u[:, 1], u[:, 2]), PlateMotion.rest(coast)]
         )
@@ -322,15 +353,22 @@ class SimulatedUPM:
             raise ParameterError("motion must be a upm.PlateMotion with a duration")
         top = motion.max_frequency
         dt = 1.0 / (200.0 * top) if top > 0 else 1e-3
-        coast = (motion.duration or 0.0) * ((self.mu_s or self.mu) / self.mu) + 0.01
+        coast = (motion.duration or 0.0) * self._grip() + 0.01
         self._advance(PlateMotion.sequence([motion, PlateMotion.rest(coast)]), dt)
+
+    def _grip(self) -> float:
+        """The largest static over sliding friction of any part (a coast long enough for all)."""
+        return float(
+            np.max(np.asarray(self.mu_s if self.mu_s is not None else self.mu) / np.asarray(self.mu))
+        )
 
     def _advance(self, motion: PlateMotion, dt: float) -> None:
         on = np.all(np.isfinite(self.parts), axis=1)
         if not np.any(on):
             return
-        opts: dict[str, Any] = {"duration": motion.duration or 0.0, "dt": dt, "mu": self.mu,
-                                "mu_s": self.mu_s, "plate_size": self.plate_size}  # fmt: skip
+        mu, mu_s = (None if f is None else (f[on] if np.ndim(f) else f) for f in (self.mu, self.mu_s))
+        opts: dict[str, Any] = {"duration": motion.duration or 0.0, "dt": dt, "mu": mu, "mu_s": mu_s,
+                                "plate_size": self.plate_size, "tilt": self.tilt}  # fmt: skip
         r = self.part_radius
         shapes = self.shapes
         if shapes is not None:

@@ -98,6 +98,7 @@ fn last_step_only(steps: usize, dt: f64) -> Config {
         g: 9.81,
         plate_size: None,
         record_every: std::env::var("EVERY").map_or(steps, |k| k.parse().expect("EVERY=k")),
+        tilt: [0.0; 2],
     }
 }
 
@@ -322,6 +323,7 @@ fn batch() {
         g: 9.81,
         plate_size: None,
         record_every: steps,
+        tilt: [0.0; 2],
     };
     let small = Parts::points(spread(m), vec![[0.0; 2]; m], vec![0.3; m], vec![0.4; m]);
     // (stacked, as the Python binding runs a batch)

@@ -29,6 +29,7 @@ fn config(dt: f64, duration: f64, plate_size: Option<f64>, record_every: usize) 
         g: 9.81,
         plate_size,
         record_every,
+        tilt: [0.0; 2],
     }
 }
 

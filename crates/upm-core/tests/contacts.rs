@@ -26,6 +26,7 @@ fn cfg(dt: f64, duration: f64) -> Config {
         g: 9.81,
         plate_size: None,
         record_every: 1,
+        tilt: [0.0; 2],
     }
 }
 

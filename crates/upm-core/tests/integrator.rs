@@ -33,6 +33,7 @@ fn cfg(dt: f64, duration: f64) -> Config {
         g: G,
         plate_size: None,
         record_every: 1,
+        tilt: [0.0; 2],
     }
 }
 

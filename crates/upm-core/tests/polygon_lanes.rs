@@ -86,6 +86,7 @@ fn cfg(steps: usize) -> Config {
         g: G,
         plate_size: None,
         record_every: 1,
+        tilt: [0.0; 2],
     }
 }
 

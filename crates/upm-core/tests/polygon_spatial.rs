@@ -49,6 +49,7 @@ fn cfg(dt: f64, steps: usize) -> Config {
         g: G,
         plate_size: None,
         record_every: 1,
+        tilt: [0.0; 2],
     }
 }
 

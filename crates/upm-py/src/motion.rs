@@ -368,7 +368,7 @@ fn view2<'a>(a: &'a PyReadonlyArray2<'_, f64>) -> std::borrow::Cow<'a, [f64]> {
 
 /// Simulates point and disk parts under each of `motions` (B worlds); arrays carry a batch axis.
 #[pyfunction]
-#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4, world_mu=None, world_mu_s=None, polygons=None, world_positions=None, world_angles=None))]
+#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4, world_mu=None, world_mu_s=None, polygons=None, world_positions=None, world_angles=None, tilt=(0.0, 0.0)))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -399,6 +399,7 @@ pub fn simulate<'py>(
     polygons: Option<Vec<PolygonArg<'py>>>,
     world_positions: Option<PyReadonlyArray2<'py, f64>>,
     world_angles: Option<PyReadonlyArray1<'py, f64>>,
+    tilt: (f64, f64),
 ) -> PyResult<Bound<'py, PyTuple>> {
     // Polygon parts: (part, vertices (K, 2) in its frame, three feet (3, 2) or None), checked
     // convex and counter-clockwise, the feet carrying it.
@@ -432,6 +433,7 @@ pub fn simulate<'py>(
         g,
         plate_size,
         record_every,
+        tilt: [tilt.0, tilt.1],
     };
     // (lent, not copied: the Python objects stay borrowed for the call)
     let motions: Vec<&CoreMotion> = motions.iter().map(|p| &p.inner).collect();

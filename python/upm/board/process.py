@@ -218,7 +218,8 @@ def main(argv: list[str] | None = None) -> int:
         "--scene",
         type=str,
         default=None,
-        help='the plate\'s contents, a JSON file: {"parts": [[x, y], ...], "labels": [...], "mu": 0.3, '
+        help='the plate\'s contents, a JSON file: {"parts": [[x, y], ...], "labels": [...], '
+        '"mu": 0.3 or one per part, "mu_s", "tilt": [slope_x, slope_y] (rad, a plate not level), '
         '"part_radius": r (colliding disks) or "part_shape": [[x, y], ...], "angles": [...] and optionally '
         '"part_support": [[x, y] x 3] (colliding convex polygons, on three feet), "plate": [m, I, r], '
         '"stroke": 0.01, "camera": {...}, "render": {...}}',
@@ -242,13 +243,17 @@ def main(argv: list[str] | None = None) -> int:
         options["stroke"] = float(scene["stroke"])
     if args.stroke is not None:
         options["stroke"] = float(args.stroke)
+    if "tilt" in scene:  # the plate's slope [rad] along x and y: not level
+        options["tilt"] = tuple(scene["tilt"])
+    if "mu_s" in scene:
+        options["mu_s"] = scene["mu_s"]
     if "part_shape" in scene:  # a convex outline [[x, y], ...] [m]: polygon parts
         from ..polygon import Polygon
 
         options["part_shape"] = Polygon(scene["part_shape"], support=scene.get("part_support"))
         options["angles"] = scene.get("angles")
     plant = SimulatedUPM(snr_db=args.snr_db, seed=args.seed, parts=scene.get("parts", np.zeros((0, 2))),
-                         mu=float(scene.get("mu", 0.3)), part_radius=scene.get("part_radius"),
+                         mu=scene.get("mu", 0.3), part_radius=scene.get("part_radius"),
                          **options)  # fmt: skip
     if args.axes == 6 and (plant.part_radius is not None or plant.part_shape is not None):
         parser.error("--axes 6 moves point parts: leave part_radius and part_shape out of the scene")

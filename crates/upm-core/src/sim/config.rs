@@ -22,6 +22,10 @@ pub struct Config {
     pub plate_size: Option<f64>,
     /// Record every this many steps (the initial state is always recorded).
     pub record_every: usize,
+    /// Gravity's part in the plate's plane [m/s^2] (a plate that is not level: `g sin` of its
+    /// slope along x and along y, downhill), pulling every part; `g` is then the normal part.
+    /// Zero on a level plate.
+    pub tilt: [f64; 2],
 }
 
 impl Config {
@@ -35,6 +39,15 @@ impl Config {
         positive("dt", self.dt)?;
         positive("duration", self.duration)?;
         positive("g", self.g)?;
+        if !self.tilt.iter().all(|a| a.is_finite() && a.abs() <= self.g) {
+            return Err(Error::parameter(
+                "tilt",
+                format!(
+                    "must be finite and below g = {} m/s^2; got {:?}",
+                    self.g, self.tilt
+                ),
+            ));
+        }
         if let Some(size) = self.plate_size {
             positive("plate_size", size)?;
         }
@@ -71,6 +84,13 @@ impl Config {
     /// [`Config::steps`] that depends on the motion (a batch makes it for every world, and the
     /// others once).
     pub(super) fn resolves(&self, motion: &PlateMotion) -> Result<()> {
+        if motion.is_spatial() && self.tilt != [0.0; 2] {
+            return Err(Error::parameter(
+                "tilt",
+                "is modelled on a plate that moves in its plane only (not on the 6-DOF plate's \
+                 motions out of it); give a planar motion or a level plate",
+            ));
+        }
         let f_max = motion.max_frequency();
         let dt_max = 1.0 / (20.0 * f_max);
         if f_max > 0.0 && self.dt > dt_max {

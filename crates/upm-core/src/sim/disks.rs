@@ -23,6 +23,8 @@ pub(super) struct DiskState {
     pub(super) left: Option<f64>,
     pub(super) slide: f64,
     pub(super) hold: f64,
+    /// Gravity's in-plane velocity a step [m/s] ([`Config::tilt`] `dt`).
+    pub(super) kick: [f64; 2],
     /// Its place among all parts.
     pub(super) index: usize,
     /// Height above the plate and its rate, on a plate that moves out of its plane ([`lift`]).
@@ -47,6 +49,7 @@ impl DiskState {
             left: outside.then_some(0.0),
             slide: parts.mu(i) * cfg.g * cfg.dt,
             hold: parts.mu_s(i) * cfg.g * cfg.dt,
+            kick: super::points::kick(cfg),
             index: i,
             air: [0.0; 2],
             flight: 0,
@@ -64,7 +67,10 @@ impl DiskState {
         let (sx, sy) = (u1 - u3 * y, u2 + u3 * x);
         (
             [sx, sy],
-            [self.v[0] - sx, self.v[1] - sy],
+            [
+                (self.v[0] + self.kick[0]) - sx,
+                (self.v[1] + self.kick[1]) - sy,
+            ],
             self.radius * (self.spin - u3),
         )
     }

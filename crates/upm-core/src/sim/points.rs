@@ -40,6 +40,8 @@ pub(super) struct Source<'p> {
     pub(super) u0: [f64; 3],
     /// Half the plate's side.
     pub(super) half: f64,
+    /// Gravity's in-plane velocity a step [m/s] ([`Config::tilt`] `dt`).
+    pub(super) kick: [f64; 2],
     /// `g dt`.
     pub(super) scale: f64,
     /// Set when a point's position or velocity is not finite (the run then stops after its
@@ -137,6 +139,7 @@ impl Base {
             left: a(6),
             slide: a(7),
             hold: a(8),
+            kick: [0.0; 2],
         };
         let air = spatial.then(|| Air {
             h: a(9),
@@ -289,6 +292,7 @@ impl<'p> Points<'p> {
             // SAFETY: the range is written (just now, or by the first block); chunks are
             // disjoint, and so are the tasks' own buffers.
             let (mut l, mut air) = unsafe { state.chunk(at, k, spatial) };
+            l.kick = kick(cfg);
             if source.is_some() {
                 write(&l, start, 0, rec, index);
             }
@@ -344,6 +348,7 @@ impl<'p> Source<'p> {
             index,
             u0,
             half: half_side(cfg),
+            kick: kick(cfg),
             scale: cfg.g * cfg.dt,
             not_finite,
         }
@@ -499,4 +504,9 @@ pub(super) fn write(l: &Lanes, start: usize, row: usize, rec: &Rec, index: Optio
         }
     }
     rec.fence();
+}
+
+/// The velocity gravity's in-plane part adds to a part in a step of `cfg` [m/s].
+pub(super) fn kick(cfg: &Config) -> [f64; 2] {
+    [cfg.tilt[0] * cfg.dt, cfg.tilt[1] * cfg.dt]
 }

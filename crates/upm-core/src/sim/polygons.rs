@@ -63,6 +63,8 @@ pub(super) struct PolygonState {
     pub(super) flight: usize,
     slide: f64,
     pub(super) hold: f64,
+    /// Gravity's in-plane velocity a step [m/s] ([`Config::tilt`] `dt`).
+    pub(super) kick: [f64; 2],
     /// Its place among all parts.
     pub(super) index: usize,
     /// The cosine and sine of the angle, kept as the angle changes ([`PolygonState::turn_to`]),
@@ -180,6 +182,7 @@ impl PolygonState {
             flight: 0,
             slide: parts.mu(i) * cfg.g * cfg.dt,
             hold: parts.mu_s(i) * cfg.g * cfg.dt,
+            kick: super::points::kick(cfg),
             index: i,
             cs: [angle.cos(), angle.sin()],
             turns: 0,
@@ -294,7 +297,10 @@ impl PolygonState {
     fn request(&self, [u1, u2, u3]: [f64; 3], load: f64) -> (Request, [f64; 2]) {
         let [x, y] = self.c;
         let surface = [u1 - u3 * y, u2 + u3 * x];
-        let free = [self.v[0] - surface[0], self.v[1] - surface[1]];
+        let free = [
+            (self.v[0] + self.kick[0]) - surface[0],
+            (self.v[1] + self.kick[1]) - surface[1],
+        ];
         let cs = self.turned();
         let local = turn([cs[0], -cs[1]], free);
         let r = Request {

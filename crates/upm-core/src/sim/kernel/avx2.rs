@@ -129,7 +129,7 @@ unsafe fn tile<const EDGE: bool, const WORLDS: bool, const T: usize>(
         *l = _mm256_cmpgt_epi64(_mm256_set1_epi64x(k), _mm256_set_epi64x(3, 2, 1, 0));
     }
     let at = |j: usize| start + 4 * j;
-    let c = Consts::new(dt, half);
+    let c = Consts::new(dt, half, s.kick);
     let mut v = [Four::zero(); T];
     for (j, v) in v.iter_mut().enumerate() {
         let k = live[j];
@@ -255,14 +255,20 @@ pub(in crate::sim) struct Consts {
     one: __m256d,
     hdt: __m256d,
     half: __m256d,
+    /// The in-plane gravity's velocity a step, x and y ([`super::Lanes::kick`]).
+    kx: __m256d,
+    ky: __m256d,
     abs: __m256d,
 }
 
 impl Consts {
-    /// For steps of `dt` on a plate of half side `half`.
+    /// For steps of `dt` on a plate of half side `half`, gravity's in-plane part adding `kick`
+    /// to every part's velocity a step.
     #[inline(always)]
-    pub(in crate::sim) unsafe fn new(dt: f64, half: f64) -> Self {
+    pub(in crate::sim) unsafe fn new(dt: f64, half: f64, kick: [f64; 2]) -> Self {
         Consts {
+            kx: _mm256_set1_pd(kick[0]),
+            ky: _mm256_set1_pd(kick[1]),
             one: _mm256_set1_pd(1.0),
             hdt: _mm256_set1_pd(0.5 * dt),
             half: _mm256_set1_pd(half),
@@ -288,7 +294,10 @@ pub(in crate::sim) unsafe fn step<const EDGE: bool>(
 ) -> __m256d {
     let sx = _mm256_fnmadd_pd(u3, v.y, u1);
     let sy = _mm256_fmadd_pd(u3, v.x, u2);
-    let (wx, wy) = (_mm256_sub_pd(v.vx, sx), _mm256_sub_pd(v.vy, sy));
+    let (wx, wy) = (
+        _mm256_sub_pd(_mm256_add_pd(v.vx, c.kx), sx),
+        _mm256_sub_pd(_mm256_add_pd(v.vy, c.ky), sy),
+    );
     let q = _mm256_fmadd_pd(wx, wx, _mm256_mul_pd(wy, wy));
     let stick = _mm256_or_pd(
         _mm256_cmp_pd::<_CMP_LE_OQ>(q, v.s2),

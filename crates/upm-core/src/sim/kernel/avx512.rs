@@ -118,7 +118,7 @@ unsafe fn tile<const EDGE: bool, const WORLDS: bool, const T: usize>(
         *l = if lo < n { first_lanes(n - lo) } else { 0 };
     }
     let at = |j: usize| start + 8 * j;
-    let c = Consts::new(dt, half);
+    let c = Consts::new(dt, half, s.kick);
     let mut v = [Eight::zero(); T];
     for (j, v) in v.iter_mut().enumerate() {
         let k = live[j];
@@ -291,13 +291,19 @@ pub(in crate::sim) struct Consts {
     one: __m512d,
     hdt: __m512d,
     half: __m512d,
+    /// The in-plane gravity's velocity a step, x and y ([`super::Lanes::kick`]).
+    kx: __m512d,
+    ky: __m512d,
 }
 
 impl Consts {
-    /// For steps of `dt` on a plate of half side `half`.
+    /// For steps of `dt` on a plate of half side `half`, gravity's in-plane part adding `kick`
+    /// to every part's velocity a step.
     #[inline(always)]
-    pub(in crate::sim) unsafe fn new(dt: f64, half: f64) -> Self {
+    pub(in crate::sim) unsafe fn new(dt: f64, half: f64, kick: [f64; 2]) -> Self {
         Consts {
+            kx: _mm512_set1_pd(kick[0]),
+            ky: _mm512_set1_pd(kick[1]),
             one: _mm512_set1_pd(1.0),
             hdt: _mm512_set1_pd(0.5 * dt),
             half: _mm512_set1_pd(half),
@@ -346,7 +352,10 @@ pub(in crate::sim) unsafe fn step<const EDGE: bool>(
 ) -> __mmask8 {
     let sx = _mm512_fnmadd_pd(u3, v.y, u1);
     let sy = _mm512_fmadd_pd(u3, v.x, u2);
-    let (wx, wy) = (_mm512_sub_pd(v.vx, sx), _mm512_sub_pd(v.vy, sy));
+    let (wx, wy) = (
+        _mm512_sub_pd(_mm512_add_pd(v.vx, c.kx), sx),
+        _mm512_sub_pd(_mm512_add_pd(v.vy, c.ky), sy),
+    );
     let q = _mm512_fmadd_pd(wx, wx, _mm512_mul_pd(wy, wy));
     // |w| <= mu g dt, or stuck and |w| <= mu_s g dt, compared squared.
     let stick = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(q, v.s2)

@@ -47,6 +47,10 @@ pub(super) struct Lanes<'a> {
     pub slide: &'a [f64],
     /// `mu_s g dt` per part.
     pub hold: &'a [f64],
+    /// The velocity gravity's in-plane part adds in a step, `tilt dt` [m/s] ([`Config::tilt`]).
+    ///
+    /// [`Config::tilt`]: crate::sim::Config::tilt
+    pub kick: [f64; 2],
 }
 
 impl Lanes<'_> {
@@ -334,7 +338,7 @@ fn run_portable(plate: Plate, first: usize, dt: f64, half: f64, s: &mut Lanes) {
 fn portable_step(s: &mut Lanes, i: usize, [u1, u2, u3]: [f64; 3], step: usize, dt: f64, half: f64) {
     let (x, y, vx, vy) = (s.x[i], s.y[i], s.vx[i], s.vy[i]);
     let (sx, sy) = (u1 - u3 * y, u2 + u3 * x);
-    let (wx, wy) = (vx - sx, vy - sy);
+    let (wx, wy) = ((vx + s.kick[0]) - sx, (vy + s.kick[1]) - sy);
     let wn = (wx * wx + wy * wy).sqrt();
     let (slide, hold) = (s.slide[i], s.hold[i]);
     let stick = (wn <= slide) | ((s.stuck[i] > 0.0) & (wn <= hold));
@@ -418,6 +422,8 @@ mod tests {
                 left: &mut self.left,
                 slide,
                 hold,
+                // a plate not level (0.3 and -0.5 m/s^2 in its plane): every build adds it alike
+                kick: [0.3e-4, -0.5e-4],
             };
             run_with(simd, Plate::shared(table), 0, 1e-4, half, &mut lanes);
         }

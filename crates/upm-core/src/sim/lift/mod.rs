@@ -392,6 +392,7 @@ mod tests {
                 left,
                 slide: sl,
                 hold: ho,
+                kick: [0.0; 2],
             };
             let mut air = Air { h, hv, flight };
             match simd {

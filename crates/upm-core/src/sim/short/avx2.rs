@@ -109,7 +109,7 @@ impl Source<'_> {
             self.not_finite.store(true, Ordering::Relaxed);
         }
         record(rec, 0, at, v);
-        let c = Consts::new(dt, self.half);
+        let c = Consts::new(dt, self.half, self.kick);
         let mut next = rec.next_after(0);
         for (k, &u) in table.iter().enumerate() {
             let u = splat(u);

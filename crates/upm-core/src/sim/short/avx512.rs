@@ -108,7 +108,7 @@ unsafe fn tile<const EDGE: bool, const T: usize>(
         src.not_finite.store(true, Ordering::Relaxed);
     }
     record(rec, 0, at, v);
-    let c = Consts::new(dt, src.half);
+    let c = Consts::new(dt, src.half, src.kick);
     let mut next = rec.next_after(0);
     for (k, &u) in table.iter().enumerate() {
         let u = splat(u);

@@ -133,6 +133,7 @@ mod tests {
                             g: 9.81,
                             plate_size,
                             record_every: every,
+                            tilt: [0.0; 2],
                         };
                         OFF.store(true, Ordering::Relaxed);
                         let general = run(&rot, &parts, &cfg).unwrap();
@@ -192,6 +193,7 @@ mod tests {
             g: 9.81,
             plate_size: None,
             record_every: 1,
+            tilt: [0.0; 2],
         };
         let err = run(&rest, &parts, &cfg).unwrap_err();
         assert!(err.to_string().contains("17"), "{err}");

@@ -1,0 +1,151 @@
+"""A plate that is not level (``tilt``, issue 60): gravity's in-plane part in the core integrator,
+for points, disks and polygons, against closed forms and an independent 1-D stick-slip reference."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import upm
+
+G = 9.81
+
+
+def _still(parts, tilt, duration=0.5, mu=0.3, mu_s=None):
+    return upm.simulate(upm.PlateMotion.rest(duration), parts, duration=duration, dt=1e-3, mu=mu, mu_s=mu_s,
+                        record_every=10, tilt=tilt)  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "make", [lambda: [[0.0, 0.0]], lambda: [upm.Disk((0.0, 0.0), 0.01)],
+             lambda: [upm.Polygon.rectangle(0.04, 0.02)]],
+    ids=["point", "disk", "polygon"],
+)  # fmt: skip
+def test_on_a_still_plate_steeper_than_friction_a_part_slides_at_g_sin_less_mu_g_cos(make):
+    # tan 0.35 = 0.365 > mu = 0.3: it slides downhill (toward -x) at g (sin - mu cos), from rest
+    theta, mu = 0.35, 0.3
+    run = _still(make(), (theta, 0.0), mu=mu)
+    a = G * (math.sin(theta) - mu * math.cos(theta))
+    t = run.t
+    np.testing.assert_allclose(run.positions[:, 0, 0], -0.5 * a * t**2, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(run.positions[:, 0, 1], 0.0, atol=1e-12)
+    if run.angles.size:
+        np.testing.assert_allclose(run.angles[:, 0], 0.0, atol=1e-12)  # a symmetric part does not turn
+    # the same slope along y
+    run_y = _still(make(), (0.0, -theta), mu=mu)
+    np.testing.assert_allclose(run_y.positions[:, 0, 1], 0.5 * a * t**2, rtol=1e-9, atol=1e-12)
+
+
+def test_below_the_friction_angle_a_part_stays_and_static_friction_holds_it_longer():
+    parts = [[0.0, 0.0], [0.05, 0.0]]
+    still = _still(parts, (0.2, 0.1), mu=0.3)  # tan of the slope about 0.22 < 0.3
+    np.testing.assert_array_equal(still.positions[-1], parts)
+    assert still.stuck[-1].all()
+    held = _still(parts, (0.35, 0.0), mu=0.3, mu_s=0.4)  # 0.365 < mu_s: it never starts
+    np.testing.assert_array_equal(held.positions[-1], parts)
+
+
+def reference_1d(a, f, mu, slope, periods, steps_per_period):
+    """Independent 1-D stick-slip reference on a plate rising toward +x by ``slope``: explicit
+    Coulomb sliding at ``-g sin slope -+ mu g cos slope``, exact stick when the relative velocity
+    changes sign within a step, release when keeping the part with the plate needs more than
+    ``mu g cos slope``. Plate velocity ``a (sin wt + cos(2wt)/2)``."""
+    w = 2 * math.pi * f
+    dt = 1.0 / f / steps_per_period
+    pull, grip = -G * math.sin(slope), mu * G * math.cos(slope)
+    x = v = 0.0
+    stuck = True
+    for n in range(int(periods * steps_per_period)):
+        t1 = (n + 1) * dt
+        vs1 = a * (math.sin(w * t1) + 0.5 * math.cos(2 * w * t1))
+        as1 = a * w * (math.cos(w * t1) - math.sin(2 * w * t1))
+        if stuck and abs(as1 - pull) <= grip:
+            v_new = vs1
+        else:
+            rel = v - vs1
+            v_new = v + (pull - math.copysign(grip, rel)) * dt
+            stuck = (v_new - vs1) * rel <= 0
+            if stuck:
+                v_new = vs1
+        x += 0.5 * (v + v_new) * dt
+        v = v_new
+    return x
+
+
+@pytest.mark.parametrize("slope", [math.radians(0.5), math.radians(-2.0)])
+def test_a_vibrating_tilted_plate_feeds_as_an_independent_reference(slope):
+    # the thesis's two-harmonic feed (about half the amplitude a second), uphill and downhill
+    a, f, mu, periods = 0.02, 35.0, 0.1, 12
+    ref = reference_1d(a, f, mu, slope, periods, 8000)
+    level = reference_1d(a, f, mu, 0.0, periods, 8000)
+    drive = upm.TwoHarmonic(0.5, np.pi / 2, amplitude=a, frequency=f)
+    motion = upm.PlateMotion.translation((1, 0), drive)
+    run = upm.simulate(motion, [[0.0, 0.0]], duration=periods / f, dt=1 / f / 4000, mu=mu,
+                       record_every=4000, tilt=(slope, 0.0))  # fmt: skip
+    assert run.positions[-1, 0, 0] == pytest.approx(ref, rel=3e-3)
+    assert abs(ref - level) > 0.05 * abs(level)  # the slope matters at this size
+
+
+def test_a_batch_and_its_vector_builds_carry_the_tilt_alike_and_bad_tilts_are_refused():
+    rng = np.random.default_rng(1)
+    parts = rng.uniform(-0.1, 0.1, (37, 2))  # vectors of 4 and 8 and a remainder
+    jets = [upm.Pulse.jet(rng.uniform(-0.05, 0.05, 2), (1.0, 0.0), 0.04, 0.1, 35.0, 0.05, 0.1, 0.05)
+            for _ in range(3)]  # fmt: skip
+    motions = [j.motion() for j in jets]
+    kw = {"duration": 0.3, "dt": 1 / 1680, "mu": 0.3, "record_every": 50, "tilt": (0.01, -0.02)}
+    batch = upm.simulate_batch(motions, parts, **kw)
+    for w, m in enumerate(motions):
+        alone = upm.simulate(m, parts, **kw)
+        np.testing.assert_array_equal(batch.positions[w], alone.positions)
+        level = upm.simulate(m, parts, **{**kw, "tilt": (0.0, 0.0)})
+        assert not np.allclose(alone.positions[-1], level.positions[-1], atol=1e-5)
+    for bad in [(0.6, 0.0), (np.nan, 0.0), (0.1,), "x"]:
+        with pytest.raises(upm.UpmError, match="tilt"):
+            upm.simulate(motions[0], parts, **{**kw, "tilt": bad})
+
+
+def test_a_plate_that_moves_out_of_its_plane_refuses_a_tilt_it_does_not_model():
+    motion = upm.PlateMotion.harmonic(50.0, x=[(1, 5.0, 0.0)], z=[(1, 5.0, 0.0)])
+    assert motion.is_spatial
+    with pytest.raises(upm.ParameterError, match="tilt"):
+        upm.simulate(motion, [[0.0, 0.0]], duration=0.01, dt=1e-4, mu=0.3, tilt=(0.01, 0.0))
+    upm.simulate(motion, [[0.0, 0.0]], duration=0.01, dt=1e-4, mu=0.3)  # level: as before
+
+
+def test_the_simulated_plate_tilts_its_parts_each_of_its_own_friction():
+    from upm.plant import SimulatedUPM
+
+    # one part of low friction (0.05) and one of 0.3 on a plate sloping 0.03 rad: a still plate
+    # holds both, a vibrating one carries the slippery part downhill (toward -x) the farther
+    parts = np.array([[0.0, 0.05], [0.0, -0.05]])
+    plant = SimulatedUPM(parts=parts.copy(), mu=[0.05, 0.3], tilt=(0.03, 0.0))
+    level = SimulatedUPM(parts=parts.copy(), mu=[0.05, 0.3])
+    shake = upm.PlateMotion.translation((0.0, 1.0), upm.Harmonics([0.3], [0.0], frequency=30.0)).for_duration(
+        0.5
+    )
+    for p in (plant, level):
+        p.play(shake)
+    drift = plant.parts[:, 0] - level.parts[:, 0]
+    assert drift[0] < -1e-3 and abs(drift[1]) < 0.2 * abs(drift[0])
+    with pytest.raises(upm.ParameterError, match="tilt"):
+        SimulatedUPM(parts=parts, mu=0.05, tilt=(0.06, 0.0))  # steeper than friction: they slide off
+    with pytest.raises(upm.ShapeError, match="mu"):
+        SimulatedUPM(parts=parts, mu=[0.3, 0.3, 0.3])
+
+
+def test_the_loop_sorts_four_chips_on_a_plate_half_a_degree_off_level():
+    from upm import control
+    from upm.plan import PredictivePlanner
+    from upm.plant import SimulatedUPM
+
+    chip = 0.0195
+    parts = np.array([[-0.07, 0.06], [0.06, 0.05], [-0.05, -0.06], [0.07, -0.05]])
+    labels = ["red", "blue", "red", "blue"]
+    plant = SimulatedUPM(parts=parts, part_radius=chip, seed=3, tilt=(math.radians(0.5), math.radians(-0.3)))
+    planner = PredictivePlanner(plant.limits, mu=0.3, part_radius=chip)  # it is not told of the tilt
+    task = control.SortTask({"red": -1, "blue": 1}, line=0.09, margin=0.08)
+    log = control.Loop(plant, plant.camera(labels, seed=3), planner, task, part_radius=chip).run(40)
+    assert log.done and plant.fallen == 0
+    assert np.all(plant.parts[[0, 2], 0] < -0.09) and np.all(plant.parts[[1, 3], 0] > 0.09)
