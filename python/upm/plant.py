@@ -96,6 +96,14 @@ def _min_gap(positions: FloatArray, gone: NDArray[np.bool_], radius: float) -> f
     return float(np.linalg.norm(p[:, i] - p[:, j], axis=-1).min() - 2 * radius)
 
 
+def _per_motor(name: str, value: Any, low: float, high: float) -> FloatArray:
+    """Four finite values within ``(low, high]`` (one per motor), or `ParameterError`."""
+    a = as_float(name, value)
+    if a.shape != (4,) or not np.all(np.isfinite(a)) or np.any(a <= low) or np.any(a > high):
+        raise ParameterError(f"{name} must be 4 numbers (X1, X2, Y1, Y2) in ({low:g}, {high:g}]; got {value!r}")
+    return np.array(a, dtype=np.float64)
+
+
 def _friction(mu: Any, mu_s: Any, m: int) -> tuple[Any, Any]:
     """``mu`` and ``mu_s`` checked: each one value or ``(m,)`` values, finite, ``mu > 0`` and
     ``mu_s >= mu`` (a float stays a float)."""
@@ -148,6 +156,10 @@ class SimulatedUPM:
     tilt : (float, float)
         The plate's slope [rad] along x and along y (a plate that is not level: :func:`upm.simulate`'s
         ``tilt``; gravity pulls every part downhill, in the integrator's every step).
+    motor_gain, motor_phase : (4,) array_like
+        Motors that are not quite the model: motor ``i`` (X1, X2, Y1, Y2) delivers ``motor_gain[i]``
+        times the force asked, ``motor_phase[i]`` [rad] late at its drive frequency (a delay: each
+        harmonic ``k`` lags ``k motor_phase[i]``). Gains within ``(0, 2]``, phases within ``pi/2``.
     part_radius : float or None
         Parts are disks of this radius [m] that collide with each other (``upm.simulate`` with
         ``contacts=True``, ``restitution`` and ``part_friction``); ``None``: point parts that pass
@@ -184,6 +196,8 @@ class SimulatedUPM:
     part_friction: float = 0.3
     gap_every: int = 20
     tilt: tuple[float, float] = (0.0, 0.0)
+    motor_gain: Any = (1.0, 1.0, 1.0, 1.0)
+    motor_phase: Any = (0.0, 0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         parts = np.array(as_float("parts", self.parts), dtype=np.float64)
@@ -193,6 +207,8 @@ class SimulatedUPM:
             raise ShapeError(f"parts must have shape (M, 2) [m]; got {parts.shape}")
         self.parts = parts
         self.mu, self.mu_s = _friction(self.mu, self.mu_s, len(parts))
+        self.motor_gain = _per_motor("motor_gain", self.motor_gain, 0.0, 2.0)
+        self.motor_phase = _per_motor("motor_phase", self.motor_phase, -math.pi / 2, math.pi / 2)
         _gravity(9.81, self.tilt)  # checked now, not at the first pulse
         self.tilt = (float(self.tilt[0]), float(self.tilt[1]))
         slope = math.hypot(math.tan(self.tilt[0]), math.tan(self.tilt[1]))
@@ -259,7 +275,11 @@ class SimulatedUPM:
         """Motor forces ``(T, 4)`` at times ``t`` under envelope values ``envelope``."""
         if len(channels) != 4:
             raise ShapeError(f"channels must hold 4 motors (X1, X2, Y1, Y2); got {len(channels)}")
-        return np.stack([c.force(t) for c in channels], axis=1) * envelope[:, None]
+        late = [p / (2 * math.pi * c.frequency) if c.frequency > 0 else 0.0
+                for c, p in zip(channels, self.motor_phase, strict=True)]  # fmt: skip
+        asked = np.stack([c.force(t - d) for c, d in zip(channels, late, strict=True)], axis=1)
+        out: FloatArray = asked * self.motor_gain * envelope[:, None]
+        return out
 
     def _respond(
         self, forces: FloatArray, state: FloatArray

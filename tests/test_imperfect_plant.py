@@ -1,5 +1,6 @@
-"""A plate that is not level (``tilt``, issue 60): gravity's in-plane part in the core integrator,
-for points, disks and polygons, against closed forms and an independent 1-D stick-slip reference."""
+"""An imperfect machine (issue 60): a plate that is not level (``tilt``: gravity's in-plane part
+in the core integrator, for points, disks and polygons, against closed forms and an independent 1-D
+stick-slip reference), friction per part, and motors whose gain and phase are not the model's."""
 
 from __future__ import annotations
 
@@ -149,3 +150,22 @@ def test_the_loop_sorts_four_chips_on_a_plate_half_a_degree_off_level():
     log = control.Loop(plant, plant.camera(labels, seed=3), planner, task, part_radius=chip).run(40)
     assert log.done and plant.fallen == 0
     assert np.all(plant.parts[[0, 2], 0] < -0.09) and np.all(plant.parts[[1, 3], 0] > 0.09)
+
+
+def test_motor_gains_scale_and_motor_phases_delay_each_motors_force():
+    from upm.plant import Channel, Envelope, SimulatedUPM
+
+    t = np.arange(400) / 5000.0
+    env = Envelope(0.02, 0.04, 0.02)(t)
+    asked = [Channel(50.0, 35.0, h1_phase=0.3, h2_phase=1.1), Channel(-40.0, 35.0), Channel(30.0, 50.0),
+             Channel(0.0, 35.0)]  # fmt: skip
+    gain, phase = np.array([1.15, 0.85, 1.0, 1.1]), np.radians([10.0, -10.0, 5.0, 0.0])
+    plant = SimulatedUPM(motor_gain=gain, motor_phase=phase)
+    # the same waveforms with each harmonic k's phase lagging k phase, gains applied: a perfect plant
+    lagged = [Channel(c.amplitude * g, c.frequency, c.h1_amplitude, c.h1_phase - p, c.h2_amplitude,
+                      c.h2_phase - 2 * p) for c, g, p in zip(asked, gain, phase, strict=True)]  # fmt: skip
+    np.testing.assert_allclose(plant.forces(asked, t, env), SimulatedUPM().forces(lagged, t, env),
+                               rtol=0, atol=1e-9)  # fmt: skip
+    for bad in [{"motor_gain": [1.0, 1.0, 1.0]}, {"motor_gain": [0.0, 1, 1, 1]}, {"motor_phase": [2.0, 0, 0, 0]}]:
+        with pytest.raises(upm.ParameterError, match=next(iter(bad))):
+            SimulatedUPM(**bad)
