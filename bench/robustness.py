@@ -11,7 +11,9 @@ Faults (each seed draws its own):
 * ``phase``: each motor up to 10 degrees late (``motor_phase``);
 * ``all``: all four.
 
-Columns: done (of the seeds), plate time [s] median (max), parts lost, wall time [s] median.
+Columns: done (of the seeds), plate time [s] median (max), parts lost, wall time [s] median, and
+runs the plant refused a pulse of (``StrokeError``: motors stronger than the planner's model swing
+a corner beyond the stroke; the loop stops there).
 Every run is appended to ``docs/img/robustness.jsonl`` as it ends; runs already there are not run
 again (``--stored``: tabulate them only).
 
@@ -36,6 +38,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from control import cpu, planner, setup
 from upm import control
 from upm.demos import LIMITS
+from upm.drive import StrokeError
 from upm.plant import SimulatedUPM
 
 FAULTS = ("none", "tilt", "part_mu", "gain", "phase", "all")
@@ -69,10 +72,14 @@ def run(task: str, fault: str, seed: int) -> dict[str, float]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         start = time.perf_counter()
-        log = loop.run(4 * cycles)
+        try:
+            log = loop.run(4 * cycles)
+        except StrokeError:  # the plant's motors, stronger than the planner's model, overswing
+            return {"done": 0.0, "time": float("nan"), "lost": float(plant.fallen),
+                    "wall": time.perf_counter() - start, "refused": 1.0}  # fmt: skip
         wall = time.perf_counter() - start
     return {"done": float(log.done and plant.fallen == 0), "time": float(log.meta["plate_time"]),
-            "lost": float(plant.fallen), "wall": wall}  # fmt: skip
+            "lost": float(plant.fallen), "wall": wall, "refused": 0.0}  # fmt: skip
 
 
 def main() -> None:
@@ -103,21 +110,22 @@ def main() -> None:
                 print(f"{task} {name} seed {seed}: done {row['done']:.0f}, {row['time']:.1f} s, "
                       f"{row['lost']:.0f} lost, {row['wall']:.0f} s wall", flush=True)  # fmt: skip
     print(f"\n{cpu()}: the predictive planner, told nothing of the faults; median (max)\n")
-    print("| task | fault | done | plate time [s] | vs perfect | lost | wall time [s] |")
-    print("|---|---|---|---|---|---|---|")
+    print("| task | fault | done | plate time [s] | vs perfect | lost | wall time [s] | refused |")
+    print("|---|---|---|---|---|---|---|---|")
     for task in tasks:
         base = [r["time"] for (t, f, _), r in stored.items() if (t, f) == (task, "none")]
         for name in names:
             rows = [r for (t, f, _), r in stored.items() if (t, f) == (task, name)]
             if not rows:
                 continue
-            t_ = np.array([r["time"] for r in rows])
+            t_ = np.array([r["time"] for r in rows if np.isfinite(r["time"])] or [np.nan])
             ratio = f"{np.median(t_) / np.median(base):.2f}x" if base else "–"
             lost = np.array([r["lost"] for r in rows])
             print(f"| {task} | {name} | {int(sum(r['done'] for r in rows))}/{len(rows)} | "
                   f"{np.median(t_):.1f} ({np.max(t_):.1f}) | {ratio} | "
                   f"{lost.sum():.0f} (max {lost.max():.0f}) | "
-                  f"{np.median([r['wall'] for r in rows]):.0f} |")  # fmt: skip
+                  f"{np.median([r['wall'] for r in rows]):.0f} | "
+                  f"{sum(r.get('refused', 0) for r in rows):.0f} |")  # fmt: skip
 
 
 if __name__ == "__main__":

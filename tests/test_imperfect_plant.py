@@ -166,6 +166,7 @@ def test_motor_gains_scale_and_motor_phases_delay_each_motors_force():
                       c.h2_phase - 2 * p) for c, g, p in zip(asked, gain, phase, strict=True)]  # fmt: skip
     np.testing.assert_allclose(plant.forces(asked, t, env), SimulatedUPM().forces(lagged, t, env),
                                rtol=0, atol=1e-9)  # fmt: skip
-    for bad in [{"motor_gain": [1.0, 1.0, 1.0]}, {"motor_gain": [0.0, 1, 1, 1]}, {"motor_phase": [2.0, 0, 0, 0]}]:
+    bads = [{"motor_gain": [1.0, 1.0, 1.0]}, {"motor_gain": [0.0, 1, 1, 1]}, {"motor_phase": [2.0, 0, 0, 0]}]
+    for bad in bads:
         with pytest.raises(upm.ParameterError, match=next(iter(bad))):
             SimulatedUPM(**bad)

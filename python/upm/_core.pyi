@@ -177,7 +177,7 @@ def simulate(
     polygons: list[tuple[int, _F, _F | None]] | None = None,
     world_positions: _F | None = None,
     world_angles: _F | None = None,
-    tilt: tuple[float, float] = (0.0, 0.0),
+    tilt: tuple[float, float] = ...,
 ) -> tuple[_F, _F, _F, NDArray[np.bool_], _F, _F, _F, NDArray[np.bool_], _F]: ...
 def simd_info() -> tuple[str, list[str]]: ...
 

@@ -100,7 +100,9 @@ def _per_motor(name: str, value: Any, low: float, high: float) -> FloatArray:
     """Four finite values within ``(low, high]`` (one per motor), or `ParameterError`."""
     a = as_float(name, value)
     if a.shape != (4,) or not np.all(np.isfinite(a)) or np.any(a <= low) or np.any(a > high):
-        raise ParameterError(f"{name} must be 4 numbers (X1, X2, Y1, Y2) in ({low:g}, {high:g}]; got {value!r}")
+        raise ParameterError(
+            f"{name} must be 4 numbers (X1, X2, Y1, Y2) in ({low:g}, {high:g}]; got {value!r}"
+        )
     return np.array(a, dtype=np.float64)
 
 
