@@ -17,6 +17,7 @@ from .._arrays import integer
 from .._errors import ParameterError
 from .actions import ACTION_SIZE
 from .episodes import Episodes
+from .world import Task
 
 __all__ = ["PlateEnv", "PlateVectorEnv"]
 
@@ -51,8 +52,10 @@ def _frame(e: Episodes, row: int) -> NDArray[np.uint8]:
         frame = render(camera, centres, "part", angles=q[here, 2], shapes={"part": outline},
                        colors={"part": (40, 160, 230)}, rng=0)  # fmt: skip
     else:
-        sort = e.task.name == "sort"
-        labels = ["red" if s < 0 else "blue" for s in e.task.sides] if sort else ["penny"] * e.m
+        task = e.task
+        labels = ["penny"] * e.m
+        if isinstance(task, Task) and task.name == "sort":
+            labels = ["red" if s < 0 else "blue" for s in task.sides]
         radius = e.o["part_radius"] or 0.0095
         seen = [lab for lab, h in zip(labels, here, strict=True) if h]
         frame = render(camera, q[here], seen, radius=radius, rng=0)

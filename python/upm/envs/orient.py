@@ -6,7 +6,7 @@ A pose is the part's frame origin and angle (:meth:`upm.Polygon.moved`); each wo
 pulse on its own parts with the exact polygon friction wrench (docs/polygons.md), all the worlds of
 one drive frequency and on-time in one batched call, each from its own poses
 (:func:`upm.simulate_batch` ``starts (B, M, 3)``), then on the plate at rest until every part has
-stopped.
+stopped (:class:`upm.envs.world.Plates`).
 """
 
 from __future__ import annotations
@@ -20,14 +20,11 @@ from numpy.typing import NDArray
 from .._arrays import real
 from .._errors import ParameterError
 from ..drive import DriveLimits
-from ..motion import PlateMotion
 from ..plan.orient import pose_errors
-from ..plan.sizing import settle_time, stopping_time
 from ..polygon import Polygon
 from ..shapes import scatter
-from ..sim import simulate_batch
 
-__all__ = ["POLYGONS", "OrientTask", "play_polygons", "polygon_of"]
+__all__ = ["POLYGONS", "OrientTask", "polygon_of"]
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -69,9 +66,6 @@ class OrientTask:
         self.symmetry = polygon.symmetry
         self.half = limits.size / 2
         self.gap = 2.2 * polygon.radius
-        self.sides = np.zeros(n_parts)
-        self.shape_points = None
-        self.sort = None
         if self.half - 0.6 * self.half < 1.5 * polygon.radius:
             raise ParameterError(f"polygon of radius {polygon.radius:g} m is too large for the plate")
         self.layout(np.random.default_rng(0))  # n_parts that cannot fit are refused now, not at reset
@@ -94,9 +88,6 @@ class OrientTask:
         """Distances [m] and absolute angle errors [rad] ``(B, M)`` (NaN for a lost part)."""
         d, a = pose_errors(q.reshape(-1, 3), goals.reshape(-1, 3), self.symmetry)
         return d.reshape(q.shape[:2]), np.abs(a).reshape(q.shape[:2])
-
-    def targets(self, q: FloatArray, goals: FloatArray) -> FloatArray:
-        return goals
 
     def cost(self, q: FloatArray, goals: FloatArray) -> FloatArray:
         """Each world's cost ``(B,)`` [m] (class docs)."""
@@ -129,30 +120,3 @@ class OrientTask:
 
         out: FloatArray = np.concatenate([pose(q), pose(goals), here.astype(np.float64)], axis=1)
         return out
-
-
-def play_polygons(
-    polygon: Polygon,
-    motions: list[PlateMotion],
-    start: FloatArray,
-    on: float,
-    dt: float,
-    mu: float,
-    mu_s: float,
-    plate_size: float,
-) -> tuple[FloatArray, FloatArray]:
-    """Polygons at poses ``start (B, M, 3)`` under each world's pulse of ``on`` [s], then on the
-    plate at rest until every part stops: their poses ``(B, M, 3)`` (NaN: off the plate) and each
-    world's plate time [s]."""
-    coast = settle_time(on, mu, mu_s, None)
-    seq = [PlateMotion.sequence([mo, PlateMotion.rest(coast + 1e-3)]) for mo in motions]
-    parts = [polygon.moved((float(x), float(y)), float(a)) for x, y, a in start[0]]
-    every = max(1, round(0.01 / dt))
-    run = simulate_batch(seq, parts, duration=on + coast, dt=dt, mu=mu, mu_s=mu_s, plate_size=plate_size,
-                         record_every=every, starts=start)  # fmt: skip
-    final = np.concatenate([run.positions[:, -1], run.angles[:, -1, :, None]], axis=-1)
-    final[np.asarray(run.left_plate)] = np.nan
-    stuck = np.asarray(run.stuck)
-    every_t = run.t[1] - run.t[0]
-    stop = [on + stopping_time(run.t, stuck[w], on) + every_t for w in range(len(stuck))]
-    return final, np.asarray(stop)

@@ -16,6 +16,7 @@ from ..plan import PredictivePlanner
 from ..plan.orient import PosePlanner
 from .actions import ACTION_SIZE, library
 from .env import PlateEnv
+from .world import Task
 
 __all__ = ["PlannerPolicy", "RandomPolicy"]
 
@@ -84,19 +85,19 @@ class PlannerPolicy:
 
     def _task(self) -> tuple[Any, State]:
         e = self.env._e
+        task = e.task
+        assert isinstance(task, Task)  # (point parts: orientations go through _poses)
         q = e.positions[0]
         ids = np.nonzero(np.all(np.isfinite(q), axis=1))[0]
-        labels = (
-            tuple(e.task.state.labels[i] for i in ids) if e.task.sort is not None else ("penny",) * len(ids)
-        )
+        labels = tuple(task.state.labels[i] for i in ids) if task.sort is not None else ("penny",) * len(ids)
         state = State(0, float(e.time[0]), ids.astype(np.int64), q[ids], labels, 0.0)
-        if e.task.sort is not None:
-            return e.task.sort, state
-        if e.task.name == "goto":
-            return _Goals(e.goals[0][ids], e.task.tolerance), state
+        if task.sort is not None:
+            return task.sort, state
+        if task.name == "goto":
+            return _Goals(e.goals[0][ids], task.tolerance), state
         if self._shape is None:
-            assert e.task.shape_points is not None
-            self._shape = ShapeTask(e.task.shape_points, tolerance=e.task.tolerance)
+            assert task.shape_points is not None
+            self._shape = ShapeTask(task.shape_points, tolerance=task.tolerance)
         return self._shape, state
 
     def candidates(self, state: State, task: Any) -> FloatArray:

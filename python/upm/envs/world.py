@@ -22,6 +22,7 @@ Tasks (the cost is the control task's own, :mod:`upm.control`):
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,7 +39,6 @@ from ..polygon import Polygon
 from ..shapes import scatter
 from ..sim import Disk, simulate_batch
 from .actions import FREQUENCIES, ON_TIMES, Decoded, PulseActions
-from .orient import play_polygons
 
 __all__ = ["DT_FACTOR", "TASKS", "Plates", "Task"]
 
@@ -90,11 +90,8 @@ class Plates:
             lost = ~np.all(np.isfinite(start), axis=2)
             start = np.where(lost[..., None], park[None], start)
             dt = 1.0 / (DT_FACTOR * 2 * f)  # (every pulse's highest harmonic: twice its base)
-            if self.polygon is not None:
-                final, stop = play_polygons(self.polygon, motions, start, t_on, dt, self.mu, self.mu_s,
-                                            self.limits.size)  # fmt: skip
-            elif self.contacts:
-                final, stop = self._disks(motions, start, t_on, dt)
+            if self.contacts or self.polygon is not None:
+                final, stop = self._until_still(motions, start, t_on, dt)
             else:
                 run = simulate_batch(
                     motions, start[0], duration=t_on, dt=dt, mu=self.mu, mu_s=self.mu_s,
@@ -110,20 +107,28 @@ class Plates:
             durations[rows] = stop
         return out, durations
 
-    def _disks(
+    def _until_still(
         self, motions: list[PlateMotion], start: FloatArray, on: float, dt: float
     ) -> tuple[FloatArray, FloatArray]:
-        """Colliding disks (rapier): the pulse, then the plate at rest until every part stops."""
+        """Colliding disks (rapier) or polygons at ``start`` (poses ``(B, M, 3)``; polygons slide
+        through each other): the pulse, then the plate at rest until every part stops. Where they
+        end (poses for polygons) and each world's plate time [s]."""
         coast = settle_time(on, self.mu, self.mu_s, None)
         horizon = on + coast
         seq = [PlateMotion.sequence([mo, PlateMotion.rest(coast + 1e-3)]) for mo in motions]
-        parts = [Disk((float(x), float(y)), float(self.radius or 0.0)) for x, y in start[0]]
+        shape = self.polygon
+        if shape is None:
+            parts: list[Any] = [Disk((float(x), float(y)), float(self.radius or 0.0)) for x, y in start[0]]
+        else:
+            parts = [shape.moved((float(x), float(y)), float(a)) for x, y, a in start[0]]
         every = max(1, round(0.01 / dt))
         run = simulate_batch(
             seq, parts, duration=horizon, dt=dt, mu=self.mu, mu_s=self.mu_s, plate_size=self.limits.size,
-            record_every=every, contacts=True, starts=start,
+            record_every=every, contacts=shape is None, starts=start,
         )  # fmt: skip
         final = run.positions[:, -1].copy()
+        if shape is not None:
+            final = np.concatenate([final, run.angles[:, -1, :, None]], axis=-1)
         final[np.asarray(run.left_plate)] = np.nan
         stuck = np.asarray(run.stuck)
         every_t = run.t[1] - run.t[0]  # a part last seen moving stops within a record after

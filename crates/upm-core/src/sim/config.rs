@@ -34,6 +34,11 @@ impl Config {
         (self.duration / self.dt - 1e-9).ceil().max(1.0)
     }
 
+    /// The velocity gravity's in-plane part ([`Config::tilt`]) adds to a part in a step [m/s].
+    pub(super) fn kick(&self) -> [f64; 2] {
+        [self.tilt[0] * self.dt, self.tilt[1] * self.dt]
+    }
+
     /// Number of steps, after checking every setting against the motion.
     pub fn steps(&self, motion: &PlateMotion, parts: usize) -> Result<usize> {
         positive("dt", self.dt)?;

@@ -49,7 +49,7 @@ impl DiskState {
             left: outside.then_some(0.0),
             slide: parts.mu(i) * cfg.g * cfg.dt,
             hold: parts.mu_s(i) * cfg.g * cfg.dt,
-            kick: super::points::kick(cfg),
+            kick: cfg.kick(),
             index: i,
             air: [0.0; 2],
             flight: 0,

@@ -292,7 +292,7 @@ impl<'p> Points<'p> {
             // SAFETY: the range is written (just now, or by the first block); chunks are
             // disjoint, and so are the tasks' own buffers.
             let (mut l, mut air) = unsafe { state.chunk(at, k, spatial) };
-            l.kick = kick(cfg);
+            l.kick = cfg.kick();
             if source.is_some() {
                 write(&l, start, 0, rec, index);
             }
@@ -348,7 +348,7 @@ impl<'p> Source<'p> {
             index,
             u0,
             half: half_side(cfg),
-            kick: kick(cfg),
+            kick: cfg.kick(),
             scale: cfg.g * cfg.dt,
             not_finite,
         }
@@ -504,9 +504,4 @@ pub(super) fn write(l: &Lanes, start: usize, row: usize, rec: &Rec, index: Optio
         }
     }
     rec.fence();
-}
-
-/// The velocity gravity's in-plane part adds to a part in a step of `cfg` [m/s].
-pub(super) fn kick(cfg: &Config) -> [f64; 2] {
-    [cfg.tilt[0] * cfg.dt, cfg.tilt[1] * cfg.dt]
 }

@@ -182,7 +182,7 @@ impl PolygonState {
             flight: 0,
             slide: parts.mu(i) * cfg.g * cfg.dt,
             hold: parts.mu_s(i) * cfg.g * cfg.dt,
-            kick: super::points::kick(cfg),
+            kick: cfg.kick(),
             index: i,
             cs: [angle.cos(), angle.sin()],
             turns: 0,
