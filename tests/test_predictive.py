@@ -165,7 +165,11 @@ def test_task_costs_vanish_at_the_goal_and_grow_with_distance() -> None:
     batch = goals[None] + offsets[:, None, None] * np.array([1.0, 0.0])
     cost = task.cost(state, batch)
     assert cost[0] == 0.0 and np.all(np.diff(cost[1:]) > 0)
-    assert cost[-1] == pytest.approx(2 * (0.05 - 0.001))  # each part's distance less half the tolerance
+    # each part's distance less half the tolerance, squared over the first tolerance beyond it
+    assert cost[-1] == pytest.approx(2 * (0.05 - 0.001 - 0.001))
+    assert cost[2] == pytest.approx(2 * (0.005 - 0.001 - 0.001))
+    assert cost[1] == pytest.approx(0.0, abs=1e-15)  # at the slack
+    assert task.cost(state, goals[None] + [0.002, 0.0])[0] == pytest.approx(2 * 0.001**2 / (2 * 0.002))
 
     sort = control.SortTask({"red": -1, "blue": 1}, line=0.1, past=0.01, clear=0.003)
     s = _state([[-0.2, 0.0], [0.15, 0.0]], ("red", "blue"))

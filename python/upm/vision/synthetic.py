@@ -287,8 +287,14 @@ def _develop(camera: Camera, image: NDArray[np.float32], gradient: float, vignet
     if grey:
         image = np.asarray(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), np.float32)
     if noise > 0:
-        image += gen.standard_normal(image.shape, dtype=np.float32) * np.float32(noise)
-    return np.asarray(np.clip(image + np.float32(0.5), 0, 255), dtype=np.uint8)  # rounds: values >= 0
+        # OpenCV's generator, seeded from ``gen`` (deterministic, and a third of numpy's time on
+        # a megapixel frame)
+        cv2.setRNGSeed(int(gen.integers(1 << 31)))
+        grain = np.empty_like(image)
+        cv2.randn(grain, 0.0, float(noise))
+        image += grain
+    np.maximum(image, np.float32(0), out=image)
+    return np.asarray(cv2.convertScaleAbs(image))  # rounded to nearest, saturated at 255
 
 
 def render(
