@@ -170,3 +170,30 @@ def test_motor_gains_scale_and_motor_phases_delay_each_motors_force():
     for bad in bads:
         with pytest.raises(upm.ParameterError, match=next(iter(bad))):
             SimulatedUPM(**bad)
+
+
+def test_the_loop_survives_motors_stronger_than_the_model_by_sizing_its_pulses_lower():
+    # motors 30 % stronger swing the plate past its stroke on the pulses the model sizes to 90 %
+    # of it: the plant refuses them (nothing plays), the planner sizes lower, the task gets done
+    from upm import control
+    from upm.plan import PredictivePlanner
+    from upm.plant import SimulatedUPM
+
+    penny = 0.009525
+    starts = np.array([[-0.08, 0.05], [0.07, -0.06]])
+    goals = np.array([[0.06, 0.04], [-0.05, -0.07]])
+    plant = SimulatedUPM(parts=starts, part_radius=penny, seed=2, motor_gain=[1.3] * 4)
+    planner = PredictivePlanner(plant.limits, mu=0.3, part_radius=penny)
+    task = control.GotoTask(goals, starts=starts, tolerance=0.004)
+    with pytest.warns(RuntimeWarning, match="sizes its pulses lower"):
+        log = control.Loop(plant, plant.camera("penny", seed=2), planner, task, part_radius=penny).run(60)
+    assert log.meta["refused"] >= 1 and planner.headroom < 1.0
+    assert log.done and plant.fallen == 0
+    gaps = np.hypot(*(plant.parts[:, None] - goals[None]).transpose(2, 0, 1))  # the task assigns goals
+    assert np.all(gaps.min(axis=0) < 0.004 + 0.001)
+    # a planner that cannot size lower passes the refusal on
+    plant = SimulatedUPM(parts=starts, part_radius=penny, seed=2, motor_gain=[1.3] * 4)
+    wave = upm.Harmonics([1.28, -0.64], [0.0, 0.0], 25.0)  # 9.5 mm of stroke on the model's motors
+    fixed = control.FixedPlanner([upm.Pulse.translation((1.0, 0.0), wave, 0.12, 0.26, 0.12)])
+    with pytest.raises(upm.StrokeError):
+        control.Loop(plant, plant.camera("penny", seed=2), fixed, control.WatchTask(3), part_radius=penny).run(3)

@@ -239,8 +239,10 @@ class BoardDevice:
                         board.pulse(self._id, wait=True, timeout=pulse.on_time + 5.0)
                         break
                     except CommandRefused as refused:  # the plate still moving from the last pulse
-                        if refused.code != NackCode.STROKE or attempt == 7:
+                        if refused.code != NackCode.STROKE:
                             raise
+                        if attempt == 7:  # beyond the stroke from home: as the simulated plant says it
+                            raise StrokeError(f"the board refused pulse {self._id}: beyond its stroke") from refused
                         time.sleep(0.25)
                         self.waited += 0.25
                 board.samples()  # the accelerometer record is not needed here: drop it

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Protocol
@@ -19,7 +20,7 @@ from numpy.typing import NDArray
 
 from .._arrays import integer, real
 from .._errors import ParameterError, VisionError
-from ..drive import PLATE_SIZE
+from ..drive import PLATE_SIZE, StrokeError
 from ..plan import Planner
 from ..pulses import Pulse
 from .devices import Device, as_device, pulse_time
@@ -29,6 +30,10 @@ from .state import State, Task
 __all__ = ["LoadedLog", "Log", "Loop", "load_log", "loop_tracker", "plan_cycle"]
 
 FloatArray = NDArray[np.float64]
+
+#: Pulses refused in a row as beyond the stroke before the loop gives up (the planner's
+#: ``refused()`` lowers its pulses 15 % each time).
+MAX_REFUSALS = 4
 
 
 class _Camera(Protocol):
@@ -48,7 +53,10 @@ class Loop:
     planner : Planner
         Its ``plan(positions, steps)``; or, when it has ``plan_task(state, task)`` (a
         :class:`~upm.plan.PredictivePlanner`) and the task a ``cost``, that. A planner with
-        ``limits`` must have the device's (``ParameterError`` otherwise).
+        ``limits`` must have the device's (``ParameterError`` otherwise). When the device refuses a
+        pulse as beyond its stroke (:class:`upm.drive.StrokeError`: nothing played) and the
+        planner has ``refused()``, that is called (it sizes later pulses lower) and the cycle is
+        planned again, up to :data:`MAX_REFUSALS` times in a row; otherwise the error is raised.
     task : Task
     part_radius : float
         Part radius [m] (for vision).
@@ -215,6 +223,7 @@ class Loop:
     ) -> None:
         flushed = start
         last_cycle = 0.0
+        refusals = 0  # pulses refused in a row as beyond the stroke
         pending: tuple[list[Pulse], object, NDArray[np.int64], FloatArray] | None = None
         ahead_planner: Any = self.planner  # with speculate and adopt when pipelined (checked)
         prev: dict[int, FloatArray] = {}  # positions at the start of the last cycle
@@ -286,26 +295,41 @@ class Loop:
                 self.tracker.expect(*expected)
             waited = float(getattr(self.device, "waited", 0.0))
             ahead = 0.0
-            if self.pipeline is not None and expected is not None and any(p.kind != "rest" for p in pulses):
-                # the plate plays in a worker thread while this one plans the next cycle from the
-                # prediction; the cycle ends when both have
-                labels = dict(zip((int(i) for i in tracks.ids), tracks.labels, strict=True))
-                e_ids, e_pos = expected
-                # a part predicted off the plate is not planned for
-                alive = np.all(np.isfinite(e_pos), axis=1)
-                e_ids, e_pos = np.asarray(e_ids)[alive], np.asarray(e_pos)[alive]
-                guess = State(cycle + 1, self.plate_time + pulse_time(pulses), e_ids, e_pos,
-                              tuple(labels.get(int(i), "") for i in e_ids), pulse_time(pulses))  # fmt: skip
-                playing = self._player().submit(self.device.execute, pulses)
-                try:
-                    a0 = time.perf_counter()
-                    ahead_pulses, token = ahead_planner.speculate(guess, self.task)
-                    ahead = time.perf_counter() - a0
-                    pending = (ahead_pulses, token, np.asarray(e_ids).copy(), np.asarray(e_pos).copy())
-                finally:
-                    playing.result()
-            else:
-                self.device.execute(pulses)
+            try:
+                if self.pipeline is not None and expected is not None and any(p.kind != "rest" for p in pulses):
+                    # the plate plays in a worker thread while this one plans the next cycle from
+                    # the prediction; the cycle ends when both have
+                    labels = dict(zip((int(i) for i in tracks.ids), tracks.labels, strict=True))
+                    e_ids, e_pos = expected
+                    # a part predicted off the plate is not planned for
+                    alive = np.all(np.isfinite(e_pos), axis=1)
+                    e_ids, e_pos = np.asarray(e_ids)[alive], np.asarray(e_pos)[alive]
+                    guess = State(cycle + 1, self.plate_time + pulse_time(pulses), e_ids, e_pos,
+                                  tuple(labels.get(int(i), "") for i in e_ids), pulse_time(pulses))  # fmt: skip
+                    playing = self._player().submit(self.device.execute, pulses)
+                    try:
+                        a0 = time.perf_counter()
+                        ahead_pulses, token = ahead_planner.speculate(guess, self.task)
+                        ahead = time.perf_counter() - a0
+                        pending = (ahead_pulses, token, np.asarray(e_ids).copy(), np.asarray(e_pos).copy())
+                    finally:
+                        playing.result()
+                else:
+                    self.device.execute(pulses)
+                refusals = 0
+            except StrokeError as error:
+                # nothing of the refused pulse played: the planner sizes its pulses lower and the
+                # cycle is planned again from the next frame
+                refusals += 1
+                pending = None
+                out.meta["refused"] = int(out.meta.get("refused", 0)) + 1
+                shrink = getattr(self.planner, "refused", None)
+                if shrink is None or refusals > MAX_REFUSALS:
+                    raise
+                shrink()
+                warnings.warn(f"cycle {cycle}: {error}; the planner sizes its pulses lower", RuntimeWarning,
+                              stacklevel=2)  # fmt: skip
+                pulses = []
             out.ahead.append(ahead)
             t3 = time.perf_counter()
             last_cycle = pulse_time(pulses) + float(getattr(self.device, "waited", 0.0)) - waited

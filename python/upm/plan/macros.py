@@ -113,10 +113,10 @@ class MacroTable:
         )
         self.centres = np.array([p.center for p in self.rotations], dtype=np.float64).reshape(-1, 2)
 
-    def playable(self, carried: float = 0.0) -> Candidates:
+    def playable(self, carried: float = 0.0, share: float = 1.0) -> Candidates:
         """The macro pulses as candidates, their amplitude lowered in proportion to the stroke
-        that the plate's leftover motion (``carried`` [m]) leaves."""
-        room = min(1.0, max(self.limits.stroke - carried, 0.0) / self.limits.stroke)
+        that the plate's leftover motion (``carried`` [m]) leaves, and to ``share`` of it."""
+        room = share * min(1.0, max(self.limits.stroke - carried, 0.0) / self.limits.stroke)
         if room >= 1.0:
             return self.sized
         room = math.floor(room * 80) / 80  # down to 1/80 of the stroke: the sets recur

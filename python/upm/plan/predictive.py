@@ -207,6 +207,9 @@ class PredictivePlanner:
             None if lookahead is None else MacroTable(limits, mu=self.mu, mu_s=mu_s, on_time=lookahead)
         )
         self.gains: dict[int, float] = {}
+        self.headroom = 1.0
+        """Share of ``use`` the candidates take: lowered each time the device refuses a pulse as
+        beyond its stroke (:meth:`refused`; motors stronger than the model)."""
         self.step_errors: list[float] = []
         """|predicted - achieved| step of every part after every pulse [m]."""
         self.expected: tuple[NDArray[np.int64], FloatArray] | None = None
@@ -373,7 +376,7 @@ class PredictivePlanner:
             on_times=self.on_times,
             grid=self.grid,
             jet_radii=self.jet_radii,
-            use=self.use,
+            use=self.use * self.headroom,
             cache=self._cache,
             carried=self._carried() if carried is None else carried,
             jet_toward=toward,
@@ -550,7 +553,7 @@ class PredictivePlanner:
             near, toward = pos[keep], toward[keep]
         cands = self.candidates(near, toward, carried, aligned)
         if self.macros is not None:  # the long pulses of the look-ahead are playable themselves
-            cands = cands + self.macros.playable(carried)
+            cands = cands + self.macros.playable(carried, self.headroom)
         best, _, _, duration, final = self._choose(task, state, cands.pulses, ids)
         if best is None:
             return []
@@ -585,6 +588,16 @@ class PredictivePlanner:
         self._plate, self._t_next = plate, t_next
         self._last = None if last is None else restarted(last, seen_ids, seen)
         self.expected = None if self._last is None else (self._last[1].copy(), self._last[3].copy())
+
+    def refused(self) -> None:
+        """The device refused the last pulse as beyond its stroke, and nothing played: the motors
+        swing the plate further than the model says. Later candidates are sized 15 % lower each
+        time (down to a quarter of ``use``); the plate is taken to be home (the device waited
+        for it) and the refused pulse's prediction is dropped."""
+        self.headroom = max(0.85 * self.headroom, 0.25)
+        self._plate = np.zeros((3, 2))
+        self._last = None
+        self.expected = None
 
     def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]:
         """Without a task: the pulse that best brings each part to ``positions + steps`` (NaN
