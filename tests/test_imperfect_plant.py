@@ -196,4 +196,6 @@ def test_the_loop_survives_motors_stronger_than_the_model_by_sizing_its_pulses_l
     wave = upm.Harmonics([1.28, -0.64], [0.0, 0.0], 25.0)  # 9.5 mm of stroke on the model's motors
     fixed = control.FixedPlanner([upm.Pulse.translation((1.0, 0.0), wave, 0.12, 0.26, 0.12)])
     with pytest.raises(upm.StrokeError):
-        control.Loop(plant, plant.camera("penny", seed=2), fixed, control.WatchTask(3), part_radius=penny).run(3)
+        control.Loop(
+            plant, plant.camera("penny", seed=2), fixed, control.WatchTask(3), part_radius=penny
+        ).run()

@@ -242,7 +242,8 @@ class BoardDevice:
                         if refused.code != NackCode.STROKE:
                             raise
                         if attempt == 7:  # beyond the stroke from home: as the simulated plant says it
-                            raise StrokeError(f"the board refused pulse {self._id}: beyond its stroke") from refused
+                            message = f"the board refused pulse {self._id}: beyond its stroke"
+                            raise StrokeError(message) from refused
                         time.sleep(0.25)
                         self.waited += 0.25
                 board.samples()  # the accelerometer record is not needed here: drop it

@@ -296,26 +296,7 @@ class Loop:
             waited = float(getattr(self.device, "waited", 0.0))
             ahead = 0.0
             try:
-                if self.pipeline is not None and expected is not None and any(p.kind != "rest" for p in pulses):
-                    # the plate plays in a worker thread while this one plans the next cycle from
-                    # the prediction; the cycle ends when both have
-                    labels = dict(zip((int(i) for i in tracks.ids), tracks.labels, strict=True))
-                    e_ids, e_pos = expected
-                    # a part predicted off the plate is not planned for
-                    alive = np.all(np.isfinite(e_pos), axis=1)
-                    e_ids, e_pos = np.asarray(e_ids)[alive], np.asarray(e_pos)[alive]
-                    guess = State(cycle + 1, self.plate_time + pulse_time(pulses), e_ids, e_pos,
-                                  tuple(labels.get(int(i), "") for i in e_ids), pulse_time(pulses))  # fmt: skip
-                    playing = self._player().submit(self.device.execute, pulses)
-                    try:
-                        a0 = time.perf_counter()
-                        ahead_pulses, token = ahead_planner.speculate(guess, self.task)
-                        ahead = time.perf_counter() - a0
-                        pending = (ahead_pulses, token, np.asarray(e_ids).copy(), np.asarray(e_pos).copy())
-                    finally:
-                        playing.result()
-                else:
-                    self.device.execute(pulses)
+                pending, ahead = self._play(pulses, expected, cycle, tracks, ahead_planner)
                 refusals = 0
             except StrokeError as error:
                 # nothing of the refused pulse played: the planner sizes its pulses lower and the
@@ -345,6 +326,29 @@ class Loop:
                 out.meta.update(cycles=len(out.rows), plate_time=self.plate_time)
                 out.save(target)
                 flushed = time.perf_counter()
+
+    def _play(
+        self, pulses: list[Pulse], expected: Any, cycle: int, tracks: Any, ahead_planner: Any
+    ) -> tuple[tuple[list[Pulse], object, NDArray[np.int64], FloatArray] | None, float]:
+        """Play ``pulses``; when pipelined, plan the next cycle from the prediction ``expected``
+        while they play (in a worker thread): that plan (or ``None``) and the time it took."""
+        if self.pipeline is None or expected is None or not any(p.kind != "rest" for p in pulses):
+            self.device.execute(pulses)
+            return None, 0.0
+        # the cycle ends when both the plate and the plan have
+        labels = dict(zip((int(i) for i in tracks.ids), tracks.labels, strict=True))
+        e_ids, e_pos = expected
+        alive = np.all(np.isfinite(e_pos), axis=1)  # a part predicted off the plate is not planned for
+        e_ids, e_pos = np.asarray(e_ids)[alive], np.asarray(e_pos)[alive]
+        guess = State(cycle + 1, self.plate_time + pulse_time(pulses), e_ids, e_pos,
+                      tuple(labels.get(int(i), "") for i in e_ids), pulse_time(pulses))  # fmt: skip
+        playing = self._player().submit(self.device.execute, pulses)
+        try:
+            a0 = time.perf_counter()
+            ahead_pulses, token = ahead_planner.speculate(guess, self.task)
+            return (ahead_pulses, token, e_ids.copy(), e_pos.copy()), time.perf_counter() - a0
+        finally:
+            playing.result()
 
     def _record(
         self,

@@ -291,7 +291,7 @@ def _develop(camera: Camera, image: NDArray[np.float32], gradient: float, vignet
         # a megapixel frame)
         cv2.setRNGSeed(int(gen.integers(1 << 31)))
         grain = np.empty_like(image)
-        cv2.randn(grain, 0.0, float(noise))
+        cv2.randn(grain, 0.0, float(noise))  # type: ignore[call-overload]
         image += grain
     np.maximum(image, np.float32(0), out=image)
     return np.asarray(cv2.convertScaleAbs(image))  # rounded to nearest, saturated at 255
