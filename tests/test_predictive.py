@@ -483,3 +483,19 @@ def test_a_long_way_to_just_inside_the_edge_band_counts_a_part_lost_a_short_one_
     )
     with pytest.raises(upm.ParameterError, match="spread"):
         PredictivePlanner(DriveLimits(), spread=2.0)
+
+
+def test_the_focus_breaks_ties_of_slope_by_distance_and_falls_back_to_every_part() -> None:
+    # a distance cost's far parts all have slope 1: the parts aimed at first are the farthest, not
+    # the first by index (a stalled 32-part shape aimed every pulse at the same 16 jammed parts)
+    from upm.plan.predictive import _focus
+
+    goals = np.zeros((5, 2))
+    pos = np.array([[0.01, 0.0], [0.05, 0.0], [0.02, 0.0], [0.09, 0.0], [0.0, 0.001]])
+    task = control.GotoTask(goals, starts=pos, tolerance=0.004)
+    state = _state(pos.tolist(), tuple("abcde"))
+    toward = np.array([[-1.0, 0.0]] * 4 + [[0.0, 0.0]])  # the last part is home
+    first, every = _focus(task, state, pos, toward, 2)
+    np.testing.assert_array_equal(first[0], pos[[1, 3]])  # the two farthest, in part order
+    np.testing.assert_array_equal(every[0], pos)
+    assert len(_focus(task, state, pos, toward, None)) == 1

@@ -544,17 +544,17 @@ class PredictivePlanner:
                 lambda q: task.cost(state, q, 0.0), pos, self.limits.size, count=self.aligned
             )
         toward = self._descent(task, state, pos)
-        near = pos
-        if self.focus is not None and len(pos) > self.focus:
-            # pulses at parts only for the parts with the most to gain (the steepest descent of
-            # the cost): the candidates stay as many whatever the count of parts, and each
-            # prediction O(M)
-            keep = np.sort(np.argsort(-np.hypot(toward[:, 0], toward[:, 1]), kind="stable")[: self.focus])
-            near, toward = pos[keep], toward[keep]
-        cands = self.candidates(near, toward, carried, aligned)
-        if self.macros is not None:  # the long pulses of the look-ahead are playable themselves
-            cands = cands + self.macros.playable(carried, self.headroom)
-        best, _, _, duration, final = self._choose(task, state, cands.pulses, ids)
+        focus = self.focus if self.focus is not None and len(pos) > self.focus else None
+        best = None
+        for near, way in _focus(task, state, pos, toward, focus):
+            # pulses at parts only for the parts with the most to gain: the candidates stay as
+            # many whatever the count of parts, and each prediction O(M)
+            cands = self.candidates(near, way, carried, aligned)
+            if self.macros is not None:  # the long pulses of the look-ahead are playable themselves
+                cands = cands + self.macros.playable(carried, self.headroom)
+            best, _, _, duration, final = self._choose(task, state, cands.pulses, ids)
+            if best is not None:
+                break
         if best is None:
             return []
         pulse = cands.pulses[best]
@@ -611,3 +611,23 @@ class PredictivePlanner:
             f"PredictivePlanner(mu={self.mu:g}, mu_estimate={self.mu_estimate:.3g}, "
             f"stroke={1000 * self.limits.stroke:g} mm, frequencies={self.frequencies})"
         )
+
+
+def _focus(
+    task: Any, state: Any, pos: FloatArray, toward: FloatArray, focus: int | None
+) -> list[tuple[FloatArray, FloatArray]]:
+    """The parts to aim pulses at, and their descent directions: all of them, or (``focus``) first
+    the ``focus`` parts with the most to gain (the steepest descent of the cost; ties, as a
+    distance cost's far parts all are, broken by the task's error, the farthest first), then all
+    of them when none of those pulses gains (the parts with the most to gain may be jammed)."""
+    if focus is None:
+        return [(pos, toward)]
+    slope = np.round(np.hypot(toward[:, 0], toward[:, 1]), 9)
+    far = np.zeros(len(pos))
+    errors = getattr(task, "errors", None)
+    if errors is not None:
+        e = np.asarray(errors(state), dtype=float).reshape(-1)
+        if len(e) == len(pos):
+            far = np.nan_to_num(e, nan=0.0)
+    keep = np.sort(np.lexsort((-far, -slope))[:focus])
+    return [(pos[keep], toward[keep]), (pos, toward)]
