@@ -9,11 +9,15 @@ Faults (each seed draws its own):
 * ``part_mu``: each part's friction within +-30 % of the planner's 0.3 (``mu`` per part);
 * ``gain``: each motor's force within +-15 % of what is asked (``motor_gain``);
 * ``phase``: each motor up to 10 degrees late (``motor_phase``);
-* ``all``: all four.
+* ``latency``: the camera 50 ms late (``camera_latency``: each frame shows the parts as they were);
+* ``pixel``: each part seen off by 1 px of Gaussian jitter (``pixel_noise``);
+* ``light``: the light's brightness drifting 3 % a frame, bounded to +-40 % (``lighting_drift``);
+* ``all``: all of them.
 
 Columns: done (of the seeds), plate time [s] median (max), parts lost, wall time [s] median, and
-runs the plant refused a pulse of (``StrokeError``: motors stronger than the planner's model swing
-a corner beyond the stroke; the loop stops there).
+pulses the plant refused (``StrokeError``: motors stronger than the planner's model swing a corner
+beyond the stroke; nothing plays, the loop sizes its pulses lower and goes on; a run the loop
+gave up on counts as not done).
 Every run is appended to ``docs/img/robustness.jsonl`` as it ends; runs already there are not run
 again (``--stored``: tabulate them only).
 
@@ -41,7 +45,7 @@ from upm.demos import LIMITS
 from upm.drive import StrokeError
 from upm.plant import SimulatedUPM
 
-FAULTS = ("none", "tilt", "part_mu", "gain", "phase", "all")
+FAULTS = ("none", "tilt", "part_mu", "gain", "phase", "latency", "pixel", "light", "all")
 STORE = Path("docs/img/robustness.jsonl")
 
 
@@ -55,6 +59,9 @@ def faults(name: str, n: int, seed: int) -> dict[str, Any]:
         "part_mu": {"mu": 0.3 * rng.uniform(0.7, 1.3, n)},
         "gain": {"motor_gain": rng.uniform(0.85, 1.15, 4)},
         "phase": {"motor_phase": np.radians(rng.uniform(0.0, 10.0, 4))},
+        "latency": {"camera_latency": 0.05},
+        "pixel": {"pixel_noise": 1.0},
+        "light": {"lighting_drift": 0.03},
     }
     if name == "none":
         return {}
@@ -74,12 +81,18 @@ def run(task: str, fault: str, seed: int) -> dict[str, float]:
         start = time.perf_counter()
         try:
             log = loop.run(4 * cycles)
-        except StrokeError:  # the plant's motors, stronger than the planner's model, overswing
+        except StrokeError:  # refused again and again: the loop gave up
             return {"done": 0.0, "time": float("nan"), "lost": float(plant.fallen),
-                    "wall": time.perf_counter() - start, "refused": 1.0}  # fmt: skip
+                    "wall": time.perf_counter() - start, "refused": float(loop_refusals(loop))}  # fmt: skip
         wall = time.perf_counter() - start
+    refused = float(log.meta.get("refused", 0))
     return {"done": float(log.done and plant.fallen == 0), "time": float(log.meta["plate_time"]),
-            "lost": float(plant.fallen), "wall": wall, "refused": 0.0}  # fmt: skip
+            "lost": float(plant.fallen), "wall": wall, "refused": refused}  # fmt: skip
+
+
+def loop_refusals(loop: Any) -> int:
+    """Refusals before the loop gave up (its planner's headroom fell 15 % for each)."""
+    return 1 + round(math.log(max(loop.planner.headroom, 1e-9)) / math.log(0.85))
 
 
 def main() -> None:

@@ -199,3 +199,53 @@ def test_the_loop_survives_motors_stronger_than_the_model_by_sizing_its_pulses_l
         control.Loop(
             plant, plant.camera("penny", seed=2), fixed, control.WatchTask(3), part_radius=penny
         ).run()
+
+
+def test_a_lagging_camera_shows_the_parts_where_they_were_that_long_ago():
+    # a point pushed by a translation pulse: the frame read with latency shows it where the plant's
+    # own record (an independent simulate of the same motion) has it that long before the end
+    from upm.plant import SimulatedUPM
+
+    motion = upm.PlateMotion.translation((1.0, 0.0), upm.Harmonics([0.3, -0.15], [0.0, 0.0], 25.0))
+    motion = motion.with_envelope(0.1, 0.3, 0.1)
+    plant = SimulatedUPM(parts=[[0.0, 0.0]], camera_latency=0.05)
+    plant.play(motion)
+    assert plant.clock == pytest.approx(0.5)
+    coast = 0.5 * 1.0 + 0.01
+    ref = upm.simulate(upm.PlateMotion.sequence([motion, upm.PlateMotion.rest(coast)]), [[0.0, 0.0]],
+                       duration=0.5 + coast, dt=1.0 / (200 * 50.0), mu=0.3, record_every=1)  # fmt: skip
+    at = np.interp(0.45, ref.t, ref.positions[:, 0, 0])
+    assert plant.parts_at(0.45)[0, 0] == pytest.approx(at, abs=2e-5)
+    assert abs(plant.parts_at(0.45)[0, 0] - plant.parts[0, 0]) > 1e-4  # the part was still sliding
+    assert plant.parts_at(-1.0)[0, 0] == 0.0 and plant.parts_at(10.0)[0, 0] == plant.parts[0, 0]
+    seen = plant.camera("penny", seed=1, noise=0.0)
+    seen.read()
+    np.testing.assert_allclose(seen.last.truth.positions, plant.parts_at(0.45), atol=1e-12)
+    plant.move_parts([[0.05, 0.0]])  # put by hand: seen where it is
+    np.testing.assert_allclose(plant.parts_at(0.45), [[0.05, 0.0]])
+
+
+def test_pixel_jitter_and_lighting_drift_change_the_frames_as_their_models_say():
+    from upm.plant import SimulatedUPM
+    from upm.vision import find_parts, find_table
+
+    parts = np.array([[-0.05, 0.0], [0.05, 0.02]])
+    clean = SimulatedUPM(parts=parts.copy()).camera("penny", seed=4)
+    shaky = SimulatedUPM(parts=parts.copy(), pixel_noise=2.0).camera("penny", seed=4)
+    shown = np.array([(shaky.read(), shaky.last.truth.positions)[1] for _ in range(200)])
+    ends = upm.vision.synthetic.project(clean.camera.camera_from_plate, [[0.0, 0.0], [0.01, 0.0]])
+    px = float(np.hypot(*(ends[1] - ends[0]))) / 0.01  # camera pixels per metre
+    jitter = (shown - parts[None]) * px
+    assert np.mean(jitter) == pytest.approx(0.0, abs=0.3)
+    assert np.std(jitter) == pytest.approx(2.0, rel=0.1)
+    # the drift brightens and dims the whole frame, within its bounds; vision still finds the parts
+    lit = SimulatedUPM(parts=parts.copy(), lighting_drift=0.05).camera("penny", seed=4)
+    base = float(np.mean(clean.read()[1]))
+    means = np.array([np.mean(lit.read()[1]) for _ in range(40)])
+    assert np.ptp(means) > 0.05 * base and np.all((means > 0.55 * base) & (means < 1.45 * base))
+    frame = lit.read()[1]
+    found = find_parts(frame, find_table(frame, 0.4064), 0.009525)
+    assert len(found) == 2
+    for bad in ({"camera_latency": -0.1}, {"camera_latency": 2.0}, {"pixel_noise": float("nan")}):
+        with pytest.raises(upm.ParameterError, match=next(iter(bad))):
+            SimulatedUPM(parts=parts, **bad)

@@ -174,6 +174,12 @@ class SimulatedUPM:
         ``upm.simulate`` records; the camera draws them). Exclusive with ``part_radius``.
     angles : (M,) array_like
         The polygon parts' orientations [rad] (zeros by default; ignored for disks and points).
+    camera_latency, pixel_noise, lighting_drift : float
+        What its :meth:`camera` gets wrong: each frame shows the parts as they were
+        ``camera_latency`` [s, at most 1] of plate time before it is read (:meth:`parts_at`; a
+        frame read while parts still slide shows them short of where they stop), each part moved
+        by ``pixel_noise`` [px] of Gaussian jitter, and the light's brightness drifting as a random
+        walk of ``lighting_drift`` per frame (relative). Disks and points only for the latency.
     """
 
     plate: Plate = DEFAULT_PLATE
@@ -200,6 +206,9 @@ class SimulatedUPM:
     tilt: tuple[float, float] = (0.0, 0.0)
     motor_gain: Any = (1.0, 1.0, 1.0, 1.0)
     motor_phase: Any = (0.0, 0.0, 0.0, 0.0)
+    camera_latency: float = 0.0
+    pixel_noise: float = 0.0
+    lighting_drift: float = 0.0
 
     def __post_init__(self) -> None:
         parts = np.array(as_float("parts", self.parts), dtype=np.float64)
@@ -257,6 +266,13 @@ class SimulatedUPM:
             raise ParameterError("full_scale and sample_rate must be > 0")
         self._rng = np.random.default_rng(self.seed)
         self._state = np.zeros((3, 2))  # per axis (position, velocity) of the plate
+        for name, top in (("camera_latency", 1.0), ("pixel_noise", 50.0), ("lighting_drift", 0.2)):
+            setattr(self, name, real(name, getattr(self, name), low=0.0, high=top))
+        if self.camera_latency > 0 and self.part_shape is not None:
+            raise ParameterError("camera_latency is modelled for disks and points; not with part_shape")
+        self.clock = 0.0
+        """Plate time [s]: pulses, their rests and the plate's rides home played so far."""
+        self._trace: list[tuple[FloatArray, FloatArray]] = []  # (times (T,), parts (T, M, 2)) of late moves
         _ = self.limits  # validates stroke, motor_force and plate_size
         self._poses: list[FloatArray] = []
         self.max_excursion = 0.0
@@ -315,6 +331,7 @@ class SimulatedUPM:
         n = round(seconds * self.sample_rate)
         if n > 0:
             self.plate_state(np.zeros((n, 4)))
+            self.clock += n / self.sample_rate
 
     def check_stroke(self, channels: list[Channel], envelope: Envelope) -> None:
         """:class:`~upm.drive.StrokeError` when the pulse would exceed the stroke."""
@@ -352,6 +369,7 @@ class SimulatedUPM:
         t = np.arange(n) / self.sample_rate
         acc, vel = self.plate_state(self.forces(channels, t, envelope(t)))
         self.settle_parts(vel)
+        self.clock += n / self.sample_rate
         return self.sensor_counts(acc, vel)
 
     def settle_parts(self, velocity: FloatArray) -> None:
@@ -377,6 +395,7 @@ class SimulatedUPM:
         dt = 1.0 / (200.0 * top) if top > 0 else 1e-3
         coast = (motion.duration or 0.0) * self._grip() + 0.01
         self._advance(PlateMotion.sequence([motion, PlateMotion.rest(coast)]), dt)
+        self.clock += motion.duration or 0.0
 
     def _grip(self) -> float:
         """The largest static over sliding friction of any part (a coast long enough for all)."""
@@ -404,7 +423,8 @@ class SimulatedUPM:
             angles[on] = result.angles[-1]
             self.angles = angles
         elif r is None:
-            result = simulate(motion, self.parts[on], record_every=10**9, **opts)
+            every = 10**9 if self.camera_latency == 0 else max(1, round(2e-3 / dt))  # the camera looks back
+            result = simulate(motion, self.parts[on], record_every=every, **opts)
         else:
             disks = [Disk((float(x), float(y)), r) for x, y in self.parts[on]]
             result = simulate(
@@ -414,7 +434,34 @@ class SimulatedUPM:
             self.min_gap = min(self.min_gap, _min_gap(result.positions, result.left_plate, r))
         moved = result.positions[-1].copy()
         moved[result.left_plate] = np.nan  # its centre crossed an edge: it fell off
+        if self.camera_latency > 0:
+            path = np.full((len(result.t), *self.parts.shape), np.nan)
+            path[:, on] = result.positions
+            self._remember(self.clock + np.asarray(result.t, dtype=np.float64), path)
         self.parts[on] = moved
+
+    def _remember(self, times: FloatArray, path: FloatArray) -> None:
+        """Keep the parts' way ``path (T, M, 2)`` at plate ``times`` for :meth:`parts_at`, and no
+        more of the past than the camera's latency reaches."""
+        self._trace.append((times, path))
+        while len(self._trace) > 1 and self._trace[1][0][0] <= self.clock - 2 * self.camera_latency - 1.0:
+            self._trace.pop(0)
+
+    def parts_at(self, time: float) -> FloatArray:
+        """Where the parts were at plate ``time`` [s] (``clock - camera_latency`` for the camera):
+        on their recorded way when they moved then, else where they came to rest (parts moved by
+        hand since, :meth:`move_parts`, are where they were put)."""
+        out = self.parts.copy()
+        for times, path in reversed(self._trace):
+            if path.shape[1] != len(out) or time >= times[-1]:
+                break
+            if time >= times[0]:
+                k = int(np.searchsorted(times, time, side="right")) - 1
+                w = (time - times[k]) / max(times[k + 1] - times[k], 1e-12)
+                out = (1 - w) * path[k] + w * path[k + 1]
+                break
+            out = path[0].copy()
+        return out
 
     @property
     def fallen(self) -> int:
@@ -459,6 +506,7 @@ class SimulatedUPM:
             raise ShapeError(f"parts must keep one row per shape ({len(self.part_shape)}); got {len(p)}")
         self.parts = p
         self.angles = self._angles(angles)
+        self._trace = []  # put there now: the camera sees them there whatever its latency
 
     def _angles(self, angles: ArrayLike | None) -> FloatArray:
         """``angles`` (M,) for the parts (zeros when None), checked."""

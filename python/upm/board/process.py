@@ -220,6 +220,7 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help='the plate\'s contents, a JSON file: {"parts": [[x, y], ...], "labels": [...], '
         '"mu": 0.3 or one per part, "mu_s", "tilt": [slope_x, slope_y] (rad, a plate not level), '
+        '"motor_gain", "motor_phase" (4 each), "camera_latency" (s), "pixel_noise" (px), "lighting_drift", '
         '"part_radius": r (colliding disks) or "part_shape": [[x, y], ...], "angles": [...] and optionally '
         '"part_support": [[x, y] x 3] (colliding convex polygons, on three feet), "plate": [m, I, r], '
         '"stroke": 0.01, "camera": {...}, "render": {...}}',
@@ -247,6 +248,9 @@ def main(argv: list[str] | None = None) -> int:
         options["tilt"] = tuple(scene["tilt"])
     if "mu_s" in scene:
         options["mu_s"] = scene["mu_s"]
+    for fault in ("motor_gain", "motor_phase", "camera_latency", "pixel_noise", "lighting_drift"):
+        if fault in scene:  # an imperfect machine (SimulatedUPM's options of the same names)
+            options[fault] = scene[fault]
     if "part_shape" in scene:  # a convex outline [[x, y], ...] [m]: polygon parts
         from ..polygon import Polygon
 

@@ -484,9 +484,14 @@ class VirtualCamera:
 
     def __post_init__(self) -> None:
         self._rng = np.random.default_rng(self.seed)
+        self._light = 1.0  # the brightness's drift so far (a source's ``lighting_drift``)
 
     def read(self) -> tuple[bool, NDArray[np.uint8]]:
-        parts = np.asarray(self.source.parts, dtype=np.float64).reshape(-1, 2)
+        source: Any = self.source
+        lag = float(getattr(source, "camera_latency", 0.0))
+        # a camera that lags shows the parts as they were (a source's ``parts_at``)
+        seen = source.parts_at(source.clock - lag) if lag > 0 else source.parts
+        parts = np.asarray(seen, dtype=np.float64).reshape(-1, 2)
         here = np.all(np.isfinite(parts), axis=1)  # NaN rows: parts that fell off the plate
         labels = (
             self.labels
@@ -494,14 +499,23 @@ class VirtualCamera:
             else [k for k, h in zip(self.labels, here, strict=True) if h]
         )
         options = dict(self.options)
-        shapes = getattr(self.source, "shapes", None)
+        shapes = getattr(source, "shapes", None)
         if shapes is not None:  # polygons: drawn at their centroids, turned by their angles
-            source: Any = self.source
             parts = np.asarray(source.centroids(), dtype=np.float64).reshape(-1, 2)
             outlines = [np.asarray(p.vertices) - p.centroid for p in shapes]
             options["shapes"] = [o for o, h in zip(outlines, here, strict=True) if h]
             options["angles"] = np.asarray(source.angles)[here]
+        jitter = float(getattr(source, "pixel_noise", 0.0))
+        if jitter > 0:  # each part seen off by a Gaussian jitter of that many pixels
+            ends = project(self.camera.camera_from_plate, np.array([[0.0, 0.0], [0.01, 0.0]]))
+            per_metre = 100.0 * float(np.hypot(*(ends[1] - ends[0])))
+            parts = parts + self._rng.normal(0.0, jitter / per_metre, parts.shape)
         self.last = render(self.camera, parts[here], labels, rng=self._rng, **options)
+        drift = float(getattr(source, "lighting_drift", 0.0))
+        if drift > 0:  # the light brightens and dims as a bounded random walk
+            self._light = float(np.clip(self._light * math.exp(self._rng.normal(0.0, drift)), 0.6, 1.4))
+            lit = np.asarray(cv2.convertScaleAbs(self.last.image, alpha=self._light), dtype=np.uint8)
+            self.last = Frame(lit, self.last.truth)
         return True, self.last.image
 
     def isOpened(self) -> bool:
