@@ -249,3 +249,34 @@ def test_pixel_jitter_and_lighting_drift_change_the_frames_as_their_models_say()
     for bad in ({"camera_latency": -0.1}, {"camera_latency": 2.0}, {"pixel_noise": float("nan")}):
         with pytest.raises(upm.ParameterError, match=next(iter(bad))):
             SimulatedUPM(parts=parts, **bad)
+
+
+def test_the_planner_learns_the_slope_from_where_a_pulse_leaves_the_parts():
+    # the parts' end positions under a rotation pulse on a plate sloping (0.3, -0.2) degrees, from
+    # upm.simulate of the whole motion (not the planner's batched prediction and closed-form
+    # slide): fitted over a few pulses, the estimate comes within 0.05 degrees of the truth
+    from upm.plan import PredictivePlanner
+    from upm.plan.fitting import fit_tilt
+    from upm.plant import SimulatedUPM
+
+    planner = PredictivePlanner(SimulatedUPM().limits, mu=0.3)
+    pulse = upm.Pulse.rotation((0.02, -0.01), upm.Harmonics([6.0, -3.0], [0.0, 0.0], 35.0), 0.086, 0.3, 0.086)
+    start = np.array([[0.08, 0.0], [-0.06, 0.07], [0.0, -0.1], [0.1, 0.09], [-0.1, -0.05]])
+    truth = (math.radians(0.3), math.radians(-0.2))
+    motion = upm.PlateMotion.sequence([pulse.motion(rest=False), upm.PlateMotion.rest(0.4)])
+    run = upm.simulate(motion, start, duration=pulse.on_time + 0.4, dt=1.0 / (200 * 70.0), mu=0.3, tilt=truth)
+    seen = run.positions[-1]
+    assert np.all(np.hypot(*(seen - start).T) > 0.01)  # the pulse moves every part
+    level, _ = planner.predict([pulse], start)
+    assert np.max(np.hypot(*(level[0] - seen).T)) > 1e-3  # the slope shows
+    for _ in range(20):
+        fit_tilt(planner, pulse, start, seen)
+    np.testing.assert_allclose(planner.tilt_estimate, truth, atol=math.radians(0.05))
+    # a level plate: the estimate stays level
+    flat = PredictivePlanner(SimulatedUPM().limits, mu=0.3)
+    seen = upm.simulate(motion, start, duration=pulse.on_time + 0.4, dt=1.0 / (200 * 70.0), mu=0.3).positions[
+        -1
+    ]
+    for _ in range(20):
+        fit_tilt(flat, pulse, start, seen)
+    assert np.hypot(*flat.tilt_estimate) < math.radians(0.02)

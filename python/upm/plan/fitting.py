@@ -3,6 +3,7 @@ explains the last pulse, from a handful of predictions (:class:`~upm.plan.Predic
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -91,6 +92,7 @@ def learn(planner: Any, last: tuple[Any, ...], ids: NDArray[np.int64], pos: NDAr
         planner.mu_estimate = float(np.clip(planner.mu_estimate * f**weight, 0.05, 1.5))
         if planner.macros is not None:
             planner.macros.refresh(planner.mu_estimate)
+        fit_tilt(planner, pulse, start[a][moved], (start[a] + achieved)[moved])
     for k, r in zip(np.nonzero(ok)[0], a[ok], strict=True):
         g2 = float(guessed[k] @ guessed[k])
         if g2 < (8e-3) ** 2:
@@ -99,3 +101,31 @@ def learn(planner: Any, last: tuple[Any, ...], ids: NDArray[np.int64], pos: NDAr
         pid = int(last_ids[r])
         old = planner.gains.get(pid, 1.0)
         planner.gains[pid] = float(np.clip(0.7 * old + 0.3 * ratio * old, 0.6, 1.6))
+
+
+#: The slope step [rad] of :func:`fit_tilt`'s finite differences, the most it moves the estimate
+#: in one pulse, and the steepest slope it believes.
+TILT_STEP, TILT_MOVE, TILT_MAX = math.radians(0.1), math.radians(0.25), math.radians(3.0)
+
+
+def fit_tilt(planner: Any, pulse: Any, start: NDArray[np.float64], seen: NDArray[np.float64]) -> None:
+    """Move ``planner.tilt_estimate`` toward the slope that best explains where the pulse left the
+    parts (``start`` and ``seen`` (m, 2), parts that moved well clear of noise): the drift common
+    to them that the friction does not explain. The prediction's change with each slope component
+    (finite differences of :data:`TILT_STEP`) gives a linear least-squares step, taken a quarter
+    of the way and at most :data:`TILT_MOVE`, the estimate kept within :data:`TILT_MAX`."""
+    base = planner.tilt_estimate
+    trials = (base, (base[0] + TILT_STEP, base[1]), (base[0], base[1] + TILT_STEP))
+    finals = np.stack([planner.predict([pulse], start, tilt=t)[0][0] for t in trials])  # (3, m, 2)
+    if not np.all(np.isfinite(finals)):
+        return
+    jac = np.stack([finals[1] - finals[0], finals[2] - finals[0]], axis=-1) / TILT_STEP  # (m, 2, 2)
+    if not np.any(jac):
+        return
+    step = np.linalg.lstsq(jac.reshape(-1, 2), (seen - finals[0]).reshape(-1), rcond=None)[0]
+    step = 0.25 * step
+    size = float(np.hypot(*step))
+    if size > TILT_MOVE:
+        step *= TILT_MOVE / size
+    new = np.clip(np.asarray(base) + step, -TILT_MAX, TILT_MAX)
+    planner.tilt_estimate = (float(new[0]), float(new[1]))

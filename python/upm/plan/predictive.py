@@ -207,6 +207,10 @@ class PredictivePlanner:
             None if lookahead is None else MacroTable(limits, mu=self.mu, mu_s=mu_s, on_time=lookahead)
         )
         self.gains: dict[int, float] = {}
+        self.tilt_estimate = (0.0, 0.0)
+        """The plate's slope [rad] along x and y as the parts' drift shows it (learnt on line when
+        ``adapt``: :func:`.fitting.fit_tilt`); every prediction carries it (not the look-ahead's
+        long pulses)."""
         self.headroom = 1.0
         """Share of ``use`` the candidates take: lowered each time the device refuses a pulse as
         beyond its stroke (:meth:`refused`; motors stronger than the model)."""
@@ -240,11 +244,16 @@ class PredictivePlanner:
         mu: float | FloatArray | None = None,
         disks: bool = False,
         fine: bool = False,
+        tilt: tuple[float, float] | None = None,
     ) -> tuple[FloatArray, FloatArray]:
         """Positions ``(K, M, 2)`` after each pulse once the parts have stopped, and the plate time
         ``(K,)`` [s] each takes (the pulse and the rest until the last part stops: in closed form
-        for points, to 10 ms with disks)."""
+        for points, to 10 ms with disks), on a plate of slope ``tilt`` [rad] (default the
+        planner's estimate, :attr:`tilt_estimate`)."""
         mu_v = self.mu_estimate if mu is None else mu
+        slope = self.tilt_estimate if tilt is None else (float(tilt[0]), float(tilt[1]))
+        # gravity's in-plane part [m/s^2]: the plate rises toward +x and +y
+        downhill = -9.81 * np.array([math.sin(slope[0]), math.sin(slope[1])])
         mu_s = np.asarray(mu_v, dtype=float) * self._static
         if disks and self.part_radius is not None:
             apart = separate(positions, self.part_radius)
@@ -267,9 +276,11 @@ class PredictivePlanner:
                 # which the integrator's step reproduces exactly)
                 run = simulate_batch(
                     [motions[k] for k in members], parts, duration=on, dt=dt, mu=mu_v, mu_s=mu_s,
-                    record_every=2**40,
+                    record_every=2**40, tilt=slope,
                 )  # fmt: skip
                 at_rest, stopping = slide_to_rest(run.positions[:, -1], run.velocities[:, -1], mu_v)
+                if np.any(downhill):  # the slope's pull over the slide to rest (first order)
+                    at_rest = at_rest + 0.5 * downhill * (stopping**2)[..., None]
                 final[members] = at_rest
                 durations[members] = on + np.max(stopping, axis=1, initial=0.0)
                 continue
@@ -280,7 +291,15 @@ class PredictivePlanner:
             ]
             every = max(1, round(0.01 / dt))
             run = simulate_batch(
-                seq, parts, duration=horizon, dt=dt, mu=mu_v, mu_s=mu_s, record_every=every, **extra
+                seq,
+                parts,
+                duration=horizon,
+                dt=dt,
+                mu=mu_v,
+                mu_s=mu_s,
+                record_every=every,
+                tilt=slope,
+                **extra,
             )
             out = run.positions[:, -1].copy()
             out[np.asarray(run.left_plate)] = np.nan
