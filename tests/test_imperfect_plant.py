@@ -280,3 +280,30 @@ def test_the_planner_learns_the_slope_from_where_a_pulse_leaves_the_parts():
     for _ in range(20):
         fit_tilt(flat, pulse, start, seen)
     assert np.hypot(*flat.tilt_estimate) < math.radians(0.02)
+
+
+def test_the_tracker_follows_the_parts_through_a_light_that_drifts():
+    # the light's brightness wanders +-40 % over the frames: the tracker scales the plate's stored
+    # colour to each frame (Rectifier.light_gain) and keeps every part, each within 0.5 mm
+    from upm.control.loop import loop_tracker
+    from upm.plant import SimulatedUPM
+    from upm.vision import THESIS_PALETTE, find_table
+
+    rng = np.random.default_rng(7)
+    parts = np.array([[-0.08, 0.05], [0.06, 0.07], [0.0, -0.09], [0.1, -0.03], [-0.05, -0.06]])
+    plant = SimulatedUPM(parts=parts.copy(), lighting_drift=0.08, seed=7)
+    camera = plant.camera(["red", "blue", "red", "blue", "red"], seed=7)
+    frame = camera.read()[1]
+    tracker = loop_tracker(find_table(frame, plant.plate_size), 0.0195, THESIS_PALETTE, 0.02)
+    tracks = tracker.update(frame)
+    ids = tracks.ids.copy()
+    owner = [int(np.argmin(np.hypot(*(parts - p).T))) for p in tracks.positions]  # each track's part
+    assert sorted(owner) == list(range(5))
+    lights = []
+    for _ in range(30):
+        plant.move_parts(plant.parts + rng.uniform(-0.004, 0.004, parts.shape))
+        tracks = tracker.update(camera.read()[1])
+        lights.append(camera._light)
+        np.testing.assert_array_equal(tracks.ids, ids)
+        assert np.max(np.hypot(*(tracks.positions - plant.parts[owner]).T)) < 0.5e-3
+    assert np.ptp(lights) > 0.3  # the light did wander

@@ -253,6 +253,21 @@ class Rectifier:
         self.background = background
         return background
 
+    def light_gain(self, frame: NDArray[np.uint8]) -> float:
+        """How much brighter ``frame`` is than when :meth:`fit_background` last ran: the median over
+        the lighting grid's plate pixels (sampled straight from the camera frame) of their
+        brightness over the background's there (parts on a few of them do not move the median)."""
+        if self.background is None:
+            return 1.0
+        gy, gx, _, _, _ = self._lighting_bases()
+        mx, my = self._camera_maps()
+        sx, sy = mx[gy, gx].reshape(1, -1), my[gy, gx].reshape(1, -1)
+        seen = cv2.remap(frame, sx, sy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        seen = np.asarray(seen, np.float64).reshape(sx.size, -1).sum(axis=1)
+        then = np.asarray(self.background[gy, gx], np.float64).reshape(sx.size, -1).sum(axis=1)
+        ratio = seen / np.maximum(then, 1.0)
+        return float(np.clip(np.median(ratio), 0.2, 5.0))
+
     def to_plate(self, top: FloatArray) -> FloatArray:
         w, h = self.table.plate_size
         s, p = self.scale, self.pad

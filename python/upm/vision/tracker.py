@@ -150,6 +150,7 @@ class Tracker:
         self._colour = np.zeros((0, 0))
         self._labels: list[str] = []
         self._missed = np.zeros(0, np.int64)
+        self._gain = 1.0  # this frame's brightness over the stored plate colour's
 
     # -- public -------------------------------------------------------------------------------
 
@@ -172,6 +173,8 @@ class Tracker:
         else:
             still = self._missed > 0  # lost before this frame: one more frame missed unless found again
             self._missed[still] += 1
+            # the light drifts (auto-exposure, clouds): the plate's stored colour scaled to this frame
+            self._gain = self.rect.light_gain(img)
             self._follow(img)
             lost_now = self._missed > 0
             periodic = self.detect_every > 0 and self._frame % self.detect_every == 0
@@ -249,10 +252,11 @@ class Tracker:
         high = np.array([bg.shape[1] - size, bg.shape[0] - size])
         origins = np.clip(np.floor(predicted).astype(int) - half, 0, high)
         windows = self.rect.patches(img, origins, size)
+        gain = np.float32(self._gain)
         for k, (ox, oy) in enumerate(origins):
-            windows[k] -= bg[oy : oy + size, ox : ox + size]
+            windows[k] -= gain * bg[oy : oy + size, ox : ox + size]
         centres, _, area, around = refine(windows, predicted, origins.astype(np.float64), self.rect.radius,
-                                          self._colour[which], iterations=4)  # fmt: skip
+                                          self._colour[which] * self._gain, iterations=4)  # fmt: skip
         covered = area / (math.pi * self.rect.radius**2)
         found = (
             (covered >= self.min_area)
@@ -266,6 +270,8 @@ class Tracker:
         """Search the whole plate; re-acquire lost parts, add new ones."""
         bg = self.rect.background
         assert bg is not None
+        if self._gain != 1.0:
+            bg = np.asarray(bg * np.float32(self._gain), np.float32)
         centres, colour, area, _ = detect(top, bg, self.rect, self.min_contrast, None)
         plate = self.rect.to_plate(centres) if len(centres) else np.zeros((0, 2))
         keep = self.rect.table.contains(plate) & (area / (math.pi * self.rect.radius**2) >= self.min_area)
