@@ -70,12 +70,13 @@ def faults(name: str, n: int, seed: int) -> dict[str, Any]:
     return each[name]
 
 
-def run(task: str, fault: str, seed: int) -> dict[str, float]:
+def run(task: str, fault: str, seed: int, learn_tilt: bool = False) -> dict[str, float]:
     parts, labels, radius, job, cycles, _ = setup(task, seed)
     plant = SimulatedUPM(plate=LIMITS.plate, axes=LIMITS.axes, parts=parts, seed=seed, part_radius=radius,
                          **faults(fault, len(parts), seed))  # fmt: skip
-    loop = control.Loop(plant, plant.camera(labels, seed=seed), planner("predictive", radius), job,
-                        part_radius=radius)  # fmt: skip
+    chooser = planner("predictive", radius)
+    chooser.learn_tilt = learn_tilt
+    loop = control.Loop(plant, plant.camera(labels, seed=seed), chooser, job, part_radius=radius)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         start = time.perf_counter()
@@ -101,6 +102,9 @@ def main() -> None:
     ap.add_argument("--faults", default=",".join(FAULTS))
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--stored", action="store_true", help="tabulate the stored runs, run none")
+    ap.add_argument("--learn-tilt", action="store_true",
+                    help="the planner learns the slope on line (PredictivePlanner(learn_tilt=True)); "
+                    "its rows are stored as FAULT+learnt")  # fmt: skip
     args = ap.parse_args()
     stored: dict[tuple[str, str, int], dict[str, Any]] = {}
     if STORE.exists():
@@ -111,23 +115,26 @@ def main() -> None:
     for name in names:
         if name not in FAULTS:
             raise SystemExit(f"unknown fault {name!r}; one of {FAULTS}")
+    suffix = "+learnt" if args.learn_tilt else ""
     for task in tasks:
         for name in names:
             for seed in range(1, args.seeds + 1):
-                if (task, name, seed) in stored or args.stored:
+                if (task, name + suffix, seed) in stored or args.stored:
                     continue
-                row = {"task": task, "fault": name, "seed": seed, "cpu": cpu(), **run(task, name, seed)}
-                stored[(task, name, seed)] = row
+                row = {"task": task, "fault": name + suffix, "seed": seed, "cpu": cpu(),
+                       **run(task, name, seed, args.learn_tilt)}  # fmt: skip
+                stored[(task, name + suffix, seed)] = row
                 with STORE.open("a") as f:
                     f.write(json.dumps(row) + "\n")
-                print(f"{task} {name} seed {seed}: done {row['done']:.0f}, {row['time']:.1f} s, "
+                print(f"{task} {name}{suffix} seed {seed}: done {row['done']:.0f}, {row['time']:.1f} s, "
                       f"{row['lost']:.0f} lost, {row['wall']:.0f} s wall", flush=True)  # fmt: skip
     print(f"\n{cpu()}: the predictive planner, told nothing of the faults; median (max)\n")
     print("| task | fault | done | plate time [s] | vs perfect | lost | wall time [s] | refused |")
     print("|---|---|---|---|---|---|---|---|")
     for task in tasks:
         base = [r["time"] for (t, f, _), r in stored.items() if (t, f) == (task, "none")]
-        for name in names:
+        shown = [n for n in names] + [n + "+learnt" for n in names]
+        for name in shown:
             rows = [r for (t, f, _), r in stored.items() if (t, f) == (task, name)]
             if not rows:
                 continue

@@ -92,7 +92,8 @@ def learn(planner: Any, last: tuple[Any, ...], ids: NDArray[np.int64], pos: NDAr
         planner.mu_estimate = float(np.clip(planner.mu_estimate * f**weight, 0.05, 1.5))
         if planner.macros is not None:
             planner.macros.refresh(planner.mu_estimate)
-        fit_tilt(planner, pulse, start[a][moved], (start[a] + achieved)[moved])
+        if planner.learn_tilt:
+            fit_tilt(planner, pulse, start[a][moved], (start[a] + achieved)[moved])
     for k, r in zip(np.nonzero(ok)[0], a[ok], strict=True):
         g2 = float(guessed[k] @ guessed[k])
         if g2 < (8e-3) ** 2:
