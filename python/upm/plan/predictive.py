@@ -296,17 +296,8 @@ class PredictivePlanner:
                 for k in members
             ]
             every = max(1, round(0.01 / dt))
-            run = simulate_batch(
-                seq,
-                parts,
-                duration=horizon,
-                dt=dt,
-                mu=mu_v,
-                mu_s=mu_s,
-                record_every=every,
-                tilt=slope,
-                **extra,
-            )
+            run = simulate_batch(seq, parts, duration=horizon, dt=dt, mu=mu_v, mu_s=mu_s, record_every=every,
+                                 tilt=slope, **extra)  # fmt: skip
             out = run.positions[:, -1].copy()
             out[np.asarray(run.left_plate)] = np.nan
             final[members] = out
