@@ -123,8 +123,9 @@ class PredictivePlanner:
         that move many parts toward their goals at once. 0: none.
     learn_tilt : bool
         Also learn the plate's slope on line (:attr:`tilt_estimate`, :func:`.fitting.fit_tilt`;
-        with ``adapt``). Off by default: over 5 seeds half a degree off level it sped goto6 up
-        (median 43 s against 55) but lost a chip of one sort8 seed that finishes without it.
+        with ``adapt``). Off by default: over 5 seeds half a degree off level it helped goto6 (4/5
+        done, median 43 s, against 3/5 and 55 s) but lost a chip of a sort8 seed that finishes
+        without it (``bench/robustness.py --learn-tilt``).
     focus : int or None
         Pulses at parts (rotations about a part, jets at it) only for this many parts a cycle,
         those whose cost falls most steeply as they move (the parts with the most still to gain);
