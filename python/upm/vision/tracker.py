@@ -277,6 +277,7 @@ class Tracker:
         keep = self.rect.table.contains(plate) & (area / (math.pi * self.rect.radius**2) >= self.min_area)
         centres, colour = centres[keep], colour[keep]
         labels, _ = label_parts(centres, colour, bg, self.palette)
+        colour = colour / self._gain  # kept as under the stored plate colour's light
         r = self.rect.radius
         active = self._missed == 0
         unused = []
