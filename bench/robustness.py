@@ -133,7 +133,7 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|---|")
     for task in tasks:
         base = [r["time"] for (t, f, _), r in stored.items() if (t, f) == (task, "none")]
-        shown = [n for n in names] + [n + "+learnt" for n in names]
+        shown = [*names, *(n + "+learnt" for n in names)]
         for name in shown:
             rows = [r for (t, f, _), r in stored.items() if (t, f) == (task, name)]
             if not rows:

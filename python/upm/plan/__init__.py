@@ -6,7 +6,8 @@
 * :mod:`~upm.plan.jets` (chapter 6): :func:`jet_pulses`, :func:`jet_plan`, :class:`JetPlanner`;
 * :mod:`~upm.plan.predictive`: :class:`PredictivePlanner`, receding-horizon sampling on the
   batched simulator within the drive's force and stroke; its candidate families
-  (:mod:`~upm.plan.candidates`) and long-pulse look-ahead (:mod:`~upm.plan.macros`);
+  (:mod:`~upm.plan.candidates`), its look-ahead (:mod:`~upm.plan.lookahead`: two-pulse scores;
+  :mod:`~upm.plan.macros`: the long pulses' tables);
 * :mod:`~upm.plan.greedy`: :class:`GreedyLibraryPlanner`, the published Chladni-plate
   controller (greedy, one step, a fixed library with displacement maps) as the peer;
 * :mod:`~upm.plan.fields`: :class:`FieldPlanner`, velocity fields of a plate that moves out of

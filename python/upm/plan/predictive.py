@@ -44,8 +44,9 @@ from ..sim import Disk, simulate_batch
 from .candidates import Candidates, aligned_centres, generate
 from .fitting import learn, restarted
 from .goals import PositionsView, StepsGoal
+from .lookahead import pair_rates, two_step
 from .macros import MacroTable
-from .penalties import in_band, penalty
+from .penalties import penalty
 from .sizing import positive as _positive
 from .sizing import separate, slide_to_rest
 
@@ -425,7 +426,7 @@ class PredictivePlanner:
         if self.focus is not None and len(pos) > self.focus:
             # many parts: the look-ahead for the best few by their own rate (its cost is K R M)
             among = np.argsort(-np.where(np.isfinite(rate), rate, -np.inf), kind="stable")[: 8 * self.focus]
-        rate = np.maximum(rate, self._two_step(task, state, pos, final, durations, among))
+        rate = np.maximum(rate, two_step(self, task, state, pos, final, durations, among))
         pair_rate = np.full(len(pulses), -np.inf)
         pair_gain = np.zeros(len(pulses))
         if self.pairs is not None and len(pulses):
@@ -436,8 +437,8 @@ class PredictivePlanner:
             ok = np.isfinite(rate) & np.all(np.isfinite(final), axis=(1, 2))
             first = [int(k) for k in np.argsort(-np.where(ok, rate, -np.inf))[: self.pairs[0]] if ok[k]]
             if first and second:
-                pair_rate[first], pair_gain[first] = self._pairs(
-                    task, state, pos, [pulses[k] for k in second], durations[second],
+                pair_rate[first], pair_gain[first] = pair_rates(
+                    self, task, state, pos, [pulses[k] for k in second], durations[second],
                     final[first], durations[first], gain_of,
                 )  # fmt: skip
                 rate = np.maximum(rate, pair_rate)
@@ -448,7 +449,7 @@ class PredictivePlanner:
             f2, d2 = self.predict([pulses[k] for k in top], pos, disks=True, fine=True)
             f2 = np.where(np.isfinite(f2), pos + gain_of[None, :, None] * (f2 - pos), np.nan)
             g2, r2 = self._score(task, state, pos, f2, d2)
-            r2 = np.maximum(r2, self._two_step(task, state, pos, f2, d2))
+            r2 = np.maximum(r2, two_step(self, task, state, pos, f2, d2))
             gain[top], rate[top] = g2, r2
             best = top[int(np.argmax(np.where(np.isfinite(r2), r2, -np.inf)))]
             # the re-ranked pulses' fine predictions replace the coarse ones
@@ -467,80 +468,6 @@ class PredictivePlanner:
         if best is None:
             return None, gain, rate, math.nan, np.full_like(pos, np.nan)
         return best, gain, rate, float(durations[best]), final[best]
-
-    def _two_step(
-        self,
-        task: _CostTask,
-        state: Any,
-        pos: FloatArray,
-        final: FloatArray,
-        durations: FloatArray,
-        among: NDArray[np.int64] | None = None,
-    ) -> FloatArray:
-        """Gain per second of each candidate (``among`` them only: the others ``-inf``) followed
-        by the best long pulse (its table)."""
-        if self.macros is None:
-            return np.full(len(final), -np.inf)
-        if among is not None:
-            out_all = np.full(len(final), -np.inf)
-            out_all[among] = self._two_step(task, state, pos, final[among], durations[among])
-            return out_all
-        safe = np.where(np.isfinite(final), final, pos)
-        after = self.macros.apply(safe)  # (K, R, M, 2)
-        total = durations[:, None] + self.macros.durations[None, :]
-        still = np.broadcast_to(pos, after.shape)
-        flat = (-1, *pos.shape)
-        # resting: the same layout throughout (its penalty once), only the time differs
-        rest = np.asarray(task.cost(state, still, total), dtype=float)
-        rest = rest + self._penalty(pos[None], overlaps=False)[0]
-        cost = np.asarray(task.cost(state, after, total), dtype=float)
-        start = np.broadcast_to(safe[:, None], after.shape).reshape(flat)
-        cost = cost + self._penalty(after.reshape(flat), overlaps=False, start=start).reshape(total.shape)
-        # a set-up step must keep every part out of the edge band (a prediction error there, over
-        # the long pulse that follows, loses a part)
-        lost = ~np.all(np.isfinite(final), axis=(1, 2)) | self._in_band(final)
-        out: FloatArray = np.max((rest - cost) / total, axis=1)
-        out[lost] = -np.inf
-        return out
-
-    def _in_band(self, q: FloatArray) -> NDArray[np.bool_]:
-        return in_band(q, self.limits.size / 2, self.edge)
-
-    def _pairs(
-        self,
-        task: _CostTask,
-        state: Any,
-        pos: FloatArray,
-        second: Sequence[Pulse],
-        second_time: FloatArray,
-        final: FloatArray,
-        durations: FloatArray,
-        gain_of: FloatArray,
-    ) -> tuple[FloatArray, FloatArray]:
-        """Gain per second (and gain [m]) of each of ``F`` first pulses (leaving the parts at
-        ``final (F, M, 2)`` after ``durations (F,)``) followed by the best of the ``second``
-        pulses (plate times ``second_time`` as from the present layout), predicted from there
-        (point parts do not interact, so all the first pulses' layouts ride in one world). A
-        first pulse that leaves a part in the edge band scores ``-inf``, as a set-up step does."""
-        f, m = final.shape[:2]
-        after, _ = self.predict(second, final.reshape(-1, 2))
-        after = after.reshape(len(second), f, m, 2).transpose(1, 0, 2, 3)  # (F, S, M, 2)
-        base = final[:, None]
-        after = base + gain_of[None, None, :, None] * (after - base)
-        total = durations[:, None] + second_time[None, :]
-        still = np.broadcast_to(pos, after.shape)
-        rest = np.asarray(task.cost(state, still, total), dtype=float) + self._penalty(pos[None])[0]
-        safe = np.where(np.isfinite(after), after, still)
-        cost = np.asarray(task.cost(state, safe, total), dtype=float)
-        start = np.broadcast_to(base, after.shape).reshape(-1, m, 2)
-        cost = cost + self._penalty(after.reshape(-1, m, 2), start=start).reshape(total.shape)
-        per_second = (rest - cost) / total
-        pick = np.argmax(per_second, axis=1)
-        rows = np.arange(f)
-        out: FloatArray = per_second[rows, pick]
-        won: FloatArray = (rest - cost)[rows, pick]
-        out[self._in_band(final)] = -np.inf
-        return out, won
 
     def plan_task(self, state: Any, task: _CostTask) -> list[Pulse]:
         """One pulse for ``task`` from the tracked ``state`` (its parts all seen), or none."""
