@@ -45,7 +45,8 @@ demo: $(VENV)/.built ## the main job: 8 chips sorted by colour through the full 
 	$(PY) -m upm.cli figures --out out/figures
 
 .PHONY: test
-test: $(VENV)/.built chromium ## every check: cargo test, clippy, pytest, ruff, mypy + stubtest
+test: $(VENV)/.built chromium ## every check: cargo test, clippy, the layers, pytest, ruff, mypy + stubtest
+	$(VENV)/bin/lint-imports --no-cache
 	cargo fmt --all --check
 	cargo test --quiet
 	# (the one-pass short run again on the AVX2 build: on an AVX-512 machine the default is the other)
@@ -57,8 +58,14 @@ test: $(VENV)/.built chromium ## every check: cargo test, clippy, pytest, ruff, 
 	$(PY) -m mypy
 	$(PY) -m mypy.stubtest upm._core
 
+.PHONY: test-fast
+test-fast: $(VENV)/.built ## the edit loop: the layers, then pytest without the tests marked slow
+	$(VENV)/bin/lint-imports --no-cache
+	$(PY) -m pytest -q -m "not slow"
+
 .PHONY: lint
-lint: $(VENV)/.built ## ruff (fixing what it can), clippy, mypy
+lint: $(VENV)/.built ## ruff (fixing what it can), clippy, mypy, the layers (import-linter)
+	$(VENV)/bin/lint-imports --no-cache
 	$(PY) -m ruff format $(PY_DIRS)
 	$(PY) -m ruff check --fix $(PY_DIRS)
 	cargo clippy --workspace --all-targets -- -D warnings

@@ -89,6 +89,7 @@ def test_limits_on_the_six_axis_board():
     assert exchange(board, [h23], first=50)[0][1].code == protocol.NackCode.OUT_OF_LIMITS
 
 
+@pytest.mark.slow
 def test_field_pulses_through_the_emulator_process(tmp_path):
     from upm.control import BoardDevice
     from upm.vision import RemoteCamera

@@ -104,6 +104,7 @@ def test_the_loop_sees_parts_through_a_calibrated_table(frames, tmp_path):
         Loop(plant, plant.camera(["red"] * 4), planner, task, part_radius=0.0195, table=3)
 
 
+@pytest.mark.slow
 def test_upm_calibrate_prints_the_board_and_calibrates_from_files(frames, tmp_path, capsys):
     assert main(["calibrate", "--print-board", str(tmp_path / "board.png")]) == 0
     from PIL import Image

@@ -69,6 +69,7 @@ def test_parts_fall_off_the_edge_unless_it_is_a_wall() -> None:
     assert fenced.positions[-1, :, 0] == pytest.approx(0.14, abs=1e-3)
 
 
+@pytest.mark.slow
 def test_ten_chips_in_a_sorting_run_never_overlap_beyond_tolerance() -> None:
     # Ten 39 mm chips packed 41 mm apart, sorted red left, blue right by jets through the closed
     # loop (virtual camera, tracker, JetPlanner, the motor-driven plate): chips bump on the way.

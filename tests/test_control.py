@@ -279,6 +279,7 @@ def test_a_part_pushed_over_the_edge_falls_off_and_leaves_the_picture():
 # -- through the board emulator -----------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_sort_through_the_board_protocol_and_the_emulator_process():
     from upm import demos
 
@@ -304,7 +305,14 @@ def test_demo_list_names_every_demo(capsys):
 
     assert cli.main(["demo", "list"]) == 0
     listed = [line.split()[0] for line in capsys.readouterr().out.splitlines()]
-    every = [*demos.DEMOS, *mchip_demos.DEMOS, *ppod_demos.DEMOS, *orient_demos.DEMOS, *scale_demos.DEMOS]
+    every = [
+        "feeding",
+        *demos.DEMOS,
+        *mchip_demos.DEMOS,
+        *ppod_demos.DEMOS,
+        *orient_demos.DEMOS,
+        *scale_demos.DEMOS,
+    ]
     assert listed == every
 
 

@@ -87,6 +87,7 @@ def open_page(browser, server, desk):
     return page
 
 
+@pytest.mark.slow
 def test_click_parts_and_goals_then_stop(served, browser, tmp_path):
     desk, server = served
     page = open_page(browser, server, desk)
@@ -199,6 +200,7 @@ def test_bad_requests_get_errors_not_crashes(served):
         assert answer(json.dumps({"type": "pause"}))["type"] == "ack"  # the server still answers
 
 
+@pytest.mark.slow
 def test_drag_a_path_and_the_part_follows_it(served, browser):
     desk, server = served
     page = open_page(browser, server, desk)
@@ -221,6 +223,7 @@ def test_drag_a_path_and_the_part_follows_it(served, browser):
     assert np.hypot(*(desk.plant.parts[truth] - path[-1])) <= 0.006  # tolerance 4 mm, vision 1-2 mm
 
 
+@pytest.mark.slow
 def test_a_part_placed_first_stays_while_the_next_one_travels():
     """One goal, done; then another: the first part is held where it was put (it drifted 14 mm
     when it was only asked not to move), and a command that comes as the last one ends is kept."""
@@ -240,6 +243,7 @@ def test_a_part_placed_first_stays_while_the_next_one_travels():
         desk.close()
 
 
+@pytest.mark.slow
 def test_gather_on_a_plate_that_moves_out_of_its_plane():
     desk = simulated(six_axis=True, contacts=False, watchdog=60.0).start()
     try:
@@ -253,6 +257,7 @@ def test_gather_on_a_plate_that_moves_out_of_its_plane():
         desk.close()
 
 
+@pytest.mark.slow
 def test_stop_on_a_board_stops_its_motors_mid_pulse(tmp_path):
     import subprocess
     import sys

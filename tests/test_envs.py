@@ -218,6 +218,7 @@ def test_simulate_batch_starts_each_world_from_its_own_layout(contacts):
         upm.simulate_batch(motions, starts[0], starts=starts[:2], **kw)
 
 
+@pytest.mark.slow
 def test_the_planner_policy_assembles_a_small_shape_where_random_actions_do_not():
     from upm.envs import PlannerPolicy, RandomPolicy
 

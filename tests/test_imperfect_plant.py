@@ -185,7 +185,7 @@ def test_the_loop_survives_motors_stronger_than_the_model_by_sizing_its_pulses_l
     plant = SimulatedUPM(parts=starts, part_radius=penny, seed=2, motor_gain=[1.3] * 4)
     planner = PredictivePlanner(plant.limits, mu=0.3, part_radius=penny)
     task = control.GotoTask(goals, starts=starts, tolerance=0.004)
-    with pytest.warns(RuntimeWarning, match="sizes its pulses lower"):
+    with pytest.warns(upm.PlanWarning, match="sizes its pulses lower"):
         log = control.Loop(plant, plant.camera("penny", seed=2), planner, task, part_radius=penny).run(60)
     assert log.meta["refused"] >= 1 and planner.headroom < 1.0
     assert log.done and plant.fallen == 0

@@ -195,6 +195,7 @@ def test_bad_input_names_the_parameter() -> None:
         mchip.simulate("8x5", duration=1e-3)  # type: ignore[arg-type]
 
 
+@pytest.mark.slow
 def test_the_feed_demo_writes_its_figure_and_metrics(tmp_path: Path) -> None:
 
     pytest.importorskip("matplotlib")
@@ -215,6 +216,7 @@ def test_the_feed_demo_writes_its_figure_and_metrics(tmp_path: Path) -> None:
         run_mchip_demo("mchip-fed", out=tmp_path)
 
 
+@pytest.mark.slow
 def test_the_lower_duty_cycle_removes_a_heavy_parts_double_bounces() -> None:
     # Thesis 2.2.2 with its 1.15 x 0.4 x 0.25 mm part at 125 µg: at 50% duty its resonators
     # ricochet (the torque is still on when a ridge knocked back by the part comes up again); at
@@ -247,6 +249,7 @@ def _square_wave_response(
     return theta
 
 
+@pytest.mark.slow
 def test_a_joint_resonating_below_the_drive_lets_the_next_row_block_the_part() -> None:
     # Thesis 2.2.1. A joint resonating at 1.5 kHz, driven at 5 kHz, low-passes the square wave:
     # the free resonators ride on the torque's mean and swing between 0.063 and 0.08 rad (the

@@ -102,6 +102,7 @@ def test_pipeline_needs_a_planner_that_plans_ahead():
                      part_radius=0.0095, pipeline=-1.0)  # fmt: skip
 
 
+@pytest.mark.slow
 def test_the_board_plays_every_pulse_once_and_in_order_beside_cpu_hogs(tmp_path):
     import json
     import subprocess

@@ -313,6 +313,7 @@ def test_the_scale_demos_build_their_shapes_and_refuse_bad_options(tmp_path):
         run_scale_demo("sort32", tmp_path, planner="magic")
 
 
+@pytest.mark.slow
 def test_every_scale_demo_sets_up_its_parts_apart_on_the_plate():
     # sort32's start used to ask for 32 chips in a square that holds 25: the demo never began
     from upm.scale_demos import DEMOS

@@ -72,6 +72,7 @@ def test_rotation_accuracy_scenario() -> None:
         upm.sweep("rotation_accuracy", {"spacing": [0.05], "n_centers": [6]}, progress=False)
 
 
+@pytest.mark.slow
 def test_mchip_feed_scenario_runs_the_array_per_point() -> None:
     # Two duty cycles, 15 ms each, on two threads: each point is one rapier3d run of upm.mchip, the
     # same as calling it directly.

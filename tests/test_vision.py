@@ -215,6 +215,7 @@ def sorting_run(frames: int, rng: np.random.Generator, r: float = CHIP) -> tuple
     return np.array(out), labels
 
 
+@pytest.mark.slow
 def test_tracker_keeps_ids_through_1000_frames_of_sorting(rng: np.random.Generator) -> None:
     truth, labels = sorting_run(1000, rng)
     gaps = [np.min(np.linalg.norm(t[:, None] - t[None], axis=2) + np.eye(10)) for t in truth]

@@ -211,6 +211,7 @@ def test_replay_serves_the_web_viewer_on_localhost(tmp_path):
         viz.replay(tmp_path / "nothing.rrd")
 
 
+@pytest.mark.slow
 def test_replay_screenshot_draws_the_recording(recorded, tmp_path):
     pytest.importorskip("playwright.sync_api")
     try:
@@ -257,6 +258,7 @@ def test_the_drawn_field_is_the_average_force_at_rest():
     assert viz.field_on_grid([Pulse.pause(0.1)], grid) is None
 
 
+@pytest.mark.slow
 def test_upm_demo_rrd_records_the_mchip_feed(tmp_path):
     from upm import cli
 

@@ -5,43 +5,47 @@ upm computes the plate motions that produce the part motions you want, exactly a
 
 SI units throughout; forces are averages over one period divided by ``mu m g``. The maths, with
 equation numbers pointing into the thesis, is in ``docs/theory.md``.
+
+The package is layered (docs/architecture.md; ``pyproject.toml``'s import-linter contract checks
+it): :mod:`upm.physics` (the forward model) < :mod:`upm.plate` (motors, limits, pulses, the
+simulated plate) < :mod:`upm.plan` | :mod:`upm.vision` | :mod:`upm.viz` < :mod:`upm.board` <
+:mod:`upm.control` < :mod:`upm.experiments` | :mod:`upm.envs` < :mod:`upm.desk` < ``upm.cli``.
+The names below are the face: the ones most programs need, grouped by layer.
 """
 
 from __future__ import annotations
 
-from . import actuation, mchip, shapes, theory
+from . import _moved  # first: the paths of before the layer packages (upm.sim, ...) still import
 from ._build import build_info
 from ._core import __version__
 from ._errors import (
     BoardError,
+    BoardTimeout,
+    CommandRefused,
     ConvergenceError,
     InternalError,
     MissingExtraError,
     ParameterError,
     PlanWarning,
+    ProtocolError,
     RankWarning,
     ResonanceWarning,
     ShapeError,
+    StrokeError,
     UpmError,
+    UpmWarning,
+    VersionMismatch,
     VisionError,
 )
-from .drive import DriveLimits, StrokeError
-from .feeding import feed_rate, force_table, mean_force, theorem1_force
-from .field_design import FieldDesign, design_field
-from .fields import average_field, jet_field, rotation_curl, rotation_field
-from .motion import PlateMotion
-from .orienting import Equilibria, RadialField, SqueezeField, orientation_equilibria
-from .plan import (
-    PredictivePlanner,
-    jet_plan,
-    jet_pulses,
-    plan_pulses,
-    plan_to_motion,
-    sustain_for_displacement,
-    trim_rests,
-)
-from .polygon import Polygon
-from .ppod import (
+from .control import shapes
+from .experiments.sweeps import sweep
+from .physics import mchip, theory
+from .physics.feeding import feed_rate, force_table, mean_force, theorem1_force
+from .physics.fields import average_field, jet_field, rotation_curl, rotation_field
+from .physics.motion import PlateMotion
+from .physics.orienting import Equilibria, RadialField, SqueezeField, orientation_equilibria
+from .physics.polygon import Polygon
+from .physics.ppod import (
     PPOD_FIELDS,
     PPOD_SEQUENCES,
     FieldResult,
@@ -50,9 +54,27 @@ from .ppod import (
     drift_field,
     field_angle,
 )
-from .pulses import Pulse
-from .sim import Disk, Point, SimResult, simulate, simulate_batch
-from .solvers import (
+from .physics.sim import Disk, Point, SimResult, simulate, simulate_batch
+from .physics.waveforms import BangBang, Harmonics, TwoHarmonic, Waveform
+from .plan import (
+    DisplacementPlanner,
+    FieldPlanner,
+    FixedPlanner,
+    GreedyLibraryPlanner,
+    JetPlanner,
+    Planner,
+    PosePlanner,
+    PredictivePlanner,
+    RotationsPlanner,
+    jet_plan,
+    jet_pulses,
+    plan_pulses,
+    plan_to_motion,
+    sustain_for_displacement,
+    trim_rests,
+)
+from .plan.field_design import FieldDesign, design_field
+from .plan.solvers import (
     DisplacementPlan,
     RotationPlan,
     corner_centers,
@@ -64,85 +86,48 @@ from .solvers import (
     solve_rotations,
     solve_rotations_batch,
 )
-from .sweeps import sweep
-from .waveforms import BangBang, Harmonics, TwoHarmonic, Waveform
+from .plate import actuation
+from .plate.drive import DriveLimits
+from .plate.pulses import Pulse
 
-__all__ = [
-    "PPOD_FIELDS",
-    "PPOD_SEQUENCES",
-    "BangBang",
-    "BoardError",
-    "ConvergenceError",
-    "Disk",
-    "DisplacementPlan",
-    "DriveLimits",
-    "Equilibria",
-    "FieldDesign",
-    "FieldResult",
-    "Harmonics",
-    "InternalError",
-    "MissingExtraError",
-    "ParameterError",
-    "PlanWarning",
-    "PlateMotion",
-    "Point",
-    "Polygon",
-    "PredictivePlanner",
-    "Pulse",
-    "RadialField",
-    "RankWarning",
-    "ResonanceWarning",
-    "RotationPlan",
-    "ShapeError",
-    "SimResult",
-    "SqueezeField",
-    "StrokeError",
-    "TwoHarmonic",
-    "UpmError",
-    "VisionError",
-    "Waveform",
-    "__version__",
-    "actuation",
-    "asymptotic_field",
-    "average_field",
-    "build_info",
-    "corner_centers",
-    "design_field",
-    "divergence_curl",
-    "drift_field",
-    "feed_rate",
-    "field_angle",
-    "flow_error",
-    "force_table",
-    "grid_centers",
-    "jet_field",
-    "jet_plan",
-    "jet_pulses",
+# fmt: off
+__all__ = [  # noqa: RUF022 - grouped by layer, not sorted
+    # the package
+    "__version__", "build_info",
+    # errors and warnings (upm._errors): UpmError and UpmWarning are the roots
+    "UpmError", "ParameterError", "ShapeError", "StrokeError", "ConvergenceError", "InternalError",
+    "MissingExtraError", "VisionError", "BoardError", "BoardTimeout", "CommandRefused",
+    "ProtocolError", "VersionMismatch",
+    "UpmWarning", "PlanWarning", "RankWarning", "ResonanceWarning",
+    # physics: the forward model
+    "Waveform", "BangBang", "Harmonics", "TwoHarmonic",
+    "feed_rate", "force_table", "mean_force", "theorem1_force", "theory",
+    "PlateMotion", "average_field", "jet_field", "rotation_curl", "rotation_field",
+    "PPOD_FIELDS", "PPOD_SEQUENCES", "FieldResult", "asymptotic_field", "divergence_curl",
+    "drift_field", "field_angle",
+    "Disk", "Point", "SimResult", "simulate", "simulate_batch",
+    "Polygon", "Equilibria", "RadialField", "SqueezeField", "orientation_equilibria",
     "mchip",
-    "mean_force",
-    "orientation_equilibria",
-    "plan_pulses",
-    "plan_to_motion",
-    "ring_centers",
-    "rotation_curl",
-    "rotation_field",
-    "rotation_order",
-    "shapes",
-    "simulate",
-    "simulate_batch",
-    "solve_displacements",
-    "solve_rotations",
-    "solve_rotations_batch",
-    "sustain_for_displacement",
-    "sweep",
-    "theorem1_force",
-    "theory",
+    # plate: the machine
+    "actuation", "DriveLimits", "Pulse",
+    # plan: the inverse solvers and every planner
+    "RotationPlan", "DisplacementPlan", "solve_rotations", "solve_rotations_batch",
+    "solve_displacements", "corner_centers", "grid_centers", "ring_centers", "rotation_order",
+    "flow_error", "FieldDesign", "design_field",
+    "Planner", "PredictivePlanner", "RotationsPlanner", "DisplacementPlanner", "JetPlanner",
+    "GreedyLibraryPlanner", "FieldPlanner", "PosePlanner", "FixedPlanner",
+    "jet_plan", "jet_pulses", "plan_pulses", "plan_to_motion", "sustain_for_displacement",
     "trim_rests",
+    # control: target shapes for the tasks
+    "shapes",
+    # experiments
+    "sweep",
 ]
+# fmt: on
 
-#: Subpackages that load on first use (``upm.plot.sweep(...)`` after ``import upm``): each pulls in
-#: its extra (matplotlib, OpenCV, pyserial, ...) only when it is used.
-_ON_USE = ("board", "control", "desk", "envs", "plant", "plate6", "plot", "vision", "viz")
+#: Packages that load on first use (``upm.control.Loop`` after ``import upm``): each pulls in its
+#: extra (matplotlib, OpenCV, pyserial, ...) only when it is used.
+_ON_USE = ("board", "control", "desk", "envs", "experiments", "physics", "plan", "plate", "vision", "viz")
 
 
 def __getattr__(name: str) -> object:
@@ -150,4 +135,6 @@ def __getattr__(name: str) -> object:
         import importlib
 
         return importlib.import_module(f".{name}", __name__)
+    if name in _moved.MOVED:  # upm.sim, upm.plot, ...: the module at its new path
+        return _moved.module(name)
     raise AttributeError(f"module 'upm' has no attribute {name!r}")

@@ -4,15 +4,21 @@ from __future__ import annotations
 
 __all__ = [
     "BoardError",
+    "BoardTimeout",
+    "CommandRefused",
     "ConvergenceError",
     "InternalError",
     "MissingExtraError",
     "ParameterError",
     "PlanWarning",
+    "ProtocolError",
     "RankWarning",
     "ResonanceWarning",
     "ShapeError",
+    "StrokeError",
     "UpmError",
+    "UpmWarning",
+    "VersionMismatch",
     "VisionError",
 ]
 
@@ -45,15 +51,24 @@ class MissingExtraError(UpmError, ImportError):
     (``pip install 'upm[extra]'``)."""
 
 
-class RankWarning(UserWarning):
+class StrokeError(ParameterError):
+    """A plate motion would move a plate corner further from home than the stroke allows."""
+
+
+class UpmWarning(UserWarning):
+    """Root of every warning upm issues: ``warnings.simplefilter("error", upm.UpmWarning)`` turns
+    them all into errors."""
+
+
+class RankWarning(UpmWarning):
     """A linear system is rank deficient: the result is a least-squares compromise, not exact."""
 
 
-class PlanWarning(UserWarning):
+class PlanWarning(UpmWarning):
     """A plate motion program will not achieve its plan closely (the message says by how much)."""
 
 
-class ResonanceWarning(UserWarning):
+class ResonanceWarning(UpmWarning):
     """The drive is too close to a resonance of the plate for velocity = integral of force / mass."""
 
 
@@ -63,3 +78,23 @@ class BoardError(UpmError):
 
 class VisionError(UpmError):
     """The camera frame is unusable or does not show what was looked for (the message says what)."""
+
+
+class ProtocolError(BoardError):
+    """A frame that is not a valid protocol message (the message says which check failed)."""
+
+
+class BoardTimeout(BoardError):
+    """The board did not answer in time (after the retries)."""
+
+
+class VersionMismatch(BoardError):
+    """The board speaks another protocol version."""
+
+
+class CommandRefused(BoardError):
+    """The board answered NACK; ``code`` is the :class:`~upm.board.protocol.NackCode`."""
+
+    def __init__(self, message: str, code: int) -> None:
+        super().__init__(message)
+        self.code = code

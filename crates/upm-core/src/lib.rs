@@ -18,8 +18,9 @@
 //!   [`sim::contact`] resolves disk contacts with rapier2d.
 //! * [`field`]: average force fields of rotations, jets and any plate motion.
 //! * [`mchip`]: the M-Chip resonator array of chapter 2 (rapier3d).
-//! * [`solve`]: the sequencing-rotations and displacement-field solvers (SVD, bounded, ordered).
-//! * [`parallel`]: deterministic batches on rayon.
+//! * [`solve`]: the sequencing-rotations and displacement-field solvers (ordered); [`linalg`]: their
+//!   least squares (SVD, damped, bounded).
+//! * [`parallel`]: deterministic batches on rayon; [`simd`]: the vector build chosen at run time.
 //! * [`stroke`]: the largest plate-corner excursion of many pulses at once.
 //! * [`polygon`]: convex polygon parts and their exact friction wrench (docs/spec.md §11).
 //! * [`ppod`]: velocity fields (drift and asymptotic) of a plate that moves out of its plane
@@ -34,6 +35,7 @@ pub mod disk;
 pub mod error;
 pub mod field;
 pub mod friction;
+pub mod linalg;
 pub mod mchip;
 pub mod motion;
 pub mod parallel;
@@ -43,6 +45,7 @@ pub mod ppod;
 pub(crate) mod quadrature;
 pub(crate) mod roots;
 pub mod sim;
+pub mod simd;
 pub mod solve;
 pub mod stroke;
 pub mod theory;

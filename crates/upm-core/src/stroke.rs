@@ -13,7 +13,7 @@
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::sim::{simd, Simd};
+use crate::simd::{simd, Simd};
 
 /// Harmonics and axes of a wrench phasor.
 const H: usize = 3;

@@ -434,10 +434,10 @@ fn _panic_for_test(py: Python<'_>) -> PyResult<()> {
 /// overrides it) and the builds this CPU has.
 #[pyfunction]
 fn simd_info() -> (String, Vec<String>) {
-    let names = |b: upm_core::sim::Simd| b.name().to_string();
+    let names = |b: upm_core::simd::Simd| b.name().to_string();
     (
-        names(upm_core::sim::simd()),
-        upm_core::sim::Simd::available()
+        names(upm_core::simd::simd()),
+        upm_core::simd::Simd::available()
             .into_iter()
             .map(names)
             .collect(),

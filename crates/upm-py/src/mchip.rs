@@ -15,7 +15,6 @@ use crate::errors::{detached, interrupted};
 /// `(torque, stiffness, damping, inertia)`.
 #[pyfunction]
 #[pyo3(signature = (*, rows, cols, slab, gap, ridge_distance, ridge_height, ridge_width, density, natural_frequency, quality, part_size, part_mass, friction, restitution, frequency, duty, torque, peak_angle, scheme, tau, delta, phases, dt, duration, record_every, external_force, iterations, part_start, drop_height, initial_angle, part))]
-#[allow(clippy::too_many_arguments)]
 pub fn mchip_simulate<'py>(
     py: Python<'py>,
     rows: usize,

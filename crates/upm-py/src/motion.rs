@@ -108,7 +108,6 @@ impl PlateMotion {
     /// `amplitude (cos wt - cos 2wt / 2)`; 2 a jet of radius `rho`; 3 a rest of the pulse's
     /// length. Raised-cosine `attack`, `sustain`, and a decay as long as the attack.
     #[staticmethod]
-    #[allow(clippy::too_many_arguments)]
     fn pulses(
         py: Python<'_>,
         kind: PyReadonlyArray1<'_, i64>,
@@ -369,7 +368,6 @@ fn view2<'a>(a: &'a PyReadonlyArray2<'_, f64>) -> std::borrow::Cow<'a, [f64]> {
 /// Simulates point and disk parts under each of `motions` (B worlds); arrays carry a batch axis.
 #[pyfunction]
 #[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4, world_mu=None, world_mu_s=None, polygons=None, world_positions=None, world_angles=None, tilt=(0.0, 0.0)))]
-#[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
     motions: Vec<PyRef<'py, PlateMotion>>,

@@ -51,7 +51,6 @@ fn arrays<'py>(py: Python<'py>, out: Vec<Vec<FieldPoint>>) -> PyResult<Bound<'py
 /// The drift field at `points (M, 2)`.
 #[pyfunction]
 #[pyo3(signature = (motion, points, *, mu, mu_s, g, steps, tol, max_periods, threads=None))]
-#[allow(clippy::too_many_arguments)]
 pub fn drift_field<'py>(
     py: Python<'py>,
     motion: PyRef<'py, PlateMotion>,

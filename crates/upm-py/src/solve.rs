@@ -123,7 +123,6 @@ fn plans_to_py<'py>(
 /// for the returned tuple (batch axis of length 1).
 #[pyfunction]
 #[pyo3(signature = (parts, targets, centers, curl_points, curls, mu_m_g, rcond, damping, max_strength))]
-#[allow(clippy::too_many_arguments)]
 pub fn solve<'py>(
     py: Python<'py>,
     parts: PyReadonlyArray2<'py, f64>,
@@ -151,7 +150,6 @@ pub fn solve<'py>(
 /// B systems of equal size in parallel (GIL released, Ctrl-C between chunks).
 #[pyfunction]
 #[pyo3(signature = (parts, targets, centers, curl_points, curls, mu_m_g, rcond, damping, max_strength))]
-#[allow(clippy::too_many_arguments)]
 pub fn solve_batch<'py>(
     py: Python<'py>,
     parts: PyReadonlyArray3<'py, f64>,

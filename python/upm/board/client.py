@@ -22,27 +22,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._arrays import integer, real
-from .._errors import BoardError, ParameterError
+from .._errors import BoardError, BoardTimeout, CommandRefused, ParameterError, VersionMismatch
 from .._extras import need
 from . import protocol as p
 
 __all__ = ["Board", "BoardTimeout", "CommandRefused", "VersionMismatch"]
-
-
-class BoardTimeout(BoardError):
-    """The board did not answer in time (after the retries)."""
-
-
-class VersionMismatch(BoardError):
-    """The board speaks another protocol version."""
-
-
-class CommandRefused(BoardError):
-    """The board answered NACK; ``code`` is the :class:`~upm.board.protocol.NackCode`."""
-
-    def __init__(self, message: str, code: int) -> None:
-        super().__init__(message)
-        self.code = code
 
 
 class Board:

@@ -17,10 +17,10 @@ from typing import Any
 
 import numpy as np
 
-from ..actuation import Plate
-from ..drive import flexures
-from ..plant import SimulatedUPM
-from ..plate6 import Plate6
+from ..plate.actuation import Plate
+from ..plate.drive import flexures
+from ..plate.plant import SimulatedUPM
+from ..plate.plate6 import Plate6
 from . import protocol as p
 from .emulator import BoardEmulator, Faults
 
@@ -252,7 +252,7 @@ def main(argv: list[str] | None = None) -> int:
         if fault in scene:  # an imperfect machine (SimulatedUPM's options of the same names)
             options[fault] = scene[fault]
     if "part_shape" in scene:  # a convex outline [[x, y], ...] [m]: polygon parts
-        from ..polygon import Polygon
+        from ..physics.polygon import Polygon
 
         options["part_shape"] = Polygon(scene["part_shape"], support=scene.get("part_support"))
         options["angles"] = scene.get("angles")

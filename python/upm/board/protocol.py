@@ -20,7 +20,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .._errors import BoardError
+from .._errors import ProtocolError
 from .._extras import need
 
 cobs = need("cobs.cobs", "board", "the board protocol (upm.board, upm.control)", "cobs")
@@ -61,10 +61,6 @@ CAP_SIX_AXIS = 0b10
 """HELLO capability (version 2): six actuator channels and SAMPLES6."""
 MAX_PAYLOAD = 1024
 _HEADER = struct.Struct("<BBHH")
-
-
-class ProtocolError(BoardError):
-    """A frame that is not a valid protocol message (the message says which check failed)."""
 
 
 class NackCode(IntEnum):

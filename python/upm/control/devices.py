@@ -19,10 +19,10 @@ import numpy as np
 from .._errors import ParameterError
 from ..board.client import Board, CommandRefused
 from ..board.protocol import NackCode
-from ..drive import DriveLimits, StrokeError
-from ..plant import Channel, Envelope, SimulatedUPM
-from ..plate6 import Plate6
-from ..pulses import Pulse, program
+from ..plate.drive import DriveLimits, StrokeError
+from ..plate.plant import Channel, Envelope, SimulatedUPM
+from ..plate.plate6 import Plate6
+from ..plate.pulses import Pulse, program
 
 __all__ = ["BoardDevice", "Device", "SimulatedDevice", "SimulatedDevice6", "as_device"]
 

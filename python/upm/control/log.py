@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._errors import ParameterError
-from ..pulses import Pulse
+from ..plate.pulses import Pulse
 
 __all__ = ["LoadedLog", "Log", "load_log", "npz_path", "writable"]
 

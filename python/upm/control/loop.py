@@ -19,10 +19,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._arrays import integer, real
-from .._errors import ParameterError, VisionError
-from ..drive import PLATE_SIZE, StrokeError
+from .._errors import ParameterError, PlanWarning, VisionError
 from ..plan import Planner
-from ..pulses import Pulse
+from ..plate.drive import PLATE_SIZE, StrokeError
+from ..plate.pulses import Pulse
 from .devices import Device, as_device, pulse_time
 from .log import LoadedLog, Log, load_log, writable
 from .state import State, Task
@@ -308,7 +308,7 @@ class Loop:
                 if shrink is None or refusals > MAX_REFUSALS:
                     raise
                 shrink()
-                warnings.warn(f"cycle {cycle}: {error}; the planner sizes its pulses lower", RuntimeWarning,
+                warnings.warn(f"cycle {cycle}: {error}; the planner sizes its pulses lower", PlanWarning,
                               stacklevel=2)  # fmt: skip
                 pulses = []
             out.ahead.append(ahead)

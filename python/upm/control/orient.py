@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 from .._arrays import as_float, integer, real
 from .._errors import ParameterError, ShapeError, VisionError
 from ..plan.orient import PosePlanner, pose_errors
-from ..pulses import Pulse
+from ..plate.pulses import Pulse
 from .devices import Device, as_device
 
 __all__ = ["PoseLog", "PoseLoop", "PoseTask"]

@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._arrays import integer, real
 from .._errors import ParameterError
-from ..drive import PLATE_SIZE
+from ..plate.drive import PLATE_SIZE
 from ._steps import PointTargets, clip, points
 from .state import State
 
@@ -123,7 +123,7 @@ class ShapeTask(PointTargets):
             None if part_radius is None else real("part_radius", part_radius, low=0.0, low_open=True)
         )
         if self.part_radius is not None and len(self.shape) > 1:
-            from ..shapes import min_spacing
+            from .shapes import min_spacing
 
             gap = min_spacing(self.shape)
             if gap < 2 * self.part_radius:

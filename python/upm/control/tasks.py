@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._arrays import integer, point, real
 from .._errors import ParameterError, ShapeError
-from ..drive import PLATE_SIZE
+from ..plate.drive import PLATE_SIZE
 from ._steps import PointTargets, clip, distance_sum, points, positions_of
 from .state import Slots, State, Task
 from .trajectory import TrajectoryTask

@@ -52,11 +52,11 @@ def simulated(*, six_axis: bool = False, seed: int = 1, contacts: bool = True, *
     """A desk on the simulated plate with the sort8 demo's eight chips: the predictive planner on
     the planar plate, or field pulses (FieldPlanner) on a six-actuator one (``six_axis``)."""
     from ..control import FieldPlanner, PredictivePlanner, SimulatedDevice, SimulatedDevice6
-    from ..demos import DEMOS
-    from ..drive import DriveLimits
-    from ..plant import SimulatedUPM
+    from ..experiments.registry import loop_setup
+    from ..plate.drive import DriveLimits
+    from ..plate.plant import SimulatedUPM
 
-    setup = DEMOS["sort8"].build(False, seed)
+    setup: Any = loop_setup("sort8", False, seed)
     limits = DriveLimits()
     plant = SimulatedUPM(
         plate=limits.plate,

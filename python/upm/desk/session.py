@@ -27,8 +27,8 @@ from .._errors import ParameterError, UpmError
 from ..control.loop import loop_tracker, plan_cycle
 from ..control.parts import PartsTask
 from ..control.tasks import GatherTask, SortTask, State
-from ..drive import PLATE_SIZE
-from ..pulses import Pulse
+from ..plate.drive import PLATE_SIZE
+from ..plate.pulses import Pulse
 
 __all__ = ["Desk"]
 

@@ -31,10 +31,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from .. import _core
 from .._errors import ParameterError
-from ..drive import DriveLimits
+from ..physics.waveforms import Harmonics
 from ..plan.candidates import _unit_phasors
-from ..pulses import Pulse
-from ..waveforms import Harmonics
+from ..plate.drive import DriveLimits
+from ..plate.pulses import Pulse
 
 __all__ = [
     "ACTION_SIZE",

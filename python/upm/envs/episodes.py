@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 
 from .._arrays import integer, real
 from .._errors import ParameterError
-from ..drive import DriveLimits
+from ..plate.drive import DriveLimits
 from .actions import ACTION_SIZE, library
 from .orient import OrientTask, polygon_of
 from .world import TASKS, Plates, Task

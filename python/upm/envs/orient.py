@@ -19,10 +19,10 @@ from numpy.typing import NDArray
 
 from .._arrays import real
 from .._errors import ParameterError
-from ..drive import DriveLimits
+from ..control.shapes import scatter
+from ..physics.polygon import Polygon
 from ..plan.orient import pose_errors
-from ..polygon import Polygon
-from ..shapes import scatter
+from ..plate.drive import DriveLimits
 
 __all__ = ["POLYGONS", "OrientTask", "polygon_of"]
 

@@ -30,14 +30,14 @@ from numpy.typing import NDArray
 from .._errors import ParameterError
 from ..control._steps import distance_sum
 from ..control.shape import assign
+from ..control.shapes import scatter
 from ..control.state import State
 from ..control.tasks import SortTask
-from ..drive import DriveLimits
-from ..motion import PlateMotion
+from ..physics.motion import PlateMotion
+from ..physics.polygon import Polygon
+from ..physics.sim import Disk, simulate_batch
 from ..plan.sizing import settle_time, slide_to_rest, stopping_time
-from ..polygon import Polygon
-from ..shapes import scatter
-from ..sim import Disk, simulate_batch
+from ..plate.drive import DriveLimits
 from .actions import FREQUENCIES, ON_TIMES, Decoded, PulseActions
 
 __all__ = ["DT_FACTOR", "TASKS", "Plates", "Task"]
@@ -166,7 +166,7 @@ class Task:
             self.state = State(0, 0.0, np.arange(n_parts), np.zeros((n_parts, 2)),
                                tuple("red" if s < 0 else "blue" for s in self.sides), 0.0)  # fmt: skip
         elif name == "shape":
-            from .. import shapes
+            from ..control import shapes
 
             if shape not in SHAPES:
                 raise ParameterError(f"shape must be one of {SHAPES}; got {shape!r}")

@@ -15,7 +15,10 @@
 * :mod:`~upm.plan.orient`: :class:`PosePlanner`, pulses that turn and place polygon parts,
   chosen by simulating every candidate (docs/polygons.md);
 * :mod:`~upm.plan.sizing`: sizing one pulse against the integrator, shared by all;
-* :mod:`~upm.plan.fixed`: the :class:`Planner` protocol and :class:`FixedPlanner`.
+* :mod:`~upm.plan.fixed`: the :class:`Planner` protocol and :class:`FixedPlanner`;
+* :mod:`~upm.plan.solvers` (chapters 4 and 5): the rotation and displacement programs' linear
+  solves (:func:`upm.solve_rotations`, ...); :mod:`~upm.plan.field_design`: a 6-DOF plate
+  motion for a wanted field (:func:`upm.design_field`).
 
 Every planner sizes its pulses within :class:`upm.DriveLimits` (``limits=device.limits``). This
 package never imports the loop, the board, vision or the plant.
@@ -23,7 +26,8 @@ package never imports the loop, the board, vision or the plant.
 
 from __future__ import annotations
 
-from .candidates import Candidates, aligned_centres, generate
+from .candidates import Candidates, aligned_centers, generate
+from .candidates import aligned_centres as aligned_centres  # earlier spelling
 from .displacements import DisplacementPlanner, plan_pulses, plan_to_motion, sustain_for_displacement
 from .fields import FieldPlanner
 from .fixed import FixedPlanner, Planner
@@ -47,7 +51,7 @@ __all__ = [
     "PosePlanner",
     "PredictivePlanner",
     "RotationsPlanner",
-    "aligned_centres",
+    "aligned_centers",
     "default_library",
     "generate",
     "jet_plan",

@@ -9,7 +9,7 @@ Families (all enveloped, 3 drive periods of attack and decay; jets 4 and fine je
   rotation of 5.1.2 (every resting part the same tangential force);
 * **jets** (6.4) focused on each part, in several directions and radii;
 * **aligned rotations** about centres that serve the task best by a quick model
-  (:func:`aligned_centres`): one pulse that moves many parts toward their goals at once.
+  (:func:`aligned_centers`): one pulse that moves many parts toward their goals at once.
 
 Every family is built for each drive frequency and on-time. A pulse's motor forces and its
 plate excursion are linear in its amplitude, so each candidate is sized once at unit amplitude by
@@ -27,11 +27,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..drive import DriveLimits
-from ..pulses import Pulse
-from ..waveforms import Harmonics
+from ..physics.waveforms import Harmonics
+from ..plate.drive import DriveLimits
+from ..plate.pulses import Pulse
 
-__all__ = ["Candidates", "aligned_centres", "generate"]
+__all__ = ["Candidates", "aligned_centers", "generate"]
 
 FloatArray = NDArray[np.float64]
 
@@ -79,7 +79,7 @@ def _unit_phasors(kind: str, center: FloatArray, direction: FloatArray, rho: flo
     return out
 
 
-def aligned_centres(
+def aligned_centers(
     cost: Callable[[FloatArray], ArrayLike],
     positions: FloatArray,
     size: float,
@@ -121,6 +121,10 @@ def aligned_centres(
     return centres[at % len(centres)].reshape(-1, 2), np.where(at < len(centres), 1.0, -1.0)
 
 
+#: The spelling of earlier releases (upm now spells ``centers`` throughout): the same function.
+aligned_centres = aligned_centers
+
+
 def generate(
     limits: DriveLimits,
     positions: FloatArray,
@@ -158,7 +162,7 @@ def generate(
     ``carried`` [m]: the largest corner excursion the plate's motion left from earlier pulses
     may still add; the stroke left for the candidate is ``stroke - carried``. ``aligned``: centres
     ``(n, 2)`` and senses ``(n,)`` of rotations to add at ``aligned_on_times`` (as
-    :func:`aligned_centres` gives them). Each shape is
+    :func:`aligned_centers` gives them). Each shape is
     played at the one of ``frequencies`` that gives it the largest amplitude within the limits
     (rotations and jets: stroke-bound at low frequencies, force-bound at high ones).
     """

@@ -18,13 +18,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._errors import ParameterError, PlanWarning, RankWarning, ShapeError
-from ..actuation import Axis, Plate
-from ..drive import DriveLimits
-from ..motion import PlateMotion
-from ..pulses import Pulse, program
-from ..sim import simulate
-from ..solvers import DisplacementPlan, RotationPlan, solve_displacements
-from ..waveforms import Harmonics, Waveform
+from ..physics.motion import PlateMotion
+from ..physics.sim import simulate
+from ..physics.waveforms import Harmonics, Waveform
+from ..plate.actuation import Axis, Plate
+from ..plate.drive import DriveLimits
+from ..plate.pulses import Pulse, program
 from .rotations import rotation_pulses
 from .sizing import (
     AMPLITUDE_TOP,
@@ -41,6 +40,7 @@ from .sizing import (
     tangential_columns,
     trim_rests,
 )
+from .solvers import DisplacementPlan, RotationPlan, solve_displacements
 
 __all__ = ["DisplacementPlanner", "plan_pulses", "plan_to_motion", "sustain_for_displacement"]
 

@@ -19,10 +19,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._errors import ParameterError
-from ..field_design import design_field
-from ..motion import PlateMotion
-from ..ppod import PPOD_FIELDS, drift_field
-from ..pulses import Pulse
+from ..physics.motion import PlateMotion
+from ..physics.ppod import PPOD_FIELDS, drift_field
+from ..plate.pulses import Pulse
+from .field_design import design_field
 
 __all__ = ["FieldPlanner"]
 

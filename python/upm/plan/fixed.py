@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._errors import ParameterError
-from ..pulses import Pulse
+from ..plate.pulses import Pulse
 
 __all__ = ["FixedPlanner", "Planner"]
 

@@ -27,8 +27,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._errors import ParameterError
-from ..drive import DriveLimits
-from ..pulses import Pulse
+from ..plate.drive import DriveLimits
+from ..plate.pulses import Pulse
 from .candidates import generate
 from .goals import PositionsView, StepsGoal
 from .sizing import positive

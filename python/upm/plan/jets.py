@@ -15,10 +15,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._arrays import as_float
 from .._errors import ParameterError, ShapeError
-from ..actuation import Axis, Plate
-from ..drive import DriveLimits, drive_frequency
-from ..motion import PlateMotion
-from ..pulses import Pulse, program
+from ..physics.motion import PlateMotion
+from ..plate.actuation import Axis, Plate
+from ..plate.drive import DriveLimits, drive_frequency
+from ..plate.pulses import Pulse, program
 from .sizing import (
     Probe,
     drive_limits,

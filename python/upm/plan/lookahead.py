@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..pulses import Pulse
+from ..plate.pulses import Pulse
 from .penalties import in_band
 
 FloatArray = NDArray[np.float64]

@@ -23,9 +23,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .. import _core
-from ..drive import DriveLimits
-from ..pulses import Pulse
-from ..sim import simulate_batch
+from ..physics.sim import simulate_batch
+from ..plate.drive import DriveLimits
+from ..plate.pulses import Pulse
 from .candidates import Candidates, generate
 from .sizing import scaled, slide_to_rest
 

@@ -33,12 +33,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._arrays import as_float, instance, real
 from .._errors import ParameterError, ShapeError
-from ..drive import DriveLimits
-from ..motion import PlateMotion
-from ..polygon import Polygon
-from ..pulses import Pulse
-from ..sim import simulate_batch
-from ..waveforms import Harmonics
+from ..physics.motion import PlateMotion
+from ..physics.polygon import Polygon
+from ..physics.sim import simulate_batch
+from ..physics.waveforms import Harmonics
+from ..plate.drive import DriveLimits
+from ..plate.pulses import Pulse
 
 __all__ = ["PosePlanner", "pose_errors"]
 

@@ -5,7 +5,7 @@ Each cycle :class:`PredictivePlanner`
 1. builds a few hundred candidate pulses at the drive's force and stroke limits
    (:func:`upm.plan.candidates.generate`: translations, rotations about a grid and about each
    part, rotations about the centres that serve the task best by a quick model
-   (:func:`~upm.plan.candidates.aligned_centres`), jets at each part; several frequencies and
+   (:func:`~upm.plan.candidates.aligned_centers`), jets at each part; several frequencies and
    on-times);
 2. predicts them all from the tracked positions in batched :func:`upm.simulate_batch` calls (one
    per on-time and frequency; point parts, a coarse step, while the plate moves; then each part
@@ -37,11 +37,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._errors import ParameterError
-from ..drive import DriveLimits, drive_frequency
-from ..motion import PlateMotion
-from ..pulses import Pulse
-from ..sim import Disk, simulate_batch
-from .candidates import Candidates, aligned_centres, generate
+from ..physics.motion import PlateMotion
+from ..physics.sim import Disk, simulate_batch
+from ..plate.drive import DriveLimits, drive_frequency
+from ..plate.pulses import Pulse
+from .candidates import Candidates, aligned_centers, generate
 from .fitting import learn, restarted
 from .goals import PositionsView, StepsGoal
 from .lookahead import pair_rates, two_step
@@ -120,7 +120,7 @@ class PredictivePlanner:
         layout); the first of the best pair is played. ``None``: off.
     aligned : int
         Rotations about this many centres picked each cycle for the task by a quick model
-        (:func:`~upm.plan.candidates.aligned_centres`), each at on-times 0.2 and 0.4 s: pulses
+        (:func:`~upm.plan.candidates.aligned_centers`), each at on-times 0.2 and 0.4 s: pulses
         that move many parts toward their goals at once. 0: none.
     learn_tilt : bool
         Also learn the plate's slope on line (:attr:`tilt_estimate`, :func:`.fitting.fit_tilt`;
@@ -484,7 +484,7 @@ class PredictivePlanner:
         carried = self._carried()
         aligned = None
         if self.aligned:
-            aligned = aligned_centres(
+            aligned = aligned_centers(
                 lambda q: task.cost(state, q, 0.0), pos, self.limits.size, count=self.aligned
             )
         toward = self._descent(task, state, pos)

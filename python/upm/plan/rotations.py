@@ -15,15 +15,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._errors import ParameterError, ShapeError
-from ..drive import DriveLimits
-from ..feeding import mean_force
-from ..fields import rotation_field
-from ..motion import PlateMotion
-from ..pulses import Pulse
-from ..sim import simulate_batch
-from ..solvers import RotationPlan, rotation_order
-from ..waveforms import Harmonics, Waveform
+from ..physics.feeding import mean_force
+from ..physics.fields import rotation_field
+from ..physics.motion import PlateMotion
+from ..physics.sim import simulate_batch
+from ..physics.waveforms import Harmonics, Waveform
+from ..plate.drive import DriveLimits
+from ..plate.pulses import Pulse
 from .sizing import as_centers, clear_of_centers, drive_limits, harmonics_of, positive, scaled, stopping_time
+from .solvers import RotationPlan, rotation_order
 
 __all__ = ["RotationsPlanner", "rotation_pulses"]
 

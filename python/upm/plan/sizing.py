@@ -18,12 +18,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._arrays import as_float, real
 from .._errors import ConvergenceError, ParameterError
-from ..actuation import Axis, Plate
-from ..drive import DriveLimits, drive_frequency
-from ..motion import PlateMotion
-from ..pulses import Pulse
-from ..sim import simulate, simulate_batch
-from ..waveforms import Harmonics, TwoHarmonic, Waveform
+from ..physics.motion import PlateMotion
+from ..physics.sim import simulate, simulate_batch
+from ..physics.waveforms import Harmonics, TwoHarmonic, Waveform
+from ..plate.actuation import Axis, Plate
+from ..plate.drive import DriveLimits, drive_frequency
+from ..plate.pulses import Pulse
 
 __all__ = [
     "AMPLITUDE_TOP",

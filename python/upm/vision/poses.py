@@ -30,7 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._arrays import as_float, integer
 from .._errors import ParameterError
-from ..polygon import Polygon
+from ..physics.polygon import Polygon
 from .parts import THESIS_PALETTE, Palette, Parts, Rectifier, seen_parts
 from .table import Table
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import cv2
 import numpy as np
@@ -18,10 +18,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._arrays import as_float, check_range
 from .._errors import ShapeError, VisionError
-from ..drive import PLATE_SIZE  # the side of the thesis's plate [m] (16 in), re-exported here
+from ..plate.drive import PLATE_SIZE  # the side of the thesis's plate [m] (16 in), re-exported here
 
-if TYPE_CHECKING:
-    from .calibration import Calibration
+
+class Lens(Protocol):
+    """What a :class:`Table` asks of a calibrated camera (:class:`upm.vision.Calibration`): pixels
+    to plate coordinates and back through the lens model."""
+
+    def to_plate(self, pixels: ArrayLike) -> NDArray[np.float64]: ...
+
+    def to_camera(self, points: ArrayLike) -> NDArray[np.float64]: ...
+
 
 __all__ = ["PLATE_SIZE", "Table", "check_frame", "find_table", "plate_corners", "project"]
 
@@ -112,7 +119,7 @@ class Table:
     camera_from_plate: FloatArray
     image_size: tuple[int, int]
     residual: float = 0.0
-    lens: Calibration | None = None
+    lens: Lens | None = None
 
     @classmethod
     def from_corners(cls, corners: ArrayLike, plate_size: float | tuple[float, float] = PLATE_SIZE,

@@ -28,8 +28,8 @@ from numpy.typing import NDArray
 from .._arrays import real
 from .._errors import ParameterError
 from .._extras import need
-from ..drive import PLATE_SIZE, DriveLimits
-from ..pulses import Pulse
+from ..plate.drive import PLATE_SIZE, DriveLimits
+from ..plate.pulses import Pulse
 from .layout import blueprint, colors_of
 
 __all__ = ["Recorder", "field_on_grid", "pulse_series"]
@@ -109,7 +109,7 @@ def field_on_grid(pulses: Sequence[Pulse], points: FloatArray, samples: int = 25
     velocity (4.5; :func:`upm.average_field` gives it exactly; the unit velocity jumps where the
     surface velocity passes zero, so the error is about 1 / ``samples`` of mu m g); for an
     out-of-plane pulse the asymptotic velocity field (:func:`upm.asymptotic_field`)."""
-    from ..ppod import asymptotic_field
+    from ..physics.ppod import asymptotic_field
 
     moving = [p for p in pulses if p.kind != "rest"]
     if not moving:

@@ -12,7 +12,7 @@ import numpy as np
 
 from .._errors import ParameterError
 from .._extras import need
-from ..drive import PLATE_SIZE
+from ..plate.drive import PLATE_SIZE
 from .layout import blueprint
 
 __all__ = ["Recording", "mchip_to_rerun", "read_recording", "sim_to_rerun"]

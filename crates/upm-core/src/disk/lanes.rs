@@ -5,7 +5,7 @@
 //! the results are bitwise the same, whatever the grouping.
 
 use super::{halley, ztable, ztable_padded, Halley, HALLEY_STEPS};
-use crate::sim::Simd;
+use crate::simd::Simd;
 
 /// Disks solved side by side.
 pub const LANES: usize = 8;
@@ -43,9 +43,9 @@ pub fn slide_many(a0: &[f64], b0: &[f64], c: &[f64], out: &mut [Option<(f64, f64
     }
 }
 
-/// The build [`slide_many`] takes: the kernel's ([`crate::sim::simd`]).
+/// The build [`slide_many`] takes: the kernel's ([`crate::simd::simd`]).
 fn wide() -> Simd {
-    crate::sim::simd()
+    crate::simd::simd()
 }
 
 /// Up to [`LANES`] disks' Halley iterations in lockstep: each round advances every disk still

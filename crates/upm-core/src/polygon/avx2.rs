@@ -251,7 +251,6 @@ pub(super) unsafe fn evals_four(q: &Quad, asks: &[Asked; FOUR], out: &mut Evals)
 /// The CPU must have AVX2.
 #[inline(always)]
 // (one index runs through the ends, the edges' geometry and their logarithms together)
-#[allow(clippy::needless_range_loop)]
 unsafe fn friction_lanes(q: &Quad, twists: [[f64; 3]; FOUR]) -> [__m256d; 10] {
     let (m, a) = (_mm256_mul_pd, _mm256_add_pd);
     let (neg, abs) = (

@@ -148,7 +148,6 @@ pub(super) unsafe fn evals_eight(q: [&Quad; 2], asks: &[Asked; EIGHT], out: &mut
 /// [`super::avx2`]'s `friction_lanes` in eight lanes: the wrench (3), the Hessian's upper
 /// triangle (xx xy x3 yy y3 33) and the rate of work.
 #[inline(always)]
-#[allow(clippy::needless_range_loop)]
 unsafe fn friction_lanes(q: [&Quad; 2], twists: [[f64; 3]; EIGHT]) -> [V; 10] {
     let (m, a) = (_mm512_mul_pd, _mm512_add_pd);
     let zero = _mm512_setzero_pd();

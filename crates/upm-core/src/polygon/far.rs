@@ -145,8 +145,8 @@ pub(super) fn quadrature<const HESSIAN: bool, const K: usize>(
     let nodes = &p.nodes[slot];
     #[cfg(target_arch = "x86_64")]
     let sums = if matches!(
-        crate::sim::kernel::simd(),
-        crate::sim::kernel::Simd::Avx2 | crate::sim::kernel::Simd::Avx512
+        crate::simd::simd(),
+        crate::simd::Simd::Avx2 | crate::simd::Simd::Avx512
     ) {
         // SAFETY: simd() chooses these builds only on a CPU that has AVX2.
         unsafe { sums_avx2::<HESSIAN>(nodes, v, omega, p.load) }

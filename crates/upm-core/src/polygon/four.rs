@@ -19,7 +19,7 @@ use super::lanes::{ln_1p, log_arg};
 use super::newton::{Eval, Evals};
 use super::{Fan, Friction, Polygon, FAR};
 #[cfg(target_arch = "x86_64")]
-use crate::sim::kernel::{simd, Simd};
+use crate::simd::{simd, Simd};
 
 /// Parts in lanes.
 pub const FOUR: usize = 4;
@@ -331,7 +331,7 @@ fn fans(p: &Polygon, [vx, vy, omega]: [f64; 3]) -> bool {
 
 /// The friction ([`Polygon::friction_hessian`], the fan's regime) of the polygons in the lanes
 /// that are `live` (the others: any) at the relative twists `(v, omega)` of `twists` (omega
-/// not zero), on the build the simulations take (`sim::simd`) when more than one lane is live,
+/// not zero), on the build the simulations take (`crate::simd::simd`) when more than one lane is live,
 /// else lane by lane.
 pub(super) fn friction_four(
     q: &Quad,

@@ -6,7 +6,7 @@
 use super::load::Linear;
 use super::{Fan, Polygon};
 #[cfg(target_arch = "x86_64")]
-use crate::sim::kernel::{simd, Simd};
+use crate::simd::{simd, Simd};
 
 /// Edges per lane group.
 pub(super) const LANES: usize = 8;
@@ -66,7 +66,7 @@ pub(super) fn edges(vertices: &[[f64; 2]]) -> Vec<Edges> {
 }
 
 /// The fan integrals about `r0`, the curvature only if `CURVATURE`, on the build the
-/// simulations take (`sim::simd`).
+/// simulations take (`crate::simd::simd`).
 pub(super) fn fan<const CURVATURE: bool>(p: &Polygon, r0: [f64; 2]) -> Fan {
     fan_loaded::<CURVATURE, false>(p, r0, [0.0; 2]).0
 }
@@ -103,7 +103,6 @@ fn pick(c: bool, a: f64, b: f64) -> f64 {
 /// 1e-100 of the edge's length, so that `d1 d2` stays a normal number: closer to the line the
 /// logarithm, below 500 either way, enters the sums times `h²`, far below their rounding.)
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 pub(super) fn log_arg(
     h: f64,
     ta: f64,

@@ -16,9 +16,11 @@ use std::sync::Mutex;
 
 use rayon::prelude::*;
 
+use super::base::{Base, PLANAR, STUCK};
 use super::kernel::{self, Jets, Plate};
-use super::points::{write, Base, Points, Source, PLANAR, STUCK};
+use super::points::{write, Points};
 use super::record::{Rec, Recorder, RunState, Stacked};
+use super::source::Source;
 use super::timing::{self, by_timing};
 use super::{half_side, moves_with_plate, Config, Error, PartsView, WorldRows};
 use crate::motion::{Columns, JetStint, Phases, PlateMotion};
@@ -99,7 +101,6 @@ struct Member<'a> {
 /// Runs `motions` (worlds of at most [`MAX_POINTS`] point parts, `parts`, with `friction`'s rows
 /// where given; on the plane), grouped, for `steps` steps a block of `block` steps at a time,
 /// recording into `recorder`; `between` as [`super::simulate_stacked`] calls it.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn simulate<E, B>(
     motions: &[&PlateMotion],
     parts: &PartsView,

@@ -28,6 +28,7 @@
 //! each other and with walls: [`contact`] (rapier2d) runs after each friction step when contacts
 //! are asked for.
 
+mod base;
 mod config;
 pub mod contact;
 mod disks;
@@ -40,6 +41,7 @@ mod polygons;
 mod record;
 #[cfg(target_arch = "x86_64")]
 mod short;
+mod source;
 mod timing;
 mod work;
 
@@ -50,11 +52,11 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::motion::PlateMotion;
 use crate::parallel;
+pub use crate::simd::{simd, Simd};
 use config::half_side;
 pub use config::Config;
 pub use contact::Contacts;
 use disks::{run_disks, DiskState};
-pub use kernel::{simd, Simd};
 pub use parts::{Parts, PartsView, WorldRows};
 pub use points::CHUNK_PARTS;
 pub use record::Stacked;

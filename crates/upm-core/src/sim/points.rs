@@ -12,42 +12,17 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use rayon::prelude::*;
 
 use crate::buffer::{recycle, scratch};
+use crate::simd::Simd;
 
+use super::base::{Base, ARRAYS, PLANAR};
 use super::kernel::{self, Lanes, Plate, NEVER};
 use super::lift::{self, Air};
 use super::record::{Rec, RunState};
-use super::{half_side, moves_with_plate, off_plate, Config, PartsView};
+use super::source::Source;
+use super::{half_side, Config, PartsView};
 
 /// Parts per chunk, the unit of work of a thread (a multiple of every SIMD tile).
 pub const CHUNK_PARTS: usize = 256;
-
-/// The arrays of the state, in the order of [`Points::arrays`]: x, y, vx, vy, stuck, active,
-/// left (steps done when the part left the plate, [`NEVER`] while on it), slide (`mu g dt`),
-/// hold (`mu_s g dt`), and on a plate that moves out of its plane the height above the plate,
-/// its rate and the steps spent in flight.
-pub(super) const ARRAYS: usize = 12;
-pub(super) const PLANAR: usize = 9;
-/// The stuck flags' array among them.
-pub(super) const STUCK: usize = 4;
-
-/// Where the points' initial state comes from, until every chunk has read it.
-#[derive(Clone, Copy)]
-pub(super) struct Source<'p> {
-    pub(super) parts: PartsView<'p>,
-    /// The points' places among the parts (`None`: the same).
-    index: Option<&'p [usize]>,
-    /// The plate velocity at the start.
-    pub(super) u0: [f64; 3],
-    /// Half the plate's side.
-    pub(super) half: f64,
-    /// Gravity's in-plane velocity a step [m/s] ([`Config::tilt`] `dt`).
-    pub(super) kick: [f64; 2],
-    /// `g dt`.
-    pub(super) scale: f64,
-    /// Set when a point's position or velocity is not finite (the run then stops after its
-    /// first block with the full check's error).
-    pub(super) not_finite: &'p AtomicBool,
-}
 
 /// Every point part of a world.
 pub(super) struct Points<'p> {
@@ -81,73 +56,6 @@ pub(super) fn zeroed<const N: usize>() -> Box<[[f64; N]; ARRAYS]> {
 /// air state on a plate out of its plane; nothing in a run of one block.
 fn kept(i: usize, spatial: bool, once: bool) -> bool {
     !once && i < if spatial { ARRAYS } else { PLANAR }
-}
-
-/// The arrays' base addresses, shared by the chunk tasks (each reads and writes only its own
-/// range).
-#[derive(Clone, Copy)]
-pub(super) struct Base([*mut f64; ARRAYS]);
-
-// SAFETY: the chunk tasks address disjoint ranges of the arrays, which outlive them.
-unsafe impl Send for Base {}
-unsafe impl Sync for Base {}
-
-impl Base {
-    /// A chunk's own buffer (or a group's, of `N` lanes).
-    pub(super) fn local<const N: usize>(local: &mut [[f64; N]; ARRAYS]) -> Self {
-        Base(std::array::from_fn(|i| local[i].as_mut_ptr()))
-    }
-
-    /// A group's buffer (`sim::group`): [`PLANAR`] arrays of `lanes` lanes each, one after the
-    /// other (a group's points stay on the plane: the arrays of the air point nowhere, and
-    /// [`Base::chunk`] must not be asked for them).
-    pub(super) fn planar(buf: &mut [f64], lanes: usize) -> Self {
-        assert!(
-            buf.len() >= PLANAR * lanes,
-            "a buffer of {PLANAR} x {lanes} lanes"
-        );
-        let p = buf.as_mut_ptr();
-        // SAFETY: within the buffer (checked).
-        Base(std::array::from_fn(|i| {
-            if i < PLANAR {
-                unsafe { p.add(i * lanes) }
-            } else {
-                std::ptr::null_mut()
-            }
-        }))
-    }
-
-    /// The lanes (and air state) of the `k` points from `at` on.
-    ///
-    /// # Safety
-    /// The range is within every array's capacity and initialised, and no other live borrow
-    /// overlaps it.
-    pub(super) unsafe fn chunk<'c>(
-        &self,
-        at: usize,
-        k: usize,
-        spatial: bool,
-    ) -> (Lanes<'c>, Option<Air<'c>>) {
-        let a = |i: usize| std::slice::from_raw_parts_mut(self.0[i].add(at), k);
-        let lanes = Lanes {
-            x: a(0),
-            y: a(1),
-            vx: a(2),
-            vy: a(3),
-            stuck: a(4),
-            active: a(5),
-            left: a(6),
-            slide: a(7),
-            hold: a(8),
-            kick: [0.0; 2],
-        };
-        let air = spatial.then(|| Air {
-            h: a(9),
-            hv: a(10),
-            flight: a(11),
-        });
-        (lanes, air)
-    }
 }
 
 impl<'p> Points<'p> {
@@ -261,7 +169,7 @@ impl<'p> Points<'p> {
             && index.is_none()
             && !spatial
             && !table.is_empty()
-            && simd != kernel::Simd::Portable
+            && simd != Simd::Portable
             && !super::short::OFF.load(Ordering::Relaxed);
         let task = |local: &mut Option<Box<Local>>, (start, k): (usize, usize)| {
             #[cfg(target_arch = "x86_64")]
@@ -329,143 +237,6 @@ impl<'p> Points<'p> {
             .for_each_init(|| None, task);
         if source.is_some() {
             self.written();
-        }
-    }
-}
-
-impl<'p> Source<'p> {
-    /// The points of `parts` (at `index` among them; `None`: every part) on a plate whose
-    /// velocity at the start is `u0`; `not_finite` is set if a state read is not finite.
-    pub(super) fn new(
-        parts: &PartsView<'p>,
-        index: Option<&'p [usize]>,
-        cfg: &Config,
-        u0: [f64; 3],
-        not_finite: &'p AtomicBool,
-    ) -> Self {
-        Source {
-            parts: *parts,
-            index,
-            u0,
-            half: half_side(cfg),
-            kick: cfg.kick(),
-            scale: cfg.g * cfg.dt,
-            not_finite,
-        }
-    }
-
-    /// Writes the initial state of the points `start .. start + k` at `at ..` of `base`'s arrays.
-    ///
-    /// # Safety
-    /// The range `at .. at + k` is within the capacity of every array of `base` the run uses,
-    /// and nothing else addresses it meanwhile.
-    pub(super) unsafe fn fill(
-        &self,
-        base: &Base,
-        at: usize,
-        start: usize,
-        k: usize,
-        spatial: bool,
-    ) {
-        #[cfg(target_arch = "x86_64")]
-        if super::simd() != super::Simd::Portable {
-            return self.fill_avx2(base, at, start, k, spatial);
-        }
-        self.fill_any(base, at, start, k, spatial)
-    }
-
-    /// [`Source::fill`] compiled for AVX2 (the same operations, so the same results: no
-    /// contraction into fused multiply–adds).
-    ///
-    /// # Safety
-    /// As [`Source::fill`]; the CPU must support AVX2 and FMA (as [`super::simd`] found).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn fill_avx2(&self, base: &Base, at: usize, start: usize, k: usize, spatial: bool) {
-        self.fill_any(base, at, start, k, spatial)
-    }
-
-    /// [`Source::fill`] in plain Rust, one array at a time in branch-free loops the compiler
-    /// vectorises when the points are all the parts (no index).
-    #[inline(always)]
-    unsafe fn fill_any(&self, base: &Base, at: usize, start: usize, k: usize, spatial: bool) {
-        use std::mem::MaybeUninit;
-        let p = &self.parts;
-        let out = |a: usize| std::slice::from_raw_parts_mut(base.0[a].add(at).cast(), k);
-        let [x, y, vx, vy, stuck, active, left, slide, hold]: [&mut [MaybeUninit<f64>]; 9] =
-            std::array::from_fn(out);
-        let ix = |q: usize| self.index.map_or(start + q, |ix| ix[start + q]);
-        // Whether every value read is finite, found as it is copied (reading the lanes back
-        // with vectors right after the scalar stores would wait for the stores to complete).
-        let finite = |a: f64, b: f64| a.is_finite() & b.is_finite();
-        let mut ok = true;
-        match self.index {
-            None => {
-                for (q, &[a, b]) in p.position[start..start + k].iter().enumerate() {
-                    x[q].write(a);
-                    y[q].write(b);
-                    ok &= finite(a, b);
-                }
-            }
-            Some(_) => {
-                for q in 0..k {
-                    let [a, b] = p.position[ix(q)];
-                    x[q].write(a);
-                    y[q].write(b);
-                    ok &= finite(a, b);
-                }
-            }
-        }
-        match (self.index, p.velocity) {
-            (_, None) => {
-                vx.fill(MaybeUninit::new(0.0));
-                vy.fill(MaybeUninit::new(0.0));
-            }
-            (None, Some(v)) => {
-                for (q, &[a, b]) in v[start..start + k].iter().enumerate() {
-                    vx[q].write(a);
-                    vy[q].write(b);
-                    ok &= finite(a, b);
-                }
-            }
-            (Some(_), Some(v)) => {
-                for q in 0..k {
-                    let [a, b] = v[ix(q)];
-                    vx[q].write(a);
-                    vy[q].write(b);
-                    ok &= finite(a, b);
-                }
-            }
-        }
-        let [x, y, vx, vy] =
-            [x, y, vx, vy].map(|a| &*(a as *const [MaybeUninit<f64>] as *const [f64]));
-        if !ok {
-            self.not_finite.store(true, Ordering::Relaxed);
-        }
-        let (u0, half) = (self.u0, self.half);
-        for q in 0..k {
-            // A part that starts moving with the plate surface starts stuck.
-            let s = moves_with_plate([x[q], y[q]], [vx[q], vy[q]], u0);
-            stuck[q].write(if s { 1.0 } else { 0.0 });
-            // On an unbounded plate (infinite `half`) every part is on it.
-            let on = !off_plate(x[q], y[q], half);
-            active[q].write(if on { 1.0 } else { 0.0 });
-            left[q].write(if on { NEVER } else { 0.0 });
-        }
-        if p.mu.len() == 1 && p.mu_s.len() == 1 {
-            slide.fill(MaybeUninit::new(p.mu(0) * self.scale));
-            hold.fill(MaybeUninit::new(p.mu_s(0) * self.scale));
-        } else {
-            for q in 0..k {
-                let i = ix(q);
-                slide[q].write(p.mu(i) * self.scale);
-                hold[q].write(p.mu_s(i) * self.scale);
-            }
-        }
-        if spatial {
-            for a in 9..ARRAYS {
-                out(a).fill(MaybeUninit::new(0.0));
-            }
         }
     }
 }

@@ -171,7 +171,6 @@ impl<const T: usize> Tile<T> {
     }
 
     /// One step of vector `j` (the parts at `at`); `FLY = false` when no part of it can fly.
-    #[allow(clippy::too_many_arguments)]
     #[target_feature(enable = "avx2,fma")]
     #[inline]
     unsafe fn step<const EDGE: bool, const FLY: bool>(

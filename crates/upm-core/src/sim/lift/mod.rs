@@ -22,8 +22,9 @@ mod avx2;
 #[cfg(target_arch = "x86_64")]
 mod avx512;
 
-use super::kernel::{Lanes, Simd};
+use super::kernel::Lanes;
 use crate::motion::spatial::normal_at;
+use crate::simd::Simd;
 
 /// One part's state in the step.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

@@ -332,7 +332,7 @@ impl Rec {
         debug_assert!(row < self.rows && part + k <= self.m);
         debug_assert!([s.y.len(), s.vx.len(), s.vy.len(), s.stuck.len()] == [k; 4]);
         #[cfg(target_arch = "x86_64")]
-        if crate::sim::simd() != crate::sim::Simd::Portable {
+        if crate::simd::simd() != crate::simd::Simd::Portable {
             let i = row * self.m + part;
             unsafe fn cells<const NT: bool>(rec: &Rec, i: usize, s: &RunState) {
                 use std::arch::x86_64::_CMP_GT_OQ;
@@ -419,7 +419,7 @@ impl Rec {
     pub(super) unsafe fn left_run(&self, part: usize, steps: &[f64], dt: f64) {
         debug_assert!(part + steps.len() <= self.m);
         #[cfg(target_arch = "x86_64")]
-        if crate::sim::simd() != crate::sim::Simd::Portable {
+        if crate::simd::simd() != crate::simd::Simd::Portable {
             use std::arch::x86_64::_CMP_NEQ_OQ;
             let (left, gone, never) = (
                 self.left.add(part),

@@ -6,8 +6,8 @@ use std::sync::atomic::Ordering;
 
 use crate::sim::kernel::avx2::{leaving, splat, step, Consts, Four};
 use crate::sim::kernel::NEVER;
-use crate::sim::points::Source;
 use crate::sim::record::{cells, left_times, Rec, FLAG_BYTES};
+use crate::sim::source::Source;
 
 impl Source<'_> {
     /// The points `start .. end` (whole vectors of four) in tiles of up to eight vectors.

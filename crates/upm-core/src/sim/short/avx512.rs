@@ -9,8 +9,8 @@ use std::sync::atomic::Ordering;
 
 use crate::sim::kernel::avx512::{leaving, splat, step, tile_width, Consts, Eight};
 use crate::sim::kernel::NEVER;
-use crate::sim::points::Source;
 use crate::sim::record::{Rec, FLAG_BYTES};
+use crate::sim::source::Source;
 
 /// The points `start .. end` (whole vectors of eight) in tiles of up to eight vectors.
 ///

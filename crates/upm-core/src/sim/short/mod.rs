@@ -11,9 +11,9 @@ use std::sync::atomic::AtomicBool;
 #[cfg(test)]
 use std::sync::atomic::Ordering;
 
-use super::kernel::Simd;
-use super::points::Source;
 use super::record::Rec;
+use super::source::Source;
+use crate::simd::Simd;
 
 mod avx2;
 mod avx512;
@@ -82,7 +82,7 @@ mod tests {
     /// result large enough to be streamed to memory.
     #[test]
     fn one_pass_records_what_the_general_run_records() {
-        if crate::sim::kernel::simd() == crate::sim::kernel::Simd::Portable {
+        if crate::simd::simd() == crate::simd::Simd::Portable {
             return;
         }
         let f = 35.0;
