@@ -6,8 +6,8 @@ use pyo3::prelude::*;
 use upm_core::actuation::{self as act, Axis, Plate};
 use upm_core::stroke;
 
+use crate::arrays::{pair_view, pairs, view};
 use crate::errors::{core, detached, shape_error, Failure};
-use crate::{pair_view, pairs, view};
 
 fn plate(py: Python<'_>, mass: f64, inertia: f64, lever: f64) -> PyResult<Plate> {
     core(py, Plate::new(mass, inertia, lever))

@@ -10,8 +10,10 @@ use std::sync::mpsc::{self, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::exceptions::PyImportError;
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
+use pyo3::types::PyType;
 use upm_core::Error;
 
 /// Failures inside a detached call: a core error, a Python error (an interrupt) or a panic.
@@ -33,34 +35,75 @@ impl From<PyErr> for Failure {
     }
 }
 
-fn exception(py: Python<'_>, class: &str, message: String) -> PyErr {
-    let found = py
-        .import("upm._errors")
-        .and_then(|m| m.getattr(class))
+/// The exception classes of `upm._errors` the extension raises, each fetched once.
+#[derive(Clone, Copy)]
+enum Class {
+    Parameter,
+    Shape,
+    Convergence,
+    Internal,
+}
+
+impl Class {
+    fn name(self) -> &'static str {
+        match self {
+            Class::Parameter => "ParameterError",
+            Class::Shape => "ShapeError",
+            Class::Convergence => "ConvergenceError",
+            Class::Internal => "InternalError",
+        }
+    }
+}
+
+static CLASSES: [PyOnceLock<Py<PyType>>; 4] = [
+    PyOnceLock::new(),
+    PyOnceLock::new(),
+    PyOnceLock::new(),
+    PyOnceLock::new(),
+];
+
+/// An instance of `class` with `message`. Should the class not load (`_core` imported without
+/// its package, or `upm._errors` broken), the error says so, with the original message and the
+/// cause chained: never a built-in exception passed off as upm's.
+fn exception(py: Python<'_>, class: Class, message: String) -> PyErr {
+    let found = CLASSES[class as usize]
+        .import(py, "upm._errors", class.name())
         .and_then(|c| c.call1((message.clone(),)));
     match found {
         Ok(instance) => PyErr::from_value(instance),
-        // Only reachable when `_core` is imported without its package: keep the standard bases.
-        Err(_) if class == "ConvergenceError" || class == "InternalError" => {
-            PyRuntimeError::new_err(message)
+        Err(cause) => {
+            let err = PyImportError::new_err(format!(
+                "upm._core could not load its exception class upm._errors.{} to raise: {message}",
+                class.name()
+            ));
+            err.set_cause(py, Some(cause));
+            err
         }
-        Err(_) => PyValueError::new_err(message),
     }
 }
 
 /// A core error as the matching `upm` exception.
 pub fn to_py(py: Python<'_>, e: Error) -> PyErr {
     let class = match e {
-        Error::Parameter { .. } => "ParameterError",
-        Error::Shape(_) => "ShapeError",
-        Error::Convergence(_) => "ConvergenceError",
+        Error::Parameter { .. } => Class::Parameter,
+        Error::Shape(_) => Class::Shape,
+        Error::Convergence(_) => Class::Convergence,
     };
     exception(py, class, e.to_string())
 }
 
+/// An `InternalError` with `message`: an invariant of the binding broken (a bug).
+pub fn internal(py: Python<'_>, message: String) -> PyErr {
+    exception(
+        py,
+        Class::Internal,
+        format!("internal error in upm (please report it): {message}"),
+    )
+}
+
 /// A `ShapeError` with `message`.
 pub fn shape_error(py: Python<'_>, message: String) -> PyErr {
-    exception(py, "ShapeError", message)
+    exception(py, Class::Shape, message)
 }
 
 fn failure_to_py(py: Python<'_>, f: Failure) -> PyErr {
@@ -69,7 +112,7 @@ fn failure_to_py(py: Python<'_>, f: Failure) -> PyErr {
         Failure::Python(e) => e,
         Failure::Panic(m) => exception(
             py,
-            "InternalError",
+            Class::Internal,
             format!("internal error in upm (please report it): {m}"),
         ),
     }

@@ -2,11 +2,44 @@
 
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
-use pyo3::types::PyTuple;
 use upm_core::mchip::{self, Design, Drive, Scheme, Settings};
 use upm_core::Error;
 
 use crate::errors::{detached, interrupted};
+
+/// An M-Chip run's arrays (what `mchip_simulate` returns; `upm.mchip.simulate` makes an
+/// `MChipResult` of them).
+#[pyclass(frozen, module = "upm._core")]
+pub struct MChipRun {
+    /// Recorded times [s], `(T,)`.
+    #[pyo3(get)]
+    t: Py<PyAny>,
+    /// The part's centre, `(T, 3)` [m].
+    #[pyo3(get)]
+    positions: Py<PyAny>,
+    /// `(T, 3)` [m/s].
+    #[pyo3(get)]
+    velocities: Py<PyAny>,
+    /// The part's orientation as unit quaternions `(w, x, y, z)`, `(T, 4)`.
+    #[pyo3(get)]
+    orientations: Py<PyAny>,
+    /// `(T, 3)` [rad/s].
+    #[pyo3(get)]
+    angular_velocities: Py<PyAny>,
+    /// Every resonator's angle, `(T, rows * cols)` [rad].
+    #[pyo3(get)]
+    angles: Py<PyAny>,
+    /// One row per collision: time, resonator, angle, angular speed, impulse along x and normal.
+    #[pyo3(get)]
+    collisions: Py<PyAny>,
+    /// The energy at the end: the part's translation (x, y, z), its rotation, the resonators'
+    /// kinetic and spring energy [J].
+    #[pyo3(get)]
+    energy: Py<PyAny>,
+    /// The resonators' joint: torque, stiffness, damping and inertia.
+    #[pyo3(get)]
+    joint: [f64; 4],
+}
 
 /// Simulates the array; returns `(t, position, velocity, orientation, angular_velocity, angles,
 /// collisions, energy, joint)`: arrays `(T,)`, `(T, 3)`, `(T, 3)`, `(T, 4)` (quaternion x, y, z,
@@ -48,7 +81,7 @@ pub fn mchip_simulate<'py>(
     drop_height: f64,
     initial_angle: f64,
     part: bool,
-) -> PyResult<Bound<'py, PyTuple>> {
+) -> PyResult<MChipRun> {
     let scheme = match scheme {
         "all" => Scheme::AllOn,
         "off" => Scheme::Off,
@@ -142,19 +175,15 @@ pub fn mchip_simulate<'py>(
             e.resonator_spring,
         ],
     );
-    let joint = PyTuple::new(py, [out.torque, out.stiffness, out.damping, out.inertia])?;
-    PyTuple::new(
-        py,
-        [
-            t.into_any(),
-            pos.into_any(),
-            vel.into_any(),
-            orientation.into_any(),
-            angular_velocity.into_any(),
-            angles.into_any(),
-            coll.into_any(),
-            energy.into_any(),
-            joint.into_any(),
-        ],
-    )
+    Ok(MChipRun {
+        t: t.into_any().unbind(),
+        positions: pos.into_any().unbind(),
+        velocities: vel.into_any().unbind(),
+        orientations: orientation.into_any().unbind(),
+        angular_velocities: angular_velocity.into_any().unbind(),
+        angles: angles.into_any().unbind(),
+        collisions: coll.into_any().unbind(),
+        energy: energy.into_any().unbind(),
+        joint: [out.torque, out.stiffness, out.damping, out.inertia],
+    })
 }

@@ -7,8 +7,8 @@ use numpy::{
 use pyo3::prelude::*;
 use upm_core::plan;
 
+use crate::arrays::{flat_pairs, pair_view, view};
 use crate::errors::{detached, shape_error, Failure};
-use crate::{flat_pairs, pair_view, view};
 
 /// Positions `(L, R + T, M, 2)` after each displacement table from each layout `q (L, M, 2)`:
 /// rotations about `centres (R, 2)` tabulated on `radii (n,)` as `turn (R, n, 2)`, and

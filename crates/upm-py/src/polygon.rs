@@ -5,8 +5,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use upm_core::polygon::Polygon;
 
+use crate::arrays::pairs;
 use crate::errors::{batch_on, core, shape_error};
-use crate::pairs;
 
 /// Twists per task: the unit of parallel work and of the Ctrl-C check.
 const CHUNK: usize = 256;

@@ -2,12 +2,11 @@
 
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
-use pyo3::types::PyTuple;
 use upm_core::ppod::{self, DriftConfig, FieldPoint};
 
+use crate::arrays::pairs;
 use crate::errors::batch_on;
 use crate::motion::PlateMotion;
-use crate::pairs;
 
 /// Points per task: the unit of parallel work and of the Ctrl-C check.
 const CHUNK: usize = 16;
@@ -27,8 +26,28 @@ where
     })
 }
 
-/// `(velocity (M, 2), max_accel (M,), lift (M,), work (M,), converged (M,))`.
-fn arrays<'py>(py: Python<'py>, out: Vec<Vec<FieldPoint>>) -> PyResult<Bound<'py, PyTuple>> {
+/// A field at M points (what `drift_field` and `asymptotic_field` return).
+#[pyclass(frozen, module = "upm._core")]
+pub struct Field {
+    /// `(M, 2)` [m/s].
+    #[pyo3(get)]
+    velocity: Py<PyAny>,
+    /// `(M,)`: the largest horizontal acceleration of the surface over a cycle [m/s^2].
+    #[pyo3(get)]
+    max_accel: Py<PyAny>,
+    /// `(M,)`: the fraction of the cycle a part there is in the air.
+    #[pyo3(get)]
+    lift: Py<PyAny>,
+    /// `(M,)`: the periods (or iterations) each point took.
+    #[pyo3(get)]
+    work: Py<PyAny>,
+    /// `(M,)`, whether each point converged.
+    #[pyo3(get)]
+    converged: Py<PyAny>,
+}
+
+/// The points' results as a [`Field`].
+fn arrays(py: Python<'_>, out: Vec<Vec<FieldPoint>>) -> PyResult<Field> {
     let all: Vec<FieldPoint> = out.into_iter().flatten().collect();
     let m = all.len();
     let v = PyArray1::from_iter(py, all.iter().flat_map(|f| f.v)).reshape([m, 2])?;
@@ -36,16 +55,13 @@ fn arrays<'py>(py: Python<'py>, out: Vec<Vec<FieldPoint>>) -> PyResult<Bound<'py
     let lift = PyArray1::from_iter(py, all.iter().map(|f| f.lift));
     let work = PyArray1::from_iter(py, all.iter().map(|f| f.work as u64));
     let ok = PyArray1::from_iter(py, all.iter().map(|f| f.converged));
-    PyTuple::new(
-        py,
-        [
-            v.into_any(),
-            accel.into_any(),
-            lift.into_any(),
-            work.into_any(),
-            ok.into_any(),
-        ],
-    )
+    Ok(Field {
+        velocity: v.into_any().unbind(),
+        max_accel: accel.into_any().unbind(),
+        lift: lift.into_any().unbind(),
+        work: work.into_any().unbind(),
+        converged: ok.into_any().unbind(),
+    })
 }
 
 /// The drift field at `points (M, 2)`.
@@ -62,7 +78,7 @@ pub fn drift_field<'py>(
     tol: f64,
     max_periods: usize,
     threads: Option<usize>,
-) -> PyResult<Bound<'py, PyTuple>> {
+) -> PyResult<Field> {
     let p = pairs(py, "points", &points)?;
     let m = motion.inner.clone();
     let cfg = DriftConfig {
@@ -87,7 +103,7 @@ pub fn asymptotic_field<'py>(
     g: f64,
     samples: usize,
     threads: Option<usize>,
-) -> PyResult<Bound<'py, PyTuple>> {
+) -> PyResult<Field> {
     let p = pairs(py, "points", &points)?;
     let m = motion.inner.clone();
     let out = chunked(py, &p, threads, |q| ppod::asymptotic(&m, q, g, samples))?;

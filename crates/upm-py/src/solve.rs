@@ -2,13 +2,11 @@
 
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3};
 use pyo3::prelude::*;
-use pyo3::types::PyTuple;
 use upm_core::solve::{self as core_solve, Curls, Options, Plan};
-use upm_core::{field, Error};
+use upm_core::Error;
 
-use crate::errors::{batch, batch_on, detached, shape_error, Failure};
-use crate::motion::PlateMotion;
-use crate::pairs;
+use crate::arrays::{concat_pairs, pairs};
+use crate::errors::{batch, detached, shape_error, Failure};
 
 /// `(B, K, 2)` as B lists of points.
 fn stacks(
@@ -26,10 +24,6 @@ fn stacks(
     Ok(a.outer_iter()
         .map(|m| m.rows().into_iter().map(|r| [r[0], r[1]]).collect())
         .collect())
-}
-
-fn flat_pairs(p: &[[f64; 2]]) -> Vec<f64> {
-    p.iter().flatten().copied().collect()
 }
 
 fn options(rcond: Option<f64>, damping: f64, max_strength: Option<f64>) -> Options {
@@ -69,14 +63,41 @@ fn solve_one(
     }
 }
 
-/// Stacks plans into `(strengths, order, predicted, predicted_curls, residual, bound_cost,
-/// singular_values, rank, condition_number)` with a leading batch axis of `plans.len()`.
-fn plans_to_py<'py>(
-    py: Python<'py>,
-    plans: Vec<Plan>,
-    m: usize,
-    n: usize,
-) -> PyResult<Bound<'py, PyTuple>> {
+/// Solved systems, each array with a leading batch axis (B systems, M parts, N centres, Q curl
+/// points, S singular values): what `solve` and `solve_batch` return.
+#[pyclass(frozen, module = "upm._core")]
+pub struct Plans {
+    /// `(B, N)`.
+    #[pyo3(get)]
+    strengths: Py<PyAny>,
+    /// `(B, N)`: the order of execution (4.2.4).
+    #[pyo3(get)]
+    order: Py<PyAny>,
+    /// `(B, M, 2)`: each part's predicted force or step.
+    #[pyo3(get)]
+    predicted: Py<PyAny>,
+    /// `(B, Q)`.
+    #[pyo3(get)]
+    predicted_curls: Py<PyAny>,
+    /// `(B,)`: `|A x - b|`.
+    #[pyo3(get)]
+    residual: Py<PyAny>,
+    /// `(B,)`: the residual the strength bound costs.
+    #[pyo3(get)]
+    bound_cost: Py<PyAny>,
+    /// `(B, S)`, descending.
+    #[pyo3(get)]
+    singular_values: Py<PyAny>,
+    /// `(B,)`.
+    #[pyo3(get)]
+    rank: Py<PyAny>,
+    /// `(B,)`.
+    #[pyo3(get)]
+    condition_number: Py<PyAny>,
+}
+
+/// Stacks plans into [`Plans`] with a leading batch axis of `plans.len()`.
+fn plans_to_py(py: Python<'_>, plans: Vec<Plan>, m: usize, n: usize) -> PyResult<Plans> {
     let b = plans.len();
     let q = plans.first().map_or(0, |p| p.predicted_curls.len());
     let s = plans.first().map_or(0, |p| p.singular_values.len());
@@ -91,7 +112,7 @@ fn plans_to_py<'py>(
     for p in &plans {
         strengths.extend(&p.strengths);
         order.extend(p.order.iter().map(|&i| i as i64));
-        predicted.extend(flat_pairs(&p.predicted));
+        predicted.extend(concat_pairs(&p.predicted));
         curls.extend(&p.predicted_curls);
         sv.extend(&p.singular_values);
         residual.push(p.residual);
@@ -99,28 +120,36 @@ fn plans_to_py<'py>(
         rank.push(p.rank as i64);
         cond.push(p.condition_number());
     }
-    PyTuple::new(
-        py,
-        [
-            PyArray1::from_vec(py, strengths)
-                .reshape([b, n])?
-                .into_any(),
-            PyArray1::from_vec(py, order).reshape([b, n])?.into_any(),
-            PyArray1::from_vec(py, predicted)
-                .reshape([b, m, 2])?
-                .into_any(),
-            PyArray1::from_vec(py, curls).reshape([b, q])?.into_any(),
-            PyArray1::from_vec(py, residual).into_any(),
-            PyArray1::from_vec(py, cost).into_any(),
-            PyArray1::from_vec(py, sv).reshape([b, s])?.into_any(),
-            PyArray1::from_vec(py, rank).into_any(),
-            PyArray1::from_vec(py, cond).into_any(),
-        ],
-    )
+    Ok(Plans {
+        strengths: PyArray1::from_vec(py, strengths)
+            .reshape([b, n])?
+            .into_any()
+            .unbind(),
+        order: PyArray1::from_vec(py, order)
+            .reshape([b, n])?
+            .into_any()
+            .unbind(),
+        predicted: PyArray1::from_vec(py, predicted)
+            .reshape([b, m, 2])?
+            .into_any()
+            .unbind(),
+        predicted_curls: PyArray1::from_vec(py, curls)
+            .reshape([b, q])?
+            .into_any()
+            .unbind(),
+        residual: PyArray1::from_vec(py, residual).into_any().unbind(),
+        bound_cost: PyArray1::from_vec(py, cost).into_any().unbind(),
+        singular_values: PyArray1::from_vec(py, sv)
+            .reshape([b, s])?
+            .into_any()
+            .unbind(),
+        rank: PyArray1::from_vec(py, rank).into_any().unbind(),
+        condition_number: PyArray1::from_vec(py, cond).into_any().unbind(),
+    })
 }
 
 /// One system: forces when `mu_m_g` is given (4.10, 4.12), else steps (5.3). See `plans_to_py`
-/// for the returned tuple (batch axis of length 1).
+/// for what it returns (batch axis of length 1).
 #[pyfunction]
 #[pyo3(signature = (parts, targets, centers, curl_points, curls, mu_m_g, rcond, damping, max_strength))]
 pub fn solve<'py>(
@@ -134,7 +163,7 @@ pub fn solve<'py>(
     rcond: Option<f64>,
     damping: f64,
     max_strength: Option<f64>,
-) -> PyResult<Bound<'py, PyTuple>> {
+) -> PyResult<Plans> {
     let p = pairs(py, "parts", &parts)?;
     let t = pairs(py, "targets", &targets)?;
     let c = pairs(py, "centers", &centers)?;
@@ -161,7 +190,7 @@ pub fn solve_batch<'py>(
     rcond: Option<f64>,
     damping: f64,
     max_strength: Option<f64>,
-) -> PyResult<Bound<'py, PyTuple>> {
+) -> PyResult<Plans> {
     let p = stacks(py, "parts", &parts)?;
     let t = stacks(py, "targets", &targets)?;
     let c = stacks(py, "centers", &centers)?;
@@ -231,93 +260,7 @@ pub fn flow_error<'py>(
         .map_err(Failure::from)
     })?;
     let m = out.len();
-    Ok(PyArray1::from_vec(py, flat_pairs(&out))
+    Ok(PyArray1::from_vec(py, concat_pairs(&out))
         .reshape([m, 2])?
         .into_any())
-}
-
-fn field_out<'py>(py: Python<'py>, v: Vec<[f64; 2]>) -> PyResult<Bound<'py, PyAny>> {
-    let k = v.len();
-    Ok(PyArray1::from_vec(py, flat_pairs(&v))
-        .reshape([k, 2])?
-        .into_any())
-}
-
-/// `(K, 2)` unit tangential field about `center`.
-#[pyfunction]
-pub fn rotation_field<'py>(
-    py: Python<'py>,
-    points: PyReadonlyArray2<'py, f64>,
-    center: [f64; 2],
-) -> PyResult<Bound<'py, PyAny>> {
-    let p = pairs(py, "points", &points)?;
-    field_out(
-        py,
-        p.iter()
-            .map(|&x| field::rotation_field(x, center))
-            .collect(),
-    )
-}
-
-/// `(K,)` curl `1/|P - C|`.
-#[pyfunction]
-pub fn rotation_curl<'py>(
-    py: Python<'py>,
-    points: PyReadonlyArray2<'py, f64>,
-    center: [f64; 2],
-) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let p = pairs(py, "points", &points)?;
-    Ok(PyArray1::from_vec(
-        py,
-        p.iter().map(|&x| field::rotation_curl(x, center)).collect(),
-    ))
-}
-
-/// `(K, 2)` exact jet field, in parallel.
-#[pyfunction]
-#[pyo3(signature = (points, center, direction, rho, tol, threads=None))]
-pub fn jet_field<'py>(
-    py: Python<'py>,
-    points: PyReadonlyArray2<'py, f64>,
-    center: [f64; 2],
-    direction: [f64; 2],
-    rho: f64,
-    tol: f64,
-    threads: Option<usize>,
-) -> PyResult<Bound<'py, PyAny>> {
-    let p = pairs(py, "points", &points)?;
-    let out = batch_on(py, p.len(), threads, |i| {
-        field::jet_field(p[i], center, direction, rho, tol)
-    })?;
-    field_out(py, out)
-}
-
-/// `(K, 2)` average field of `motion` at `points` for parts moving at `part_velocity (K, 2)`.
-#[pyfunction]
-#[pyo3(signature = (motion, points, part_velocity, tol, threads=None))]
-pub fn average_field<'py>(
-    py: Python<'py>,
-    motion: PyRef<'py, PlateMotion>,
-    points: PyReadonlyArray2<'py, f64>,
-    part_velocity: PyReadonlyArray2<'py, f64>,
-    tol: f64,
-    threads: Option<usize>,
-) -> PyResult<Bound<'py, PyAny>> {
-    let p = pairs(py, "points", &points)?;
-    let v = pairs(py, "part_velocity", &part_velocity)?;
-    if v.len() != p.len() {
-        return Err(shape_error(
-            py,
-            format!(
-                "part_velocity must have shape ({}, 2) like points; got ({}, 2)",
-                p.len(),
-                v.len()
-            ),
-        ));
-    }
-    let m = motion.inner.clone();
-    let out = batch_on(py, p.len(), threads, |i| {
-        field::average_field(&m, p[i], v[i], tol)
-    })?;
-    field_out(py, out)
 }

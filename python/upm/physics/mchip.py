@@ -317,7 +317,7 @@ def simulate(
     start = np.asarray(part_start, dtype=float).reshape(-1)
     if force.size != 2 or start.size != 2:
         raise ParameterError("external_force and part_start must be (x, y) pairs")
-    t, pos, vel, orientation, spin, angles, coll, energy, joint = _core.mchip_simulate(
+    run = _core.mchip_simulate(
         **d,
         **v,
         phases=phases,
@@ -331,12 +331,13 @@ def simulate(
         initial_angle=float(initial_angle),
         part=bool(part),
     )
-    records = np.zeros(len(coll), dtype=_COLLISION)
+    records = np.zeros(len(run.collisions), dtype=_COLLISION)
     for k, name in enumerate(_COLLISION.names or ()):
-        records[name] = coll[:, k]
+        records[name] = run.collisions[:, k]
     names = ("part_x", "part_y", "part_z", "part_rotation", "resonators_kinetic", "resonators_spring")
-    energies = dict(zip(names, map(float, energy), strict=True))
-    return MChipResult(design, drive, t, pos, vel, orientation, spin, angles, records, energies, *joint)
+    energies = dict(zip(names, map(float, run.energy), strict=True))
+    return MChipResult(design, drive, run.t, run.positions, run.velocities, run.orientations,
+                       run.angular_velocities, run.angles, records, energies, *run.joint)  # fmt: skip
 
 
 def free_swing(

@@ -114,12 +114,12 @@ def drift_field(
     m = real("mu", mu, low=0.0, low_open=True)
     ms = m if mu_s is None else real("mu_s", mu_s, low=m)
     gg = real("g", g, low=0.0, low_open=True)
-    v, acc, lift, work, ok = _core.drift_field(
+    r = _core.drift_field(
         _motion(motion)._inner, p, mu=m, mu_s=ms, g=gg, steps=integer("steps", steps, low=16, high=1_000_000),
         tol=real("tol", tol, low=0.0, low_open=True), max_periods=integer("max_periods", max_periods, low=1),
         threads=pool(threads),
     )  # fmt: skip
-    return _result("drift", p, shape, v, acc, lift, ok, work, m, gg)
+    return _result("drift", p, shape, r.velocity, r.max_accel, r.lift, r.converged, r.work, m, gg)
 
 
 def asymptotic_field(
@@ -138,11 +138,11 @@ def asymptotic_field(
     p, shape = _points(points)
     gg = real("g", g, low=0.0, low_open=True)
     m = None if mu is None else real("mu", mu, low=0.0, low_open=True)
-    v, acc, lift, work, ok = _core.asymptotic_field(
+    r = _core.asymptotic_field(
         _motion(motion)._inner, p, g=gg, samples=integer("samples", samples, low=16, high=1_000_000),
         threads=pool(threads),
     )  # fmt: skip
-    return _result("asymptotic", p, shape, v, acc, lift, ok, work, m, gg)
+    return _result("asymptotic", p, shape, r.velocity, r.max_accel, r.lift, r.converged, r.work, m, gg)
 
 
 def _result(

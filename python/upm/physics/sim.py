@@ -292,7 +292,7 @@ def _run(
     progress: Callable[[float], object] | None = None,
     worlds: _Worlds | None = None,
     tilt: ArrayLike = (0.0, 0.0),
-) -> tuple[Any, ...]:
+) -> _core.Run:
     step = real("dt", dt, low=0.0, low_open=True)
     span = real("duration", duration, low=0.0, low_open=True)
     if span < step * (1 - 1e-9):
@@ -486,11 +486,12 @@ def simulate(
         raise ParameterError(f"motion must be a upm.PlateMotion; got {type(motion).__name__}")
     contact = _contact(parts, plate_size, contacts, restitution, part_friction, walls, walls_move_with_plate,
                        contact_iterations)  # fmt: skip
-    t, pos, vel, stuck, angles, spins, left, gone, flight = _run(
+    r = _run(
         [motion._inner], parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact,
         _progress(progress), tilt=tilt,
     )  # fmt: skip
-    return SimResult(t, pos[0], vel[0], stuck[0], angles[0], spins[0], gone[0], left[0], flight[0])
+    return SimResult(r.t, r.positions[0], r.velocities[0], r.stuck[0], r.angles[0], r.spins[0],
+                     r.left_plate[0], r.left_time[0], r.flight[0])  # fmt: skip
 
 
 def simulate_batch(
@@ -537,11 +538,12 @@ def simulate_batch(
     worlds = _per_world(len(cores), parts, mu, mu_s, starts)
     if worlds is not None:  # every world in the same parallel run, each with its own rows
         mu, mu_s = worlds[0][0], worlds[1][0]
-    t, pos, vel, stuck, angles, spins, left, gone, flight = _run(
+    r = _run(
         cores, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact,
         _progress(progress), worlds=worlds, tilt=tilt,
     )  # fmt: skip
-    return SimResult(t, pos, vel, stuck, angles, spins, gone, left, flight)
+    return SimResult(r.t, r.positions, r.velocities, r.stuck, r.angles, r.spins, r.left_plate, r.left_time,
+                     r.flight)  # fmt: skip
 
 
 def _progress(progress: Any) -> Callable[[float], object] | None:

@@ -259,15 +259,13 @@ def solve_rotations(
     c = _pairs("centers", centers)
     q, k = _curls(curls, curl_points, p)
     scale = _mu_m_g(mu_m_g)
-    s, o, pred, pc, res, cost, sv, rank, cond = _core.solve(
-        p, f, c, q, k, scale, *_options(rcond, damping, max_strength)
-    )
-    r0 = int(rank[0])
+    r = _core.solve(p, f, c, q, k, scale, *_options(rcond, damping, max_strength))
+    s, r0, cond = r.strengths[0], int(r.rank[0]), float(r.condition_number[0])
     _warn_rank(r0, 2 * p.shape[0] + k.size)
-    _warn_plan(f, scale, float(cond[0]), s[0])
+    _warn_plan(f, scale, cond, s)
     return RotationPlan(
-        s[0], _order(o[0], s[0], p, c, order), float(res[0]), float(cost[0]), sv[0], r0,
-        float(cond[0]), p, c, pred[0], pc[0], scale,
+        s, _order(r.order[0], s, p, c, order), float(r.residual[0]), float(r.bound_cost[0]),
+        r.singular_values[0], r0, cond, p, c, r.predicted[0], r.predicted_curls[0], scale,
     )  # fmt: skip
 
 
@@ -290,14 +288,12 @@ def solve_displacements(
     p = _pairs("parts", parts)
     d = _pairs("steps", steps)
     c = _pairs("centers", centers)
-    s, o, pred, _, res, cost, sv, rank, cond = _core.solve(
-        p, d, c, _NO_POINTS, _NO_VALUES, None, *_options(rcond, damping, max_strength)
-    )
-    r0 = int(rank[0])
+    r = _core.solve(p, d, c, _NO_POINTS, _NO_VALUES, None, *_options(rcond, damping, max_strength))
+    s, r0 = r.strengths[0], int(r.rank[0])
     _warn_rank(r0, 2 * p.shape[0])
     return DisplacementPlan(
-        s[0], _order(o[0], s[0], p, c, order), float(res[0]), float(cost[0]), sv[0], r0,
-        float(cond[0]), p, c, pred[0],
+        s, _order(r.order[0], s, p, c, order), float(r.residual[0]), float(r.bound_cost[0]),
+        r.singular_values[0], r0, float(r.condition_number[0]), p, c, r.predicted[0],
     )  # fmt: skip
 
 
@@ -336,13 +332,14 @@ def solve_rotations_batch(
             raise ShapeError(f"curls must have shape ({b}, Q); got {k.shape}")
         qa = p if curl_points is None else as_float("curl_points", curl_points)
         q = _pairs("curl_points", np.broadcast_to(qa, (b, *qa.shape)) if qa.ndim == 2 else qa, 3)
-    s, o, pred, pc, res, cost, sv, rank, cond = _core.solve_batch(
+    r = _core.solve_batch(
         p, f, np.ascontiguousarray(c), np.ascontiguousarray(q), k, _mu_m_g(mu_m_g),
         *_options(rcond, damping, max_strength),
     )  # fmt: skip
     if b:
-        _warn_rank(int(np.min(rank)), 2 * p.shape[1] + k.shape[1])
-    return RotationPlan(s, o, res, cost, sv, rank, cond, p, c, pred, pc, float(mu_m_g))
+        _warn_rank(int(np.min(r.rank)), 2 * p.shape[1] + k.shape[1])
+    return RotationPlan(r.strengths, r.order, r.residual, r.bound_cost, r.singular_values, r.rank,
+                        r.condition_number, p, c, r.predicted, r.predicted_curls, float(mu_m_g))  # fmt: skip
 
 
 def rotation_order(

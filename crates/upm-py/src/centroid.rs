@@ -5,8 +5,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use upm_core::centroid;
 
+use crate::arrays::{pairs, to_2d};
 use crate::errors::{detached, Failure};
-use crate::{pairs, to_2d};
 
 /// Coverage centroids: `cover (N, P, P)` float32 windows at `origins (N, 2)`, starting
 /// `centres (N, 2)`; returns refined centres `(N, 2)`, areas `(N,)` and ring coverages `(N,)`.
