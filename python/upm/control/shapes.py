@@ -295,15 +295,15 @@ def scatter(rng: np.random.Generator, count: int, reach: float, gap: float) -> N
     the square covered), the points are ``count`` random cells of the coarsest square lattice of
     cells at least ``gap`` wide, each point jittered within its cell's slack. `ParameterError`
     when that lattice has fewer than ``count`` cells."""
-    pts: list[NDArray[np.float64]] = []
+    pts: list[tuple[float, float]] = []  # (Python floats: a reset of an environment draws here)
     for _ in range(200 * count + 1000):
         if len(pts) == count:
-            return np.array(pts).reshape(-1, 2)
-        p = rng.uniform(-reach, reach, 2)
-        if all(np.hypot(*(p - q)) > gap for q in pts):
-            pts.append(p)
+            return np.array(pts, dtype=np.float64).reshape(-1, 2)
+        px, py = rng.uniform(-reach, reach, 2).tolist()
+        if all(math.hypot(px - qx, py - qy) > gap for qx, qy in pts):
+            pts.append((px, py))
     if len(pts) == count:
-        return np.array(pts).reshape(-1, 2)
+        return np.array(pts, dtype=np.float64).reshape(-1, 2)
     k = int(2 * reach // gap) if gap > 0 else count
     if k * k < count:
         raise ParameterError(

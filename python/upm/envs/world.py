@@ -73,38 +73,47 @@ class Plates:
         they have stopped after each world's pulse, and each world's plate time [s]."""
         m, dim = positions.shape[1], positions.shape[2]
         out = positions.copy()
-        on = np.asarray(ON_TIMES)[d.on]
-        durations = on.copy()
+        durations = np.asarray(ON_TIMES)[d.on]
         moving = d.amplitude != 0.0
-        if m == 0:
+        if m == 0 or not moving.any():
             return out, durations
         keys = d.frequency * len(ON_TIMES) + d.on
         # lost parts wait far off the plate, apart (their results are dropped)
         park = np.stack([10.0 + 0.1 * np.arange(m), np.full(m, 10.0), np.zeros(m)], 1)[:, :dim]
-        half = self.limits.size / 2
+        lost = ~np.all(np.isfinite(positions), axis=2)
+        start = np.where(lost[..., None], park[None], positions)
+        cores = self.actions.motions(d)  # every world's in one call; each group takes its own
+        points = not (self.contacts or self.polygon is not None)
+        if points:  # each group's end state, then every world slides to rest at once
+            end_q, end_v = np.empty_like(positions), np.empty_like(positions)
+            left = np.zeros(lost.shape, dtype=bool)
         for key in np.unique(keys[moving]):
             rows = np.nonzero(moving & (keys == key))[0]
             f, t_on = FREQUENCIES[key // len(ON_TIMES)], ON_TIMES[key % len(ON_TIMES)]
-            motions = [PlateMotion(c) for c in self.actions.motions(d, rows)]
-            start = positions[rows]
-            lost = ~np.all(np.isfinite(start), axis=2)
-            start = np.where(lost[..., None], park[None], start)
+            motions = [cores[i] for i in rows]
             dt = 1.0 / (DT_FACTOR * 2 * f)  # (every pulse's highest harmonic: twice its base)
-            if self.contacts or self.polygon is not None:
-                final, stop = self._until_still(motions, start, t_on, dt)
-            else:
-                run = simulate_batch(
-                    motions, start[0], duration=t_on, dt=dt, mu=self.mu, mu_s=self.mu_s,
-                    plate_size=self.limits.size, record_every=2**40, starts=start,
-                )  # fmt: skip
-                final, stop = slide_to_rest(run.positions[:, -1], run.velocities[:, -1], self.mu)
-                final[np.asarray(run.left_plate)] = np.nan
-                stop = t_on + np.max(np.where(lost, 0.0, stop), axis=1, initial=0.0)
-            with np.errstate(invalid="ignore"):
-                final[np.any(np.abs(final[..., :2]) > half, axis=2)] = np.nan  # slid off the plate
-            final[lost] = np.nan
-            out[rows] = final
-            durations[rows] = stop
+            if not points:
+                final, durations[rows] = self._until_still(
+                    [PlateMotion(c) for c in motions], start[rows], t_on, dt
+                )
+                out[rows] = final
+                continue
+            run = simulate_batch(
+                motions, start[rows[0]], duration=t_on, dt=dt, mu=self.mu, mu_s=self.mu_s,
+                plate_size=self.limits.size, record_every=2**40, starts=start[rows],
+            )  # fmt: skip
+            end_q[rows], end_v[rows] = run.positions[:, -1], run.velocities[:, -1]
+            left[rows] = run.left_plate
+        if points:
+            final, stop = slide_to_rest(end_q[moving], end_v[moving], self.mu)
+            final[left[moving]] = np.nan
+            durations[moving] += np.max(np.where(lost[moving], 0.0, stop), axis=1, initial=0.0)
+            out[moving] = final
+        moved = out[moving]
+        with np.errstate(invalid="ignore"):  # slid off the plate
+            moved[np.any(np.abs(moved[..., :2]) > self.limits.size / 2, axis=2)] = np.nan
+        moved[lost[moving]] = np.nan
+        out[moving] = moved
         return out, durations
 
     def _until_still(

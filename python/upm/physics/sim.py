@@ -262,12 +262,15 @@ _inner = attrgetter("_inner")
 def _cores(motions: Any) -> list[Any]:
     """The core motions of ``motions`` (a sequence of at least one `upm.PlateMotion`), in one pass
     in C when every item is one (a batch of many worlds paid two: 0.04 µs a world, half of it the
-    type check); `ParameterError` naming the first item that is not."""
+    type check); `ParameterError` naming the first item that is not. A list of the core's own
+    motions passes as it is (the environments build a batch's in one call and wrap none)."""
     if type(motions) is list or type(motions) is tuple:
         try:
             cores = list(map(_inner, motions))  # (only a upm.PlateMotion has `_inner`)
         except AttributeError:
-            pass
+            core = _core.PlateMotion
+            if motions and all(type(m) is core for m in motions):
+                return list(motions)
         else:
             if cores:
                 return cores
