@@ -25,7 +25,7 @@ from ..physics.motion import PlateMotion
 from ..physics.polygon import Polygon
 from ..physics.sim import Disk, _gravity, simulate
 from .actuation import Axis, Plate
-from .drive import DEFAULT_PLATE, PLATE_SIZE, DriveLimits, StrokeError, flexures, wrench_matrix
+from .drive import DEFAULT_PLATE, PLATE_SIZE, DriveLimits, StrokeError, envelope, flexures, wrench_matrix
 
 if TYPE_CHECKING:
     from ..vision.synthetic import Camera, VirtualCamera
@@ -77,14 +77,8 @@ class Envelope:
         return self.attack + self.sustain + self.decay
 
     def __call__(self, t: FloatArray) -> FloatArray:
-        a, s, d = self.attack, self.sustain, self.decay
-        e = np.zeros_like(t)
-        rise = (t >= 0) & (t < a)
-        e[rise] = 0.5 - 0.5 * np.cos(np.pi * t[rise] / a)
-        e[(t >= a) & (t <= a + s)] = 1.0
-        fall = (t > a + s) & (t <= a + s + d)
-        e[fall] = 0.5 - 0.5 * np.cos(np.pi * (a + s + d - t[fall]) / d)
-        return e
+        """The envelope's values at times ``t`` [s] (:func:`upm.plate.drive.envelope`)."""
+        return envelope(np.asarray(t, dtype=np.float64), self.attack, self.sustain, self.decay)
 
 
 def _min_gap(positions: FloatArray, gone: NDArray[np.bool_], radius: float) -> float:
