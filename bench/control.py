@@ -38,9 +38,9 @@ import numpy as np
 
 import upm
 from upm import control
-from upm.demos import CHIP, LIMITS, PENNY, figure_eight, scatter
+from upm.experiments.demos import CHIP, LIMITS, PENNY, figure_eight, scatter
 from upm.plan import PredictivePlanner
-from upm.plant import SimulatedUPM
+from upm.plate.plant import SimulatedUPM
 
 
 def cpu() -> str:
@@ -163,7 +163,7 @@ def scale_run(task: str, n: int, name: str, seed: int) -> dict[str, float]:
     """One run of the scaling table through the full loop as ``upm demo`` runs it (the scale
     demos' set-ups: sorts of poker chips up to 32, of 20 mm chips beyond; the letter L of 10 mm
     washers; the predictive planner plans while the plate plays)."""
-    from upm.scale_demos import CHIP, SMALL_CHIP, shape_setup, sort_setup
+    from upm.experiments.scale_demos import CHIP, SMALL_CHIP, shape_setup, sort_setup
 
     if task == "sort":
         setup = sort_setup(False, seed, n, CHIP if n <= 32 else SMALL_CHIP, name)

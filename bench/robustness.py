@@ -41,9 +41,9 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 from control import cpu, planner, setup
 from upm import control
-from upm.demos import LIMITS
-from upm.drive import StrokeError
-from upm.plant import SimulatedUPM
+from upm.experiments.demos import LIMITS
+from upm.plate.drive import StrokeError
+from upm.plate.plant import SimulatedUPM
 
 FAULTS = ("none", "tilt", "part_mu", "gain", "phase", "latency", "pixel", "light", "all")
 STORE = Path("docs/img/robustness.jsonl")

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 import upm
-from upm.sweeps import SCENARIOS, _plan, run_chunk
+from upm.experiments.sweeps import SCENARIOS, _plan, run_chunk
 
 
 def main() -> None:

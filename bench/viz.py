@@ -21,9 +21,9 @@ from pathlib import Path
 import numpy as np
 
 from upm import control
-from upm.demos import DEMOS, LIMITS
+from upm.experiments.demos import DEMOS, LIMITS
 from upm.plan import PredictivePlanner
-from upm.plant import SimulatedUPM
+from upm.plate.plant import SimulatedUPM
 from upm.viz import Recorder
 
 try:

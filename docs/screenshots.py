@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from upm.demos import run_demo
+from upm.experiments.demos import run_demo
 from upm.desk import DeskServer, simulated
 from upm.viz import chromium, free_port, screenshot
 

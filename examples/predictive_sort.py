@@ -10,7 +10,7 @@ import numpy as np
 
 import upm
 from upm import control
-from upm.plant import SimulatedUPM
+from upm.plate.plant import SimulatedUPM
 
 chip = 0.0195
 plant = SimulatedUPM(parts=[[0.04, 0.05], [0.03, -0.06], [-0.03, 0.0], [-0.05, -0.08]], part_radius=chip)

@@ -9,7 +9,7 @@ through its motors. The log records what was asked and what happened.
 import numpy as np
 
 from upm import control
-from upm.plant import SimulatedUPM
+from upm.plate.plant import SimulatedUPM
 
 # the default plate: 1 kg, 16 in, on flexures; four 200 N motors; 10 mm stroke (plant.limits)
 plant = SimulatedUPM(parts=[[0.04, 0.05], [0.03, -0.06], [-0.03, 0.0], [-0.05, -0.08]])

@@ -8,7 +8,7 @@ colour with persistent IDs. The error is the tracked position against the simula
 import numpy as np
 
 import upm
-from upm.plant import SimulatedUPM
+from upm.plate.plant import SimulatedUPM
 from upm.vision import Tracker, find_table
 
 plant = SimulatedUPM(parts=[[-0.08, 0.05], [0.09, 0.04], [0.02, -0.1], [-0.06, -0.07]])

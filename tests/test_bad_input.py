@@ -12,9 +12,9 @@ import pytest
 import upm
 from upm import control
 from upm.control.state import State
-from upm.drive import MAX_FREQUENCY
-from upm.plant import Envelope, SimulatedUPM
-from upm.pulses import Pulse
+from upm.plate.drive import MAX_FREQUENCY
+from upm.plate.plant import Envelope, SimulatedUPM
+from upm.plate.pulses import Pulse
 
 H = upm.Harmonics([1.0, -0.5], [0.0, 0.0], 35.0)
 

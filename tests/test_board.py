@@ -15,7 +15,7 @@ import upm
 from upm import actuation as act
 from upm.board import Board, CommandRefused, protocol
 from upm.board.emulator import BoardEmulator
-from upm.plant import SimulatedUPM
+from upm.plate.plant import SimulatedUPM
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="pseudo-terminals")
 
@@ -264,7 +264,7 @@ def test_upm_emulate_command():
 
 
 def test_plant_run_records_the_pulse_and_moves_the_parts():
-    from upm.plant import Channel, Envelope
+    from upm.plate.plant import Channel, Envelope
 
     plant = SimulatedUPM(snr_db=None, parts=[[0.1, 0.0]], stroke=LONG)
     motors = PLATE.motors_for_rotation((0.0, 0.0), omega=2.0 * 2 * np.pi * F)

@@ -12,8 +12,8 @@ from cobs import cobs
 import upm
 from upm.board import Board, protocol
 from upm.board.emulator import BoardEmulator
-from upm.plant import SimulatedUPM
-from upm.plate6 import Plate6
+from upm.plate.plant import SimulatedUPM
+from upm.plate.plate6 import Plate6
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="pseudo-terminals")
 

@@ -74,9 +74,9 @@ def test_ten_chips_in_a_sorting_run_never_overlap_beyond_tolerance() -> None:
     # Ten 39 mm chips packed 41 mm apart, sorted red left, blue right by jets through the closed
     # loop (virtual camera, tracker, JetPlanner, the motor-driven plate): chips bump on the way.
     from upm import control
-    from upm.actuation import Plate
-    from upm.drive import flexures
-    from upm.plant import SimulatedUPM
+    from upm.plate.actuation import Plate
+    from upm.plate.drive import flexures
+    from upm.plate.plant import SimulatedUPM
 
     chip = 0.0195
     rng = np.random.default_rng(5)

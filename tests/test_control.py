@@ -13,10 +13,10 @@ import pytest
 
 import upm
 from upm import control
-from upm.actuation import Plate
-from upm.drive import flexures
-from upm.plant import Channel, Envelope, SimulatedUPM
-from upm.pulses import Pulse, program
+from upm.plate.actuation import Plate
+from upm.plate.drive import flexures
+from upm.plate.plant import Channel, Envelope, SimulatedUPM
+from upm.plate.pulses import Pulse, program
 
 PLATE = Plate(1.0, 0.0275, 0.2)
 AXES = flexures(PLATE.mass, PLATE.inertia)
@@ -341,9 +341,9 @@ def test_a_short_demo_writes_its_outputs(tmp_path):
 def test_the_displacement_planner_plays_no_program_that_carries_parts_away():
     # large steps in different directions about four corner centres: sequential rotations far from
     # linear once carried a part away from its goal (the corners demo then diverged, 136 -> 103 mm)
-    from upm.demos import DEMOS
+    from upm.experiments.demos import DEMOS
     from upm.plan.displacements import MAX_MISS
-    from upm.pulses import program
+    from upm.plate.pulses import program
 
     planner = DEMOS["corners"].build(False, 1).planner
     goals = np.array([[0.02, 0.06], [-0.06, 0.03]])

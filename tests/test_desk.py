@@ -263,8 +263,8 @@ def test_stop_on_a_board_stops_its_motors_mid_pulse(tmp_path):
     import sys
 
     from upm.board import protocol
-    from upm.demos import DEMOS
-    from upm.drive import DriveLimits
+    from upm.experiments.demos import DEMOS
+    from upm.plate.drive import DriveLimits
 
     setup, limits = DEMOS["sort8"].build(False, 1), DriveLimits()
     plate = [limits.plate.mass, limits.plate.inertia, limits.plate.lever]

@@ -11,7 +11,7 @@ import pytest
 import upm
 from upm.control.tasks import GatherTask, State
 from upm.plan.fields import FieldPlanner, _focus
-from upm.pulses import Pulse
+from upm.plate.pulses import Pulse
 
 
 def test_a_field_pulse_is_its_enveloped_motion_and_its_in_plane_phasors() -> None:
@@ -59,8 +59,8 @@ def test_the_focus_of_steps() -> None:
 def test_the_field_planner_gathers_parts_through_the_loop() -> None:
     pytest.importorskip("cv2")
     from upm import control
-    from upm.demos import LIMITS, PENNY, scatter
-    from upm.plant import SimulatedUPM
+    from upm.experiments.demos import LIMITS, PENNY, scatter
+    from upm.plate.plant import SimulatedUPM
 
     parts = scatter(np.random.default_rng(2), 6, 0.11, 0.04)
     plant = SimulatedUPM(plate=LIMITS.plate, axes=LIMITS.axes, parts=parts, seed=2, part_radius=None)

@@ -116,7 +116,7 @@ def test_a_plate_that_moves_out_of_its_plane_refuses_a_tilt_it_does_not_model():
 
 
 def test_the_simulated_plate_tilts_its_parts_each_of_its_own_friction():
-    from upm.plant import SimulatedUPM
+    from upm.plate.plant import SimulatedUPM
 
     # one part of low friction (0.05) and one of 0.3 on a plate sloping 0.03 rad: a still plate
     # holds both, a vibrating one carries the slippery part downhill (toward -x) the farther
@@ -139,7 +139,7 @@ def test_the_simulated_plate_tilts_its_parts_each_of_its_own_friction():
 def test_the_loop_sorts_four_chips_on_a_plate_half_a_degree_off_level():
     from upm import control
     from upm.plan import PredictivePlanner
-    from upm.plant import SimulatedUPM
+    from upm.plate.plant import SimulatedUPM
 
     chip = 0.0195
     parts = np.array([[-0.07, 0.06], [0.06, 0.05], [-0.05, -0.06], [0.07, -0.05]])
@@ -153,7 +153,7 @@ def test_the_loop_sorts_four_chips_on_a_plate_half_a_degree_off_level():
 
 
 def test_motor_gains_scale_and_motor_phases_delay_each_motors_force():
-    from upm.plant import Channel, Envelope, SimulatedUPM
+    from upm.plate.plant import Channel, Envelope, SimulatedUPM
 
     t = np.arange(400) / 5000.0
     env = Envelope(0.02, 0.04, 0.02)(t)
@@ -177,7 +177,7 @@ def test_the_loop_survives_motors_stronger_than_the_model_by_sizing_its_pulses_l
     # of it: the plant refuses them (nothing plays), the planner sizes lower, the task gets done
     from upm import control
     from upm.plan import PredictivePlanner
-    from upm.plant import SimulatedUPM
+    from upm.plate.plant import SimulatedUPM
 
     penny = 0.009525
     starts = np.array([[-0.08, 0.05], [0.07, -0.06]])
@@ -204,7 +204,7 @@ def test_the_loop_survives_motors_stronger_than_the_model_by_sizing_its_pulses_l
 def test_a_lagging_camera_shows_the_parts_where_they_were_that_long_ago():
     # a point pushed by a translation pulse: the frame read with latency shows it where the plant's
     # own record (an independent simulate of the same motion) has it that long before the end
-    from upm.plant import SimulatedUPM
+    from upm.plate.plant import SimulatedUPM
 
     motion = upm.PlateMotion.translation((1.0, 0.0), upm.Harmonics([0.3, -0.15], [0.0, 0.0], 25.0))
     motion = motion.with_envelope(0.1, 0.3, 0.1)
@@ -226,7 +226,7 @@ def test_a_lagging_camera_shows_the_parts_where_they_were_that_long_ago():
 
 
 def test_pixel_jitter_and_lighting_drift_change_the_frames_as_their_models_say():
-    from upm.plant import SimulatedUPM
+    from upm.plate.plant import SimulatedUPM
     from upm.vision import find_parts, find_table
 
     parts = np.array([[-0.05, 0.0], [0.05, 0.02]])
@@ -257,7 +257,7 @@ def test_the_planner_learns_the_slope_from_where_a_pulse_leaves_the_parts():
     # slide): fitted over a few pulses, the estimate comes within 0.05 degrees of the truth
     from upm.plan import PredictivePlanner
     from upm.plan.fitting import fit_tilt
-    from upm.plant import SimulatedUPM
+    from upm.plate.plant import SimulatedUPM
 
     planner = PredictivePlanner(SimulatedUPM().limits, mu=0.3)
     pulse = upm.Pulse.rotation((0.02, -0.01), upm.Harmonics([6.0, -3.0], [0.0, 0.0], 35.0), 0.086, 0.3, 0.086)
@@ -286,7 +286,7 @@ def test_the_tracker_follows_the_parts_through_a_light_that_drifts():
     # the light's brightness wanders +-40 % over the frames: the tracker scales the plate's stored
     # colour to each frame (Rectifier.light_gain) and keeps every part, each within 0.5 mm
     from upm.control.loop import loop_tracker
-    from upm.plant import SimulatedUPM
+    from upm.plate.plant import SimulatedUPM
     from upm.vision import THESIS_PALETTE, find_table
 
     rng = np.random.default_rng(7)

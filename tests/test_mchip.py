@@ -199,7 +199,7 @@ def test_bad_input_names_the_parameter() -> None:
 def test_the_feed_demo_writes_its_figure_and_metrics(tmp_path: Path) -> None:
 
     pytest.importorskip("matplotlib")
-    from upm.mchip_demos import run_mchip_demo
+    from upm.experiments.mchip_demos import run_mchip_demo
 
     metrics = run_mchip_demo("mchip-feed", out=tmp_path, quick=True, verbose=False)
     folder = tmp_path / "mchip-feed"

@@ -10,7 +10,7 @@ import pytest
 
 import upm
 from upm.control import PoseLoop, PosePlanner, PoseTask, SimulatedDevice
-from upm.plant import SimulatedUPM
+from upm.plate.plant import SimulatedUPM
 
 PART = upm.Polygon.rectangle(0.04, 0.02)
 
@@ -76,7 +76,7 @@ def test_bad_input():
 
 
 def test_the_orient_ppod_demo_measures_when_a_part_settles_at_the_prediction():
-    from upm.orient_demos import TEST_POLYGONS, line_sink_orienting
+    from upm.experiments.orient_demos import TEST_POLYGONS, line_sink_orienting
 
     r = line_sink_orienting(TEST_POLYGONS["rectangle 2:1"], math.radians(40.0), duration=25.0)
     assert abs(r["predicted_deg"] - 90.0) < 1e-9

@@ -13,7 +13,7 @@ from scipy.optimize import minimize
 
 import upm
 from footprint import cells
-from upm.orienting import RadialField, SqueezeField, orientation_equilibria
+from upm.physics.orienting import RadialField, SqueezeField, orientation_equilibria
 
 PENTAGON = np.array([[0.0, 0.0], [0.030, -0.004], [0.041, 0.016], [0.022, 0.031], [-0.006, 0.019]])
 

@@ -9,9 +9,9 @@ import pytest
 import upm
 from upm import control
 from upm.control.loop import _holds
-from upm.demos import CHIP, LIMITS, PLATE, scatter
+from upm.experiments.demos import CHIP, LIMITS, PLATE, scatter
 from upm.plan import PredictivePlanner
-from upm.plant import SimulatedUPM
+from upm.plate.plant import SimulatedUPM
 
 
 class Nudged:

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import upm
-from upm.plate6 import PPOD_LIKE, Actuator, Plate6
+from upm.plate.plate6 import PPOD_LIKE, Actuator, Plate6
 
 
 def test_the_jacobian_by_hand() -> None:
@@ -92,8 +92,8 @@ def test_a_calibration_error_changes_the_motion_and_the_estimate_sees_it() -> No
 def test_gathering_through_the_loop_on_the_six_actuator_plate() -> None:
     pytest.importorskip("cv2")
     from upm import control
-    from upm.demos import LIMITS, PENNY, scatter
-    from upm.plant import SimulatedUPM
+    from upm.experiments.demos import LIMITS, PENNY, scatter
+    from upm.plate.plant import SimulatedUPM
 
     parts = scatter(np.random.default_rng(3), 6, 0.11, 0.04)
     plant = SimulatedUPM(plate=LIMITS.plate, axes=LIMITS.axes, parts=parts, seed=3, part_radius=None)

@@ -385,7 +385,7 @@ def test_design_limits_and_bad_input() -> None:
 
 
 def test_the_sensorless_gathering_demo_gathers_every_part(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    from upm.ppod_demos import run_ppod_demo
+    from upm.experiments.ppod_demos import run_ppod_demo
 
     m = run_ppod_demo("ppod", tmp_path, quick=True, verbose=False)
     for label in ("library Sink at (0, 0)", "designed sink at (0.03, -0.02)"):
@@ -400,7 +400,7 @@ def test_the_sensorless_gathering_demo_gathers_every_part(tmp_path) -> None:  # 
 
 def test_the_field_figure_draws_drift_asymptotic_and_parts() -> None:
     pytest.importorskip("matplotlib")
-    import upm.plot
+    import upm.viz.plot
 
     fig = upm.plot.field(
         "both", (-0.1, -0.1, 0.1, 0.1), motion=upm.PlateMotion.ppod("Whirlpool"), resolution=7

@@ -12,11 +12,11 @@ from upm import control
 from upm.board import protocol
 from upm.board.emulator import BoardEmulator
 from upm.control.tasks import State
-from upm.drive import DriveLimits, StrokeError, flexures
+from upm.physics.waveforms import Harmonics
 from upm.plan import PredictivePlanner, aligned_centres, generate, goals
-from upm.plant import Channel, Envelope, SimulatedUPM
-from upm.pulses import Pulse
-from upm.waveforms import Harmonics
+from upm.plate.drive import DriveLimits, StrokeError, flexures
+from upm.plate.plant import Channel, Envelope, SimulatedUPM
+from upm.plate.pulses import Pulse
 
 CHIP = 0.0195
 

@@ -13,9 +13,9 @@ import upm
 from upm import shapes
 from upm.control import GreedyLibraryPlanner, Loop, ShapeTask, SortTask, State
 from upm.control.shape import assign, kabsch
-from upm.demos import CHIP, LIMITS, PLATE
+from upm.experiments.demos import CHIP, LIMITS, PLATE
 from upm.plan import PredictivePlanner
-from upm.plant import SimulatedUPM
+from upm.plate.plant import SimulatedUPM
 from upm.vision.synthetic import Camera
 
 
@@ -291,7 +291,7 @@ def test_a_12_part_ring_assembles_through_the_loop_with_none_lost():
 
 
 def test_the_scale_demos_build_their_shapes_and_refuse_bad_options(tmp_path):
-    from upm.scale_demos import WASHER, run_scale_demo, shape_targets
+    from upm.experiments.scale_demos import WASHER, run_scale_demo, shape_targets
 
     for name, n in (("ring", 40), ("grid", 30), ("T", 60)):
         t = shape_targets(name, n)
@@ -316,7 +316,7 @@ def test_the_scale_demos_build_their_shapes_and_refuse_bad_options(tmp_path):
 @pytest.mark.slow
 def test_every_scale_demo_sets_up_its_parts_apart_on_the_plate():
     # sort32's start used to ask for 32 chips in a square that holds 25: the demo never began
-    from upm.scale_demos import DEMOS
+    from upm.experiments.scale_demos import DEMOS
 
     for name, demo in DEMOS.items():
         for seed in range(1, 6):
@@ -340,8 +340,8 @@ def test_scatter_falls_back_to_a_jittered_lattice_and_refuses_what_no_lattice_ho
 
 def test_a_hundred_washers_keep_their_ids_through_the_loops_tracker():
     from upm.control.loop import loop_tracker
-    from upm.demos import scatter
-    from upm.scale_demos import CAMERA, WASHER
+    from upm.experiments.demos import scatter
+    from upm.experiments.scale_demos import CAMERA, WASHER
     from upm.vision import THESIS_PALETTE, find_table
 
     rng = np.random.default_rng(3)

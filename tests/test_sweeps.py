@@ -13,7 +13,7 @@ import zarr
 
 import upm
 from upm import cli, plot
-from upm.sweeps import SCENARIOS
+from upm.experiments.sweeps import SCENARIOS
 
 
 class Counter:

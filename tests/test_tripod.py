@@ -167,7 +167,7 @@ def test_moved_keeps_the_feet_and_the_mass():
 
 
 def test_the_simulated_plant_moves_parts_on_their_feet():
-    from upm.plant import SimulatedUPM
+    from upm.plate.plant import SimulatedUPM
 
     spin = upm.PlateMotion.rotation(
         (0.0, 0.0), upm.TwoHarmonic(0.5, np.pi / 2, amplitude=2.0, frequency=20.0)

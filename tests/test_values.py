@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import upm
-from upm.pulses import Pulse
+from upm.plate.pulses import Pulse
 
 H = upm.Harmonics([2.0, -1.0], frequency=35.0)
 SPIN = upm.PlateMotion.rotation((0.0, 0.0), H)

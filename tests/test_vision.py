@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import upm
-from upm.plant import SimulatedUPM
+from upm.plate.plant import SimulatedUPM
 from upm.vision import THESIS_PALETTE, Palette, Table, Tracker, find_parts, find_table
 from upm.vision.synthetic import COLORS, RADII, Camera, VirtualCamera, render
 

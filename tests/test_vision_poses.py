@@ -84,7 +84,7 @@ def test_bad_input():
 
 
 def test_the_simulated_plant_moves_polygons_and_its_camera_shows_their_poses():
-    from upm.plant import SimulatedUPM
+    from upm.plate.plant import SimulatedUPM
 
     part = SHAPES["irregular pentagon"]
     plant = SimulatedUPM(
@@ -148,7 +148,7 @@ def test_the_board_emulator_process_carries_polygon_parts_its_camera_shows(tmp_p
 
 
 def test_parts_of_mixed_shapes_are_told_apart_and_posed():
-    from upm.plant import SimulatedUPM
+    from upm.plate.plant import SimulatedUPM
 
     shapes = [SHAPES["rectangle 2:1"], SHAPES["irregular pentagon"], SHAPES["square"]]
     which = [1, 0, 2, 1, 0]

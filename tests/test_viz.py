@@ -12,11 +12,11 @@ pytest.importorskip("rerun")
 
 import upm
 from upm import control, viz
-from upm.actuation import Plate
-from upm.drive import flexures
-from upm.plant import SimulatedUPM
-from upm.pulses import Pulse
-from upm.waveforms import Harmonics
+from upm.physics.waveforms import Harmonics
+from upm.plate.actuation import Plate
+from upm.plate.drive import flexures
+from upm.plate.plant import SimulatedUPM
+from upm.plate.pulses import Pulse
 
 PLATE = Plate(1.0, 0.0275, 0.2)
 AXES = flexures(PLATE.mass, PLATE.inertia)
