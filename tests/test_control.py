@@ -59,6 +59,26 @@ def test_channels_give_the_inertial_wrench_of_every_harmonic():
         np.testing.assert_allclose(wrench, want, atol=1e-9 * np.abs(want).max())
 
 
+def test_a_motor_channel_has_one_shape_everywhere():
+    # Four motors (Pulse.channels) and six actuators (Plate6.channels) give the same class the plant
+    # plays; it still reads as the dict of SET_CHANNEL fields it used to be.
+    p = Pulse.jet((-0.05, 0.03), (0.3, -1.0), 0.04, 0.05, 35.0, 0.1, 0.2, 0.1)
+    four = p.channels(PLATE, None)
+    six = upm.plate6.Plate6().channels(
+        upm.PlateMotion.harmonic(20.0, x=[(1, 15.0, 0.0)], z=[(1, 5.0, 4.712)])
+    )
+    assert all(type(c) is Channel for c in four + six) and len(six) == 6
+    c = four[0]
+    assert Channel(**c) == c and c["h2_phase"] == c.h2_phase and set(c.keys()) >= {"amplitude", "h23_phase"}
+    with pytest.raises(KeyError):
+        c["h4_amplitude"]
+    # the peak bounds the force it asks at any time (sampled densely over a period of the 2/3 harmonic)
+    t = np.linspace(0.0, 3 / p.frequency, 20001)
+    for ch in four:
+        assert np.max(np.abs(ch.force(t))) <= ch.peak * (1 + 1e-12)
+    assert p.peak_force(PLATE) == max(ch.h1_amplitude + ch.h2_amplitude + ch.h23_amplitude for ch in four)
+
+
 def test_motors_play_a_pulse_like_the_ideal_plate():
     # The simulated plate on flexures, driven by the precompensated channels, against the exact motion.
     p = Pulse.rotation((0.05, -0.1), W, 4 / 35, 0.3, 4 / 35)

@@ -93,7 +93,7 @@ class SimulatedDevice:
                     plant.ride_out(pulse.rest)
                 continue  # the parts have already slid to rest after the previous pulse
             axes = plant.axes if self.precompensate else None
-            channels = [Channel(**c) for c in pulse.channels(plant.plate, axes, self.limit)]
+            channels = pulse.channels(plant.plate, axes, self.limit)
             envelope = Envelope(pulse.attack, pulse.sustain, pulse.decay)
             for _ in range(self.retries):
                 try:
@@ -206,7 +206,7 @@ class BoardDevice:
         self.waited = 0.0
         """Seconds spent waiting for the plate to come home after a STROKE refusal."""
 
-    def _channels(self, pulse: Pulse) -> list[dict[str, float]]:
+    def _channels(self, pulse: Pulse) -> list[Channel]:
         """The SET_CHANNEL fields of ``pulse``: four motors, or a six-axis board's six actuators
         (field pulses only, checked against each actuator's force and stroke)."""
         if not self.board.six_axis:
@@ -225,11 +225,11 @@ class BoardDevice:
                 for k, c in enumerate(channels):
                     board.set_channel(
                         k,
-                        c["amplitude"],
-                        c["frequency"],
-                        h1=(c["h1_amplitude"], c["h1_phase"]),
-                        h2=(c["h2_amplitude"], c["h2_phase"]),
-                        h23=(c["h23_amplitude"], c["h23_phase"]),
+                        c.amplitude,
+                        c.frequency,
+                        h1=(c.h1_amplitude, c.h1_phase),
+                        h2=(c.h2_amplitude, c.h2_phase),
+                        h23=(c.h23_amplitude, c.h23_phase),
                     )
                 board.set_envelope(pulse.attack, pulse.sustain, pulse.decay)
                 self._id = (self._id + 1) & 0xFFFF

@@ -26,6 +26,7 @@ from ..physics.polygon import Polygon
 from ..physics.sim import Disk, _gravity, simulate
 from .actuation import Axis, Plate
 from .drive import DEFAULT_PLATE, PLATE_SIZE, DriveLimits, StrokeError, envelope, flexures, wrench_matrix
+from .pulses import Channel
 
 if TYPE_CHECKING:
     from ..vision.synthetic import Camera, VirtualCamera
@@ -33,31 +34,6 @@ if TYPE_CHECKING:
 __all__ = ["Channel", "Envelope", "SimulatedUPM"]
 
 FloatArray = NDArray[np.float64]
-
-
-@dataclass(frozen=True)
-class Channel:
-    """One motor's waveform: force ``amplitude [h1 cos(wt + p1) + h2 cos(2wt + p2) + h23 cos(2wt/3 +
-    p23)]`` with ``w = 2 pi frequency``. The thesis's ``cos wt - sin 2wt`` (5.9) is the default."""
-
-    amplitude: float = 0.0
-    frequency: float = 35.0
-    h1_amplitude: float = 1.0
-    h1_phase: float = 0.0
-    h2_amplitude: float = 1.0
-    h2_phase: float = math.pi / 2
-    h23_amplitude: float = 0.0
-    h23_phase: float = 0.0
-
-    def force(self, t: FloatArray) -> FloatArray:
-        w = 2 * math.pi * self.frequency
-        shape = (
-            self.h1_amplitude * np.cos(w * t + self.h1_phase)
-            + self.h2_amplitude * np.cos(2 * w * t + self.h2_phase)
-            + self.h23_amplitude * np.cos(2 * w * t / 3 + self.h23_phase)
-        )
-        out: FloatArray = self.amplitude * shape
-        return out
 
 
 @dataclass(frozen=True)

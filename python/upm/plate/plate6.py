@@ -33,6 +33,7 @@ from .._arrays import as_float, real
 from .._errors import ParameterError, ShapeError
 from ..physics.motion import PlateMotion
 from .drive import StrokeError
+from .pulses import Channel
 
 __all__ = ["PPOD_ACCELEROMETERS", "PPOD_LIKE", "Actuator", "Plate6"]
 
@@ -198,10 +199,10 @@ class Plate6:
         }
         return PlateMotion.from_phasors(f, real)
 
-    def channels(self, motion: PlateMotion) -> list[dict[str, float]]:
+    def channels(self, motion: PlateMotion) -> list[Channel]:
         """The six actuator channels playing the harmonic ``motion``, as the board's SET_CHANNEL
-        fields (``amplitude = 1`` N, force ``h1 cos(wt + p1) + h2 cos(2wt + p2)``; protocol
-        version 2, docs/protocol.md). Harmonics 1 and 2 only."""
+        fields (:class:`upm.plate.pulses.Channel`, ``amplitude = 1`` N, force ``h1 cos(wt + p1) +
+        h2 cos(2wt + p2)``; protocol version 2, docs/protocol.md). Harmonics 1 and 2 only."""
         f, terms = motion.harmonic_phasors()
         if any(k not in (1, 2) for k in terms):
             raise ParameterError(f"a board channel plays harmonics 1 and 2; the motion has {sorted(terms)}")
@@ -214,7 +215,7 @@ class Plate6:
                 # Im(F e^{ikwt}) = |F| sin(kwt + arg F) = |F| cos(kwt + arg F - pi/2)
                 ch[f"h{k}_amplitude"] = float(abs(fk[i]))
                 ch[f"h{k}_phase"] = float(np.angle(fk[i]) - math.pi / 2)
-            out.append(ch)
+            out.append(Channel(**ch))
         return out
 
     def motion_of_channels(self, channels: Sequence[Any]) -> PlateMotion:

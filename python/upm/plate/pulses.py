@@ -20,7 +20,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any, Literal
 
 import numpy as np
@@ -32,7 +32,7 @@ from ..physics.motion import PlateMotion
 from ..physics.waveforms import Harmonics
 from .actuation import Axis, Plate, wrench_matrix
 
-__all__ = ["Pulse", "program"]
+__all__ = ["Channel", "Pulse", "program"]
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
@@ -92,6 +92,52 @@ def _finite(name: str, value: float, low: float = 0.0, strict: bool = False) -> 
         relation = ">" if strict else ">="
         raise ParameterError(f"{name} must be finite and {relation} {low:g}; got {value!r}")
     return float(value)
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One motor's waveform: force ``amplitude [h1 cos(wt + p1) + h2 cos(2wt + p2) + h23 cos(2wt/3 +
+    p23)]`` [N] with ``w = 2 pi frequency``. The thesis's ``cos wt - sin 2wt`` (5.9) is the default.
+
+    The one shape of a motor channel: what :meth:`Pulse.channels` and
+    :meth:`upm.plate6.Plate6.channels` give, what the board's SET_CHANNEL carries and the simulated
+    plant and the emulator play. It also reads as a mapping of its fields (``c["h1_phase"]``,
+    ``Channel(**c)``), the shape these channels had before."""
+
+    amplitude: float = 0.0
+    frequency: float = 35.0
+    h1_amplitude: float = 1.0
+    h1_phase: float = 0.0
+    h2_amplitude: float = 1.0
+    h2_phase: float = math.pi / 2
+    h23_amplitude: float = 0.0
+    h23_phase: float = 0.0
+
+    def force(self, t: FloatArray) -> FloatArray:
+        w = 2 * math.pi * self.frequency
+        shape = (
+            self.h1_amplitude * np.cos(w * t + self.h1_phase)
+            + self.h2_amplitude * np.cos(2 * w * t + self.h2_phase)
+            + self.h23_amplitude * np.cos(2 * w * t / 3 + self.h23_phase)
+        )
+        out: FloatArray = self.amplitude * shape
+        return out
+
+    @property
+    def peak(self) -> float:
+        """The largest force the channel can ask [N]: its harmonics' amplitudes summed."""
+        return abs(self.amplitude) * (
+            abs(self.h1_amplitude) + abs(self.h2_amplitude) + abs(self.h23_amplitude)
+        )
+
+    def keys(self) -> tuple[str, ...]:
+        return tuple(f.name for f in fields(self))
+
+    def __getitem__(self, name: str) -> float:
+        if name not in self.keys():
+            raise KeyError(name)
+        value: float = getattr(self, name)
+        return value
 
 
 @dataclass(frozen=True)
@@ -352,12 +398,11 @@ class Pulse:
 
     def channels(
         self, plate: Plate, axes: Sequence[Axis] | None = None, limit: float | None = None
-    ) -> list[dict[str, float]]:
+    ) -> list[Channel]:
         """The four motor channels ``X1, X2, Y1, Y2`` playing this pulse on ``plate``.
 
-        Each is a dict of the board's SET_CHANNEL fields (``amplitude``, ``frequency``,
-        ``h1_amplitude``, ``h1_phase``, ``h2_amplitude``, ``h2_phase``, ``h23_amplitude``,
-        ``h23_phase``) with ``amplitude = 1`` [N] and the harmonic amplitudes in newtons. Forces
+        Each is a :class:`Channel` (the board's SET_CHANNEL fields) with ``amplitude = 1`` [N] and
+        the harmonic amplitudes in newtons. Forces
         are the velocity phasors divided by each axis's velocity response: ``i h w m`` for the
         inertial plate (5.10), or ``axes`` (x, y, rotation; 5.26) to precompensate the suspension.
         ``ParameterError`` when a motor's peak force would exceed ``limit`` [N].
@@ -384,18 +429,9 @@ class Pulse:
         out = []
         for k in range(4):
             m1, m2, m23 = (motors[h][k] for h in HARMONICS)
-            out.append(
-                {
-                    "amplitude": 1.0,
-                    "frequency": self.frequency,
-                    "h1_amplitude": abs(m1),
-                    "h1_phase": float(np.angle(m1)),
-                    "h2_amplitude": abs(m2),
-                    "h2_phase": float(np.angle(m2)),
-                    "h23_amplitude": abs(m23),
-                    "h23_phase": float(np.angle(m23)),
-                }
-            )
+            phases = (float(np.angle(m)) for m in (m1, m2, m23))
+            p1, p2, p23 = phases
+            out.append(Channel(1.0, self.frequency, abs(m1), p1, abs(m2), p2, abs(m23), p23))
         if limit is not None:
             peak = _peak(out)
             if peak > limit:
@@ -417,8 +453,8 @@ def motor_sharing(lever: float) -> FloatArray:
     return out
 
 
-def _peak(channels: list[dict[str, float]]) -> float:
-    return max(c["h1_amplitude"] + c["h2_amplitude"] + c["h23_amplitude"] for c in channels)
+def _peak(channels: list[Channel]) -> float:
+    return max(c.peak for c in channels)
 
 
 def program(pulses: Sequence[Pulse]) -> PlateMotion:

@@ -92,12 +92,7 @@ def pulse_series(pulse: Pulse, plate_size: float = PLATE_SIZE, plate: Any = None
         except ParameterError:  # out of the plane: the in-plane motors cannot play it
             return out
         for name, c in zip(_MOTORS, channels, strict=True):
-            f = (
-                c["h1_amplitude"] * np.cos(w * t + c["h1_phase"])
-                + c["h2_amplitude"] * np.cos(2 * w * t + c["h2_phase"])
-                + c["h23_amplitude"] * np.cos(2 * w * t / 3 + c["h23_phase"])
-            )
-            out[name] = float(np.max(np.abs(f)))
+            out[name] = float(np.max(np.abs(c.force(t))))
     return out
 
 
