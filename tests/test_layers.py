@@ -172,8 +172,18 @@ def test_the_top_level_is_the_face_and_ten_packages() -> None:
 
 
 def test_no_source_file_over_600_lines() -> None:
-    long = {str(p): n for p in PACKAGE.rglob("*.py") if (n := len(p.read_text().splitlines())) > 600}
+    root = Path(__file__).resolve().parents[1]
+    files = [*PACKAGE.rglob("*.py"), *(root / "crates").rglob("*.rs"), *(root / "tests").rglob("*.py")]
+    long = {str(p): n for p in files if (n := len(p.read_text().splitlines())) > 600}
     assert not long
+
+
+def test_the_tests_mirror_the_packages() -> None:
+    # a folder of tests per package (tests of the whole face stay at the top)
+    tests = Path(__file__).resolve().parent
+    folders = {p.name for p in tests.iterdir() if p.is_dir() and any(p.glob("test_*.py"))}
+    packages = {p.name for p in PACKAGE.iterdir() if (p / "__init__.py").exists()}
+    assert folders and folders <= packages, folders - packages
 
 
 def _rust_edges() -> dict[str, set[str]]:

@@ -35,7 +35,7 @@ def start_emulator(*args):
 
 # These tests exercise the protocol with abrupt 20 ms envelopes, whose velocity drift swings the
 # plate's corners up to about 15 mm on its flexures: they run on a long-stroke plate (200 mm). The
-# 10 mm default and its refusals are tested in tests/test_predictive.py.
+# 10 mm default and its refusals are tested in tests/plan/test_predictive.py.
 LONG = 0.2
 
 
