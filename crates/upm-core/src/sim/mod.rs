@@ -50,7 +50,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::motion::PlateMotion;
+use crate::motion::{Phases, PlateMotion};
 use crate::parallel;
 pub use crate::simd::{simd, Simd};
 use config::half_side;
@@ -276,44 +276,11 @@ where
     // the first block by the full check; anything else is checked here.
     let points_only =
         parts.polygons.is_empty() && parts.radius.is_none_or(|r| r.iter().all(|&v| v == 0.0));
-    parts.check_with(!points_only)?;
+    let (steps, spatial) = checked(motions, parts, cfg, contacts, friction, points_only)?;
     let not_finite = AtomicBool::new(false);
     let m = parts.len();
-    if let Some(f) = friction {
-        f.check(motions.len(), m)?;
-        for b in 0..motions.len() {
-            f.world(parts, b)
-                .check_with(!points_only)
-                .map_err(|e| e.with_context(&format!("world {b}")))?;
-        }
-    }
-    let world = |b: usize| {
-        move |e: Error| {
-            if motions.len() > 1 {
-                e.with_context(&format!("world {b}"))
-            } else {
-                e
-            }
-        }
-    };
-    let steps = match motions.first() {
-        Some(first) => cfg.steps(first, m).map_err(world(0))?,
-        None => 0,
-    };
-    for (b, motion) in motions.iter().enumerate().skip(1) {
-        cfg.resolves(motion).map_err(world(b))?;
-    }
-    let spatial = motions.iter().map(|m| m.is_spatial()).collect::<Vec<_>>();
     // Some world's plate leaves its plane (parts may fly).
     let flying = spatial.iter().any(|&s| s);
-    if contacts.is_some() && flying {
-        return Err(Error::parameter(
-            "contacts",
-            "are not supported on a plate that moves out of its plane (parts may lift off); \
-             simulate without contacts",
-        )
-        .into());
-    }
     let rows = recorded_rows(steps, cfg.record_every);
     // Points only: the points are the parts, in order (no index to map them through).
     let disk_index: Vec<usize> = (0..m).filter(|&i| parts.radius(i) > 0.0).collect();
@@ -445,52 +412,7 @@ where
         worlds
             .par_iter_mut()
             .with_min_len(parallel::min_len())
-            .try_for_each(|w| {
-                let mut own = TABLE.take();
-                own.clear();
-                // Sampled a hair before each step's end (see `velocities_into`); from the samples
-                // its timing shares with others, the same to the bit.
-                match &shared[w.timing] {
-                    Some(phases) if !w.spatial => phases.extend(w.motion, &mut own),
-                    _ => w.motion.velocities_into(first..end, cfg.dt, &mut own),
-                }
-                if w.spatial {
-                    w.normals.clear();
-                    w.motion.normals_into(first..end, cfg.dt, &mut w.normals);
-                }
-                let (table, normals, rec) = (&own, &w.normals, &w.rec);
-                let (points, disks, contact) = (&mut w.points, &mut w.disks, &mut w.contact);
-                let shapes = &mut w.polygons;
-                // The kinds of parts run side by side only when two have work: a join called
-                // from outside the pool hands its work to the pool's threads and waits for one to
-                // wake, a small call's whole cost several times over.
-                let alone = points.is_empty()
-                    || (disks.is_empty() && shapes.is_empty() && contact.is_none());
-                let apart = disks.is_empty() || shapes.is_empty();
-                let mut points_run = || points.run(table, normals, first, cfg, rec, index);
-                let mut rest = || match contact {
-                    Some(c) => c.run(disks, shapes, table, first, cfg, rec),
-                    None if apart => {
-                        run_disks(disks, table, normals, first, cfg, rec);
-                        polygons::run(shapes, table, normals, first, cfg, rec)
-                    }
-                    None => {
-                        parallel::join(
-                            || run_disks(disks, table, normals, first, cfg, rec),
-                            || polygons::run(shapes, table, normals, first, cfg, rec),
-                        )
-                        .1
-                    }
-                };
-                let done = if alone {
-                    points_run();
-                    rest()
-                } else {
-                    parallel::join(points_run, rest).1
-                };
-                TABLE.set(own);
-                done
-            })?;
+            .try_for_each(|w| w.block(&shared[w.timing], first..end, cfg, index))?;
         if first == 0 && not_finite.load(Ordering::Relaxed) {
             parts.check()?; // names the first part whose state is not finite
         }
@@ -501,14 +423,7 @@ where
     // The points recorded their times of leaving the plate and of flight as their last block
     // ended; the disks and polygons record theirs now.
     for w in &worlds {
-        for d in &w.disks {
-            // SAFETY: d.index < m, and this thread alone writes now.
-            unsafe { w.rec.ended(d.index, d.left, d.flight as f64 * cfg.dt) };
-        }
-        for p in &w.polygons {
-            // SAFETY: as above.
-            unsafe { w.rec.ended(p.index, p.left, p.flight as f64 * cfg.dt) };
-        }
+        w.ended(cfg.dt);
     }
     drop(worlds);
     // SAFETY: every row of every world was written: row 0 before the first block (by the points
@@ -516,4 +431,125 @@ where
     // block of that step; every point's times in its last block, every disk's and polygon's
     // just above.
     Ok(unsafe { recorder.finish() })
+}
+
+/// The checks of a stacked run that the blocks do not make (see [`simulate_stacked_refs`]): the
+/// parts (their state too unless `points_only`), every world's friction rows, every motion
+/// resolved by the step, and contacts refused on a plate that leaves its plane. The number of
+/// steps and whether each world's motion leaves the plane.
+fn checked(
+    motions: &[&PlateMotion],
+    parts: &PartsView,
+    cfg: &Config,
+    contacts: Option<&Contacts>,
+    friction: Option<&WorldRows>,
+    points_only: bool,
+) -> Result<(usize, Vec<bool>)> {
+    parts.check_with(!points_only)?;
+    let m = parts.len();
+    if let Some(f) = friction {
+        f.check(motions.len(), m)?;
+        for b in 0..motions.len() {
+            f.world(parts, b)
+                .check_with(!points_only)
+                .map_err(|e| e.with_context(&format!("world {b}")))?;
+        }
+    }
+    let world = |b: usize| {
+        move |e: Error| {
+            if motions.len() > 1 {
+                e.with_context(&format!("world {b}"))
+            } else {
+                e
+            }
+        }
+    };
+    let steps = match motions.first() {
+        Some(first) => cfg.steps(first, m).map_err(world(0))?,
+        None => 0,
+    };
+    for (b, motion) in motions.iter().enumerate().skip(1) {
+        cfg.resolves(motion).map_err(world(b))?;
+    }
+    let spatial = motions.iter().map(|m| m.is_spatial()).collect::<Vec<_>>();
+    if contacts.is_some() && spatial.iter().any(|&s| s) {
+        return Err(Error::parameter(
+            "contacts",
+            "are not supported on a plate that moves out of its plane (parts may lift off); \
+             simulate without contacts",
+        ));
+    }
+    Ok((steps, spatial))
+}
+
+impl World<'_> {
+    /// Steps this world through `steps` (one block): its plate velocity tabulated (from the
+    /// samples its timing class shares, `phases`, where there are), then its points, disks and
+    /// polygons (or its contact world).
+    fn block(
+        &mut self,
+        phases: &Option<Phases>,
+        steps: std::ops::Range<usize>,
+        cfg: &Config,
+        index: Option<&[usize]>,
+    ) -> Result<()> {
+        let first = steps.start;
+        let mut own = TABLE.take();
+        own.clear();
+        // Sampled a hair before each step's end (see `velocities_into`); from the samples
+        // its timing shares with others, the same to the bit.
+        match phases {
+            Some(phases) if !self.spatial => phases.extend(self.motion, &mut own),
+            _ => self.motion.velocities_into(steps.clone(), cfg.dt, &mut own),
+        }
+        if self.spatial {
+            self.normals.clear();
+            self.motion.normals_into(steps, cfg.dt, &mut self.normals);
+        }
+        let (table, normals, rec) = (&own, &self.normals, &self.rec);
+        let (points, disks, contact) = (&mut self.points, &mut self.disks, &mut self.contact);
+        let shapes = &mut self.polygons;
+        // The kinds of parts run side by side only when two have work: a join called from
+        // outside the pool hands its work to the pool's threads and waits for one to wake, a
+        // small call's whole cost several times over.
+        let alone =
+            points.is_empty() || (disks.is_empty() && shapes.is_empty() && contact.is_none());
+        let apart = disks.is_empty() || shapes.is_empty();
+        let mut points_run = || points.run(table, normals, first, cfg, rec, index);
+        let mut rest = || match contact {
+            Some(c) => c.run(disks, shapes, table, first, cfg, rec),
+            None if apart => {
+                run_disks(disks, table, normals, first, cfg, rec);
+                polygons::run(shapes, table, normals, first, cfg, rec)
+            }
+            None => {
+                parallel::join(
+                    || run_disks(disks, table, normals, first, cfg, rec),
+                    || polygons::run(shapes, table, normals, first, cfg, rec),
+                )
+                .1
+            }
+        };
+        let done = if alone {
+            points_run();
+            rest()
+        } else {
+            parallel::join(points_run, rest).1
+        };
+        TABLE.set(own);
+        done
+    }
+
+    /// Records the disks' and polygons' times of leaving the plate and of flight (the points
+    /// record theirs as their last block ends).
+    fn ended(&self, dt: f64) {
+        for d in &self.disks {
+            // SAFETY: d.index < m, and this thread alone writes now.
+            unsafe { self.rec.ended(d.index, d.left, d.flight as f64 * dt) };
+        }
+        for p in &self.polygons {
+            // SAFETY: as above.
+            unsafe { self.rec.ended(p.index, p.left, p.flight as f64 * dt) };
+        }
+    }
 }
