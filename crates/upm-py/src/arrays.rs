@@ -79,11 +79,13 @@ pub(crate) fn flat_pairs<'a, D: numpy::ndarray::Dimension>(
     }
 }
 
-/// A 1-D array, borrowed when it is contiguous (copied otherwise).
-pub(crate) fn view<'a>(a: &'a PyReadonlyArray1<'_, f64>) -> std::borrow::Cow<'a, [f64]> {
+/// An array's values in row-major order, borrowed when it is C-contiguous (copied otherwise).
+pub(crate) fn view<'a, D: numpy::ndarray::Dimension>(
+    a: &'a numpy::PyReadonlyArray<'_, f64, D>,
+) -> std::borrow::Cow<'a, [f64]> {
     match a.as_slice() {
         Ok(s) => std::borrow::Cow::Borrowed(s),
-        Err(_) => std::borrow::Cow::Owned(a.as_array().to_vec()),
+        Err(_) => std::borrow::Cow::Owned(a.as_array().iter().copied().collect()),
     }
 }
 

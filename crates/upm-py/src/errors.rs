@@ -110,11 +110,7 @@ fn failure_to_py(py: Python<'_>, f: Failure) -> PyErr {
     match f {
         Failure::Core(e) => to_py(py, e),
         Failure::Python(e) => e,
-        Failure::Panic(m) => exception(
-            py,
-            Class::Internal,
-            format!("internal error in upm (please report it): {m}"),
-        ),
+        Failure::Panic(m) => internal(py, m),
     }
 }
 

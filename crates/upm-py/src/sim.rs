@@ -153,14 +153,6 @@ fn to_arrays(py: Python<'_>, run: Stacked, b: usize, m: usize) -> PyResult<Run> 
     })
 }
 
-/// A 2-D array's values in row-major order, borrowed when it is C-contiguous (copied otherwise).
-fn view2<'a>(a: &'a PyReadonlyArray2<'_, f64>) -> std::borrow::Cow<'a, [f64]> {
-    match a.as_slice() {
-        Ok(s) => std::borrow::Cow::Borrowed(s),
-        Err(_) => std::borrow::Cow::Owned(a.as_array().iter().copied().collect()),
-    }
-}
-
 /// Simulates point and disk parts under each of `motions` (B worlds); arrays carry a batch axis.
 #[pyfunction]
 #[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4, world_mu=None, world_mu_s=None, polygons=None, world_positions=None, world_angles=None, tilt=(0.0, 0.0)))]
@@ -275,7 +267,7 @@ pub fn simulate<'py>(
                     "world_mu and world_mu_s must have the same shape".to_string(),
                 ));
             }
-            Some((view2(a), view2(b), width))
+            Some((view(a), view(b), width))
         }
         (None, None) => None,
         _ => {

@@ -131,13 +131,16 @@ class Channel:
         )
 
     def keys(self) -> tuple[str, ...]:
-        return tuple(f.name for f in fields(self))
+        return _CHANNEL_FIELDS
 
     def __getitem__(self, name: str) -> float:
-        if name not in self.keys():
+        if name not in _CHANNEL_FIELDS:
             raise KeyError(name)
         value: float = getattr(self, name)
         return value
+
+
+_CHANNEL_FIELDS = tuple(f.name for f in fields(Channel))
 
 
 @dataclass(frozen=True)
