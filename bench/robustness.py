@@ -12,7 +12,12 @@ Faults (each seed draws its own):
 * ``latency``: the camera 50 ms late (``camera_latency``: each frame shows the parts as they were);
 * ``pixel``: each part seen off by 1 px of Gaussian jitter (``pixel_noise``);
 * ``light``: the light's brightness drifting 3 % a frame, bounded to +-40 % (``lighting_drift``);
-* ``all``: all of them.
+* ``mu_map``: the plate's friction varying over its surface, mu from 0.2 to 0.4 in a few smooth
+  bumps (``friction_map``, factors 2/3 to 4/3 on the parts' 0.3, in the core integrator);
+* ``stuck``: one part that sticks to the plate until it accelerates beyond 8.8 m/s^2 (three
+  times a part's grip; ``stuck``), and again whenever it comes to rest;
+* ``all``: all of them (``all7``: the seven before ``mu_map`` and ``stuck``, runs of earlier
+  sessions).
 
 Columns: done (of the seeds), plate time [s] median (max), parts lost, wall time [s] median, and
 pulses the plant refused (``StrokeError``: motors stronger than the planner's model swing a corner
@@ -42,10 +47,11 @@ sys.path.insert(0, str(Path(__file__).parent))
 from control import cpu, planner, setup
 from upm import control
 from upm.experiments.demos import LIMITS
+from upm.physics.surface import smooth_map
 from upm.plate.drive import StrokeError
 from upm.plate.plant import SimulatedUPM
 
-FAULTS = ("none", "tilt", "part_mu", "gain", "phase", "latency", "pixel", "light", "all")
+FAULTS = ("none", "tilt", "part_mu", "gain", "phase", "latency", "pixel", "light", "mu_map", "stuck", "all")
 STORE = Path("docs/img/robustness.jsonl")
 
 
@@ -62,6 +68,8 @@ def faults(name: str, n: int, seed: int) -> dict[str, Any]:
         "latency": {"camera_latency": 0.05},
         "pixel": {"pixel_noise": 1.0},
         "light": {"lighting_drift": 0.03},
+        "mu_map": {"friction_map": smooth_map(0.2 / 0.3, 0.4 / 0.3, seed=seed)},
+        "stuck": {"stuck": {int(rng.integers(n)): 3 * 0.3 * 9.81}},
     }
     if name == "none":
         return {}
@@ -133,7 +141,7 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|---|")
     for task in tasks:
         base = [r["time"] for (t, f, _), r in stored.items() if (t, f) == (task, "none")]
-        shown = [*names, *(n + "+learnt" for n in names)]
+        shown = [*names, *(["all7"] if "all" in names else []), *(n + "+learnt" for n in names)]
         for name in shown:
             rows = [r for (t, f, _), r in stored.items() if (t, f) == (task, name)]
             if not rows:

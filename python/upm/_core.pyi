@@ -204,6 +204,7 @@ def simulate(
     world_positions: _F | None = None,
     world_angles: _F | None = None,
     tilt: tuple[float, float] = ...,
+    friction_map: _F | None = None,
 ) -> Run: ...
 def simd_info() -> tuple[str, list[str]]: ...
 

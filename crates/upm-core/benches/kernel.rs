@@ -140,6 +140,7 @@ fn at_rest(position: &[[f64; 2]]) -> PartsView<'_> {
         angle: None,
         spin: None,
         polygons: &[],
+        surface: None,
     }
 }
 

@@ -4,7 +4,7 @@
 use numpy::{PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use upm_core::motion::PlateMotion as CoreMotion;
-use upm_core::sim::{self, Config, PartsView, Stacked};
+use upm_core::sim::{self, Config, FrictionMap, PartsView, Stacked};
 use upm_core::Error;
 
 use crate::arrays::{pair_view, view};
@@ -155,7 +155,7 @@ fn to_arrays(py: Python<'_>, run: Stacked, b: usize, m: usize) -> PyResult<Run> 
 
 /// Simulates point and disk parts under each of `motions` (B worlds); arrays carry a batch axis.
 #[pyfunction]
-#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4, world_mu=None, world_mu_s=None, polygons=None, world_positions=None, world_angles=None, tilt=(0.0, 0.0)))]
+#[pyo3(signature = (motions, positions, velocities, mu, mu_s, radius, angle, spin, *, dt, duration, g, plate_size, record_every, threads=None, progress=None, contacts=false, restitution=0.5, part_friction=0.3, walls=None, walls_move_with_plate=false, mass=None, contact_iterations=4, world_mu=None, world_mu_s=None, polygons=None, world_positions=None, world_angles=None, tilt=(0.0, 0.0), friction_map=None))]
 pub fn simulate<'py>(
     py: Python<'py>,
     motions: Vec<PyRef<'py, PlateMotion>>,
@@ -186,6 +186,7 @@ pub fn simulate<'py>(
     world_positions: Option<PyReadonlyArray2<'py, f64>>,
     world_angles: Option<PyReadonlyArray1<'py, f64>>,
     tilt: (f64, f64),
+    friction_map: Option<PyReadonlyArray2<'py, f64>>,
 ) -> PyResult<Run> {
     // Polygon parts: (part, vertices (K, 2) in its frame, three feet (3, 2) or None), checked
     // convex and counter-clockwise, the feet carrying it.
@@ -202,6 +203,22 @@ pub fn simulate<'py>(
         angle.as_ref().map(view),
         spin.as_ref().map(view),
     );
+    // The plate's friction over its surface: a grid of factors over the plate (rows along y).
+    let surface = match &friction_map {
+        None => None,
+        Some(grid) => {
+            let side = plate_size.ok_or_else(|| {
+                crate::errors::to_py(
+                    py,
+                    Error::parameter("friction_map", "covers the plate: give plate_size"),
+                )
+            })?;
+            let a = grid.as_array();
+            let (ny, nx) = (a.shape()[0], a.shape()[1]);
+            let values = a.iter().copied().collect();
+            Some(FrictionMap::new(values, nx, ny, side).map_err(|e| crate::errors::to_py(py, e))?)
+        }
+    };
     let parts = PartsView {
         position: &position,
         velocity: velocity.as_deref(),
@@ -211,6 +228,7 @@ pub fn simulate<'py>(
         angle: angle.as_deref(),
         spin: spin.as_deref(),
         polygons: &polygons,
+        surface: surface.as_ref(),
     };
     let m = parts.len();
     let cfg = Config {

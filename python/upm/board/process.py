@@ -36,6 +36,21 @@ class CameraServer:
         self.server.setblocking(False)
         self.port = int(self.server.getsockname()[1])
         self.clients: list[socket.socket] = []
+        self.shot: tuple[np.ndarray, np.ndarray] | None = None  # (the parts it shows, the frame)
+
+    def prepare(self) -> None:
+        """Take the next frame now (the parts have just come to rest), as a streaming camera
+        would have it ready: the next request gets it at once, if nothing has moved since."""
+        _, frame = self.camera.read()
+        self.shot = (np.array(self.camera.source.parts, dtype=np.float64), frame)
+
+    def frame(self) -> np.ndarray:
+        """The frame for a request: the one taken ahead if nothing has moved since, else a new one."""
+        shot, self.shot = self.shot, None
+        if shot is not None and np.array_equal(shot[0], self.camera.source.parts, equal_nan=True):
+            return shot[1]
+        frame: np.ndarray = self.camera.read()[1]
+        return frame
 
     def sockets(self) -> list[socket.socket]:
         return [self.server, *self.clients]
@@ -52,7 +67,7 @@ class CameraServer:
             try:
                 request = client.recv(1)
                 if request == b"F":
-                    _, frame = self.camera.read()
+                    frame = self.frame()
                     h, w = frame.shape[:2]
                     c = 1 if frame.ndim == 2 else frame.shape[2]
                     client.sendall(
@@ -99,6 +114,7 @@ def serve(
         fd_in = fd_out = sock.fileno()
     delay = emulator.faults.delay
     pending: list[tuple[float, bytes]] = []
+    shot = emulator.pulses  # the pulses done when the camera last took a frame ahead
     while True:
         watched: list[Any] = [fd_in, *(camera.sockets() if camera is not None else [])]
         ready, _, _ = select.select(watched, [], [], 0.002)
@@ -128,6 +144,9 @@ def serve(
                 os.write(fd_out, chunk) if sock is None else sock.sendall(chunk)
             except (BlockingIOError, OSError):
                 pass  # nobody is reading the pty: the bytes are lost, as on a wire
+        if camera is not None and emulator.pulses != shot:  # a pulse's parts have come to rest
+            shot = emulator.pulses
+            camera.prepare()  # while the host waits out the rest: its next frame is ready
 
 
 def _ranged(kind: type, low: float, high: float, what: str) -> Any:
@@ -221,6 +240,7 @@ def main(argv: list[str] | None = None) -> int:
         help='the plate\'s contents, a JSON file: {"parts": [[x, y], ...], "labels": [...], '
         '"mu": 0.3 or one per part, "mu_s", "tilt": [slope_x, slope_y] (rad, a plate not level), '
         '"motor_gain", "motor_phase" (4 each), "camera_latency" (s), "pixel_noise" (px), "lighting_drift", '
+        '"friction_map": [[factor, ...], ...] (rows along y over the plate), "stuck": {"part": m/s^2}, '
         '"part_radius": r (colliding disks) or "part_shape": [[x, y], ...], "angles": [...] and optionally '
         '"part_support": [[x, y] x 3] (colliding convex polygons, on three feet), "plate": [m, I, r], '
         '"stroke": 0.01, "camera": {...}, "render": {...}}',
@@ -248,7 +268,16 @@ def main(argv: list[str] | None = None) -> int:
         options["tilt"] = tuple(scene["tilt"])
     if "mu_s" in scene:
         options["mu_s"] = scene["mu_s"]
-    for fault in ("motor_gain", "motor_phase", "camera_latency", "pixel_noise", "lighting_drift"):
+    if "stuck" in scene:  # {part: acceleration [m/s^2]} (JSON keys are strings)
+        options["stuck"] = {int(k): v for k, v in scene["stuck"].items()}
+    for fault in (
+        "motor_gain",
+        "motor_phase",
+        "camera_latency",
+        "pixel_noise",
+        "lighting_drift",
+        "friction_map",
+    ):
         if fault in scene:  # an imperfect machine (SimulatedUPM's options of the same names)
             options[fault] = scene[fault]
     if "part_shape" in scene:  # a convex outline [[x, y], ...] [m]: polygon parts

@@ -23,6 +23,7 @@ from .._errors import ParameterError, ShapeError
 from .._extras import need
 from .._memory import check_memory as _check_memory
 from .motion import PlateMotion
+from .surface import friction_grid, gravity
 
 __all__ = ["Disk", "Point", "SimResult", "simulate", "simulate_batch"]
 
@@ -295,6 +296,7 @@ def _run(
     progress: Callable[[float], object] | None = None,
     worlds: _Worlds | None = None,
     tilt: ArrayLike = (0.0, 0.0),
+    friction_map: Any = None,
 ) -> _core.Run:
     step = real("dt", dt, low=0.0, low_open=True)
     span = real("duration", duration, low=0.0, low_open=True)
@@ -342,7 +344,8 @@ def _run(
         spin,
         dt=step,
         duration=span,
-        **_gravity(g, tilt),
+        **gravity(g, tilt),
+        friction_map=friction_grid(friction_map, plate_size),
         plate_size=None if plate_size is None else real("plate_size", plate_size, low=0.0, low_open=True),
         record_every=every,
         threads=pool(threads),
@@ -354,19 +357,6 @@ def _run(
         polygons=polygons,
         **(contacts or {}),
     )
-
-
-def _gravity(g: float, tilt: ArrayLike) -> dict[str, Any]:
-    """Gravity's normal part and its part in the plate's plane [m/s^2] of a plate of slope
-    ``tilt`` [rad] (:func:`simulate`), as the extension takes them."""
-    full = real("g", g, low=0.0, low_open=True)
-    a = as_float("tilt", tilt)
-    if a.shape != (2,) or not np.all(np.isfinite(a)) or np.any(np.abs(a) > 0.5):
-        raise ParameterError(
-            f"tilt must be two slopes [rad] (along x, along y), each within 0.5; got {tilt!r}"
-        )
-    s = np.sin(a)
-    return {"g": full * math.sqrt(1.0 - float(s @ s)), "tilt": (-full * float(s[0]), -full * float(s[1]))}
 
 
 def _contact(
@@ -417,6 +407,7 @@ def simulate(
     threads: int | None = None,
     progress: Callable[[float], object] | None = None,
     tilt: ArrayLike = (0.0, 0.0),
+    friction_map: Any = None,
 ) -> SimResult:
     """Simulate parts sliding (points) or sliding and spinning (disks, polygons) on the plate under
     ``motion``.
@@ -450,6 +441,10 @@ def simulate(
         each): it rises toward +x by ``tilt[0]`` and toward +y by ``tilt[1]``, so gravity pulls
         every part by ``-g sin tilt`` in the plate's plane, and presses it by ``g sqrt(1 -
         sin² tilt[0] - sin² tilt[1])``. 0.5° pulls 86 mm/s² downhill. Planar motions only.
+    friction_map : array_like of shape (ny, nx), or callable, optional
+        The plate's friction over its surface, as a factor on every part's ``mu`` and ``mu_s``
+        where it is: a grid over the plate of side ``plate_size`` (row 0 along its lower edge),
+        or ``f(x, y) -> factor`` (:func:`upm.physics.surface.friction_grid`).
     plate_size : float, optional
         Side of the square plate centred at the origin [m]; parts whose centre leaves it are
         flagged in ``left_plate`` and frozen.
@@ -491,7 +486,7 @@ def simulate(
                        contact_iterations)  # fmt: skip
     r = _run(
         [motion._inner], parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact,
-        _progress(progress), tilt=tilt,
+        _progress(progress), tilt=tilt, friction_map=friction_map,
     )  # fmt: skip
     return SimResult(r.t, r.positions[0], r.velocities[0], r.stuck[0], r.angles[0], r.spins[0],
                      r.left_plate[0], r.left_time[0], r.flight[0])  # fmt: skip
@@ -518,6 +513,7 @@ def simulate_batch(
     progress: Callable[[float], object] | None = None,
     starts: ArrayLike | None = None,
     tilt: ArrayLike = (0.0, 0.0),
+    friction_map: Any = None,
 ) -> SimResult:
     """:func:`simulate` for ``B`` independent worlds (one motion each, the same parts), in parallel.
 
@@ -525,7 +521,8 @@ def simulate_batch(
     to ``B`` separate calls and to any thread count. ``threads``: run on a pool of that many
     threads (default: rayon's global pool, one thread per core; ``1``: the calling thread alone);
     :func:`upm.sweep` runs each chunk on one and parallelises over chunks (``RAYON_NUM_THREADS``
-    sets the global pool's size). The contact, ``progress`` and ``tilt`` arguments are :func:`simulate`'s.
+    sets the global pool's size). The contact, ``progress``, ``tilt`` and ``friction_map`` arguments are
+    :func:`simulate`'s.
 
     ``mu`` and ``mu_s`` may differ from world to world (a friction sweep): shape ``(B, M)``, or
     ``(B, 1)`` for one value per world; all the worlds still run in one parallel call.
@@ -543,7 +540,7 @@ def simulate_batch(
         mu, mu_s = worlds[0][0], worlds[1][0]
     r = _run(
         cores, parts, duration, dt, mu, mu_s, g, plate_size, record_every, threads, contact,
-        _progress(progress), worlds=worlds, tilt=tilt,
+        _progress(progress), worlds=worlds, tilt=tilt, friction_map=friction_map,
     )  # fmt: skip
     return SimResult(r.t, r.positions, r.velocities, r.stuck, r.angles, r.spins, r.left_plate, r.left_time,
                      r.flight)  # fmt: skip

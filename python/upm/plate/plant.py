@@ -23,7 +23,8 @@ from .._arrays import as_float, integer, real
 from .._errors import ParameterError, ShapeError
 from ..physics.motion import PlateMotion
 from ..physics.polygon import Polygon
-from ..physics.sim import Disk, _gravity, simulate
+from ..physics.sim import Disk, simulate
+from ..physics.surface import friction_grid, gravity
 from .actuation import Axis, Plate
 from .drive import DEFAULT_PLATE, PLATE_SIZE, DriveLimits, StrokeError, envelope, flexures, wrench_matrix
 from .pulses import Channel
@@ -34,6 +35,27 @@ if TYPE_CHECKING:
 __all__ = ["Channel", "Envelope", "SimulatedUPM"]
 
 FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Played:
+    """The plate's response to motor forces (:meth:`SimulatedUPM.ahead`), not yet committed."""
+
+    acc: FloatArray
+    vel: FloatArray
+    pos: FloatArray
+    state: FloatArray
+
+
+@dataclass(frozen=True)
+class Moved:
+    """Where a pulse moved the parts (:meth:`SimulatedUPM.settled`), not yet applied."""
+
+    parts: FloatArray
+    """(M, 2) positions [m], NaN for a part that fell off."""
+    angles: FloatArray | None
+    min_gap: float
+    trace: tuple[FloatArray, FloatArray] | None
 
 
 @dataclass(frozen=True)
@@ -96,6 +118,21 @@ def _friction(mu: Any, mu_s: Any, m: int) -> tuple[Any, Any]:
     return out[0], out[1]
 
 
+def _stuck(stuck: Any, mu: Any, mu_s: Any, m: int) -> Any:
+    """``mu_s`` with each stuck part's (``{part: acceleration [m/s^2]}``) raised to hold it."""
+    if stuck is None or (isinstance(stuck, dict) and not stuck):
+        return mu_s
+    if not isinstance(stuck, dict):
+        raise ParameterError(
+            f"stuck must be a dict {{part: acceleration [m/s^2]}}; got {type(stuck).__name__}"
+        )
+    out = np.array(np.broadcast_to(mu if mu_s is None else mu_s, (m,)), dtype=np.float64)
+    for part, grip in stuck.items():
+        i = integer("stuck part", part, low=0, high=m - 1)
+        out[i] = max(out[i], real(f"stuck[{i}]", grip, low=0.0, low_open=True, high=1e4) / 9.81)
+    return out
+
+
 @dataclass
 class SimulatedUPM:
     """A simulated plate with four motors, two accelerometers and parts on it.
@@ -128,6 +165,13 @@ class SimulatedUPM:
     tilt : (float, float)
         The plate's slope [rad] along x and along y (a plate that is not level: :func:`upm.simulate`'s
         ``tilt``; gravity pulls every part downhill, in the integrator's every step).
+    friction_map : (ny, nx) array_like or callable, optional
+        The plate's friction over its surface, a factor on each part's ``mu`` and ``mu_s`` where it
+        is (:func:`upm.simulate`'s ``friction_map``, over this plate; a function is sampled once).
+    stuck : dict of int to float, optional
+        Parts that stick: ``{i: a}`` holds part ``i`` to the plate until the plate's acceleration
+        under it exceeds ``a`` [m/s^2] (its static friction raised to ``a / g``); it then slides
+        with its own ``mu``, and holds again whenever it comes to rest on the plate.
     motor_gain, motor_phase : (4,) array_like
         Motors that are not quite the model: motor ``i`` (X1, X2, Y1, Y2) delivers ``motor_gain[i]``
         times the force asked, ``motor_phase[i]`` [rad] late at its drive frequency (a delay: each
@@ -174,6 +218,8 @@ class SimulatedUPM:
     part_friction: float = 0.3
     gap_every: int = 20
     tilt: tuple[float, float] = (0.0, 0.0)
+    friction_map: Any = None
+    stuck: Any = None
     motor_gain: Any = (1.0, 1.0, 1.0, 1.0)
     motor_phase: Any = (0.0, 0.0, 0.0, 0.0)
     camera_latency: float = 0.0
@@ -188,9 +234,11 @@ class SimulatedUPM:
             raise ShapeError(f"parts must have shape (M, 2) [m]; got {parts.shape}")
         self.parts = parts
         self.mu, self.mu_s = _friction(self.mu, self.mu_s, len(parts))
+        self.mu_s = _stuck(self.stuck, self.mu, self.mu_s, len(parts))
+        self.friction_map = friction_grid(self.friction_map, self.plate_size)
         self.motor_gain = _per_motor("motor_gain", self.motor_gain, 0.0, 2.0)
         self.motor_phase = _per_motor("motor_phase", self.motor_phase, -math.pi / 2, math.pi / 2)
-        _gravity(9.81, self.tilt)  # checked now, not at the first pulse
+        gravity(9.81, self.tilt)  # checked now, not at the first pulse
         self.tilt = (float(self.tilt[0]), float(self.tilt[1]))
         slope = math.hypot(math.tan(self.tilt[0]), math.tan(self.tilt[1]))
         if slope >= float(np.min(self.mu_s if self.mu_s is not None else self.mu)):
@@ -281,11 +329,21 @@ class SimulatedUPM:
         """Plate acceleration and velocity ``(T, 3)`` (``d/dt`` and ``(u1, u2, u3)``) for motor
         forces sampled at ``sample_rate``, continuing from the previous call; the pose is recorded
         (:attr:`pose`, :attr:`max_excursion`)."""
-        acc, vel, pos, self._state = self._respond(forces, self._state)
-        if len(pos):
-            self._poses.append(np.vstack([pos[::10], pos[-1:]]))
-            self.max_excursion = max(self.max_excursion, self.limits.excursion(pos))
-        return acc, vel
+        played = self.ahead(forces)
+        self.commit(played)
+        return played.acc, played.vel
+
+    def ahead(self, forces: FloatArray) -> Played:
+        """What :meth:`plate_state` would give for ``forces``, the plate left where it is (a board
+        emulator works a pulse out when it starts, and :meth:`commit` it when it ends)."""
+        return Played(*self._respond(forces, self._state))
+
+    def commit(self, played: Played) -> None:
+        """The plate moved as ``played`` (from :meth:`ahead` at the present state) says."""
+        self._state = played.state
+        if len(played.pos):
+            self._poses.append(np.vstack([played.pos[::10], played.pos[-1:]]))
+            self.max_excursion = max(self.max_excursion, self.limits.excursion(played.pos))
 
     def excursion(self, channels: list[Channel], envelope: Envelope) -> float:
         """Largest corner excursion [m] the pulse would cause from the plate's present state,
@@ -345,8 +403,13 @@ class SimulatedUPM:
     def settle_parts(self, velocity: FloatArray) -> None:
         """Move the parts under a recorded plate velocity ``(T, 3)`` sampled at ``sample_rate``,
         then let them slide to rest on the still plate (exact integrator)."""
+        self.apply(self.settled(velocity))
+
+    def settled(self, velocity: FloatArray) -> Moved | None:
+        """Where :meth:`settle_parts` would move the parts, computed without moving them (a board
+        emulator works it out while the pulse plays, and :meth:`apply` it when the pulse ends)."""
         if not len(self.parts) or not len(velocity):
-            return
+            return None
         n = len(velocity)
         t = np.arange(n + 1) / self.sample_rate
         u = np.vstack([velocity, np.zeros((1, 3))])
@@ -354,7 +417,7 @@ class SimulatedUPM:
         motion = PlateMotion.sequence(
             [PlateMotion.from_samples(t, u[:, 0], u[:, 1], u[:, 2]), PlateMotion.rest(coast)]
         )
-        self._advance(motion, 0.099 / self.sample_rate)
+        return self._moved(motion, 0.099 / self.sample_rate)
 
     def play(self, motion: PlateMotion) -> None:
         """Move the parts under a plate that follows ``motion`` exactly (an ideal plate, no motors),
@@ -374,16 +437,22 @@ class SimulatedUPM:
         )
 
     def _advance(self, motion: PlateMotion, dt: float) -> None:
+        self.apply(self._moved(motion, dt))
+
+    def _moved(self, motion: PlateMotion, dt: float) -> Moved | None:
+        """The parts moved by ``motion`` (integrator step ``dt``), the plant left as it is."""
         on = np.all(np.isfinite(self.parts), axis=1)
         if not np.any(on):
-            return
+            return None
         mu, mu_s = (None if f is None else (f[on] if np.ndim(f) else f) for f in (self.mu, self.mu_s))
         opts: dict[str, Any] = {"duration": motion.duration or 0.0, "dt": dt, "mu": mu, "mu_s": mu_s,
-                                "plate_size": self.plate_size, "tilt": self.tilt}  # fmt: skip
+                                "plate_size": self.plate_size, "tilt": self.tilt,
+                                "friction_map": self.friction_map}  # fmt: skip
         r = self.part_radius
         shapes = self.shapes
+        angles, gap, trace = None, math.inf, None
         if shapes is not None:
-            angles = self._angles(self.angles)
+            angles = self._angles(self.angles).copy()
             polygons = [shapes[i].moved((float(x), float(y)), float(angles[i]))
                         for i, (x, y) in zip(np.flatnonzero(on), self.parts[on], strict=True)]  # fmt: skip
             result = simulate(
@@ -391,7 +460,6 @@ class SimulatedUPM:
                 restitution=self.restitution, part_friction=self.part_friction, **opts,
             )  # fmt: skip
             angles[on] = result.angles[-1]
-            self.angles = angles
         elif r is None:
             every = 10**9 if self.camera_latency == 0 else max(1, round(2e-3 / dt))  # the camera looks back
             result = simulate(motion, self.parts[on], record_every=every, **opts)
@@ -401,14 +469,26 @@ class SimulatedUPM:
                 motion, disks, record_every=self.gap_every, contacts=True,
                 restitution=self.restitution, part_friction=self.part_friction, **opts,
             )  # fmt: skip
-            self.min_gap = min(self.min_gap, _min_gap(result.positions, result.left_plate, r))
-        moved = result.positions[-1].copy()
-        moved[result.left_plate] = np.nan  # its centre crossed an edge: it fell off
+            gap = _min_gap(result.positions, result.left_plate, r)
+        moved = self.parts.copy()
+        moved[on] = result.positions[-1]
+        moved[np.flatnonzero(on)[result.left_plate]] = np.nan  # its centre crossed an edge: it fell off
         if self.camera_latency > 0:
             path = np.full((len(result.t), *self.parts.shape), np.nan)
             path[:, on] = result.positions
-            self._remember(self.clock + np.asarray(result.t, dtype=np.float64), path)
-        self.parts[on] = moved
+            trace = (self.clock + np.asarray(result.t, dtype=np.float64), path)
+        return Moved(moved, angles, gap, trace)
+
+    def apply(self, moved: Moved | None) -> None:
+        """Put the parts where :meth:`settled` (or a pulse) moved them."""
+        if moved is None:
+            return
+        if moved.angles is not None:
+            self.angles = moved.angles
+        self.min_gap = min(self.min_gap, moved.min_gap)
+        if moved.trace is not None:
+            self._remember(*moved.trace)
+        self.parts[...] = moved.parts
 
     def _remember(self, times: FloatArray, path: FloatArray) -> None:
         """Keep the parts' way ``path (T, M, 2)`` at plate ``times`` for :meth:`parts_at`, and no

@@ -12,6 +12,8 @@ pub(super) const ARRAYS: usize = 12;
 pub(super) const PLANAR: usize = 9;
 /// The stuck flags' array among them.
 pub(super) const STUCK: usize = 4;
+/// The `slide` array among them (`hold` follows it).
+pub(super) const SLIDE: usize = 7;
 
 /// The arrays' base addresses, shared by the chunk tasks (each reads and writes only its own
 /// range).

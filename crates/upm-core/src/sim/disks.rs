@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use super::lift;
 use super::record::Rec;
-use super::{half_side, moves_with_plate, off_plate, Config, PartsView};
+use super::{half_side, moves_with_plate, off_plate, Config, FrictionMap, PartsView};
 
 /// A recorded disk state: position, velocity, angle, spin, stuck.
 pub(super) type DiskRow = ([f64; 2], [f64; 2], f64, f64, bool);
@@ -23,6 +23,8 @@ pub(super) struct DiskState {
     pub(super) left: Option<f64>,
     pub(super) slide: f64,
     pub(super) hold: f64,
+    /// Its own `slide` and `hold` (`mu g dt`, `mu_s g dt`), before a [`FrictionMap`]'s factor.
+    own: [f64; 2],
     /// Gravity's in-plane velocity a step [m/s] ([`Config::tilt`] `dt`).
     pub(super) kick: [f64; 2],
     /// Its place among all parts.
@@ -49,11 +51,19 @@ impl DiskState {
             left: outside.then_some(0.0),
             slide: parts.mu(i) * cfg.g * cfg.dt,
             hold: parts.mu_s(i) * cfg.g * cfg.dt,
+            own: [parts.mu(i) * cfg.g * cfg.dt, parts.mu_s(i) * cfg.g * cfg.dt],
             kick: cfg.kick(),
             index: i,
             air: [0.0; 2],
             flight: 0,
         }
+    }
+
+    /// Its friction thresholds on a plate of friction `map` where it will be `ahead` [s] from
+    /// now at its present velocity (the middle of the block it starts).
+    pub(super) fn resurface(&mut self, map: &FrictionMap, ahead: f64) {
+        let f = map.factor(self.p[0] + self.v[0] * ahead, self.p[1] + self.v[1] * ahead);
+        (self.slide, self.hold) = (self.own[0] * f, self.own[1] * f);
     }
 
     pub(super) fn row(&self) -> DiskRow {

@@ -42,6 +42,7 @@ mod record;
 #[cfg(target_arch = "x86_64")]
 mod short;
 mod source;
+pub mod surface;
 mod timing;
 mod work;
 
@@ -60,6 +61,7 @@ use disks::{run_disks, DiskState};
 pub use parts::{Parts, PartsView, WorldRows};
 pub use points::CHUNK_PARTS;
 pub use record::Stacked;
+pub use surface::FrictionMap;
 use record::{recorded_rows, Rec, Recorder};
 pub use work::little_work;
 use work::{block_steps, little, POLYGON_DISKS};
@@ -126,6 +128,8 @@ struct World<'a> {
     spatial: bool,
     /// The out-of-plane accelerations of the block's steps (empty for a planar motion).
     normals: Vec<[f64; 3]>,
+    /// The plate's friction over its surface ([`PartsView::surface`]).
+    surface: Option<&'a FrictionMap>,
 }
 
 std::thread_local! {
@@ -309,6 +313,11 @@ where
     let n_points = m - disk_index.len() - parts.polygons.len();
     let heavy = disk_index.len() + POLYGON_DISKS * parts.polygons.len();
     let block = block_steps(motions.len(), n_points, heavy);
+    // On a plate whose friction varies, each part's friction is looked up between blocks.
+    let block = match parts.surface {
+        Some(_) => block.min(FrictionMap::refresh_steps(cfg.dt)),
+        None => block,
+    };
     // A run of little work goes on this thread alone: handing it to the pool's threads and
     // waiting for one to wake cost more than they saved (20 worlds of 8 points through 100 steps
     // took 156 us on two threads, median, and 31 on one; Intel Xeon, a shared VM).
@@ -318,6 +327,7 @@ where
         && n_points == m
         && m <= group::MAX_POINTS
         && contacts.is_none()
+        && parts.surface.is_none()
         && !flying;
     // Reserved fallibly (an error, not an abort, when it cannot fit), reusing recycled results.
     let turning = if n_points == m {
@@ -381,6 +391,7 @@ where
                 timing: classes[b],
                 spatial: spatial[b],
                 normals: Vec::with_capacity(if spatial[b] { block } else { 0 }),
+                surface: parts.surface,
             }
         })
         .collect();
@@ -494,6 +505,16 @@ impl World<'_> {
         index: Option<&[usize]>,
     ) -> Result<()> {
         let first = steps.start;
+        if let Some(map) = self.surface {
+            // each disk's and polygon's friction where it will be halfway through the block (the
+            // points look theirs up as their chunks start the block)
+            let ahead = 0.5 * steps.len() as f64 * cfg.dt;
+            self.disks.iter_mut().for_each(|d| d.resurface(map, ahead));
+            self.polygons.iter_mut().for_each(|p| p.resurface(map, ahead));
+            if let Some(c) = self.contact.as_mut() {
+                c.resurfaced();
+            }
+        }
         let mut own = TABLE.take();
         own.clear();
         // Sampled a hair before each step's end (see `velocities_into`); from the samples

@@ -3,6 +3,7 @@
 //! every part and velocities, radii, angles and spins may be absent).
 
 use crate::error::{positive, Error, Result};
+use super::FrictionMap;
 use crate::polygon::Polygon;
 
 /// Parts (points and disks): initial state and friction coefficients, one entry per part.
@@ -59,6 +60,7 @@ impl Parts {
             angle: Some(&self.angle),
             spin: Some(&self.spin),
             polygons: &self.polygons,
+            surface: None,
         }
     }
 
@@ -88,6 +90,9 @@ pub struct PartsView<'a> {
     pub spin: Option<&'a [f64]>,
     /// Polygon parts, as [`Parts::polygons`].
     pub polygons: &'a [(usize, Polygon)],
+    /// The plate's friction over its surface, a factor on every part's `mu` and `mu_s` where
+    /// it is (`None`: the same everywhere).
+    pub surface: Option<&'a FrictionMap>,
 }
 
 /// Entry `i` of a per-part array, or its one value.

@@ -14,12 +14,12 @@ use rayon::prelude::*;
 use crate::buffer::{recycle, scratch};
 use crate::simd::Simd;
 
-use super::base::{Base, ARRAYS, PLANAR};
+use super::base::{Base, ARRAYS, PLANAR, SLIDE};
 use super::kernel::{self, Lanes, Plate, NEVER};
 use super::lift::{self, Air};
 use super::record::{Rec, RunState};
 use super::source::Source;
-use super::{half_side, Config, PartsView};
+use super::{half_side, Config, FrictionMap, PartsView};
 
 /// Parts per chunk, the unit of work of a thread (a multiple of every SIMD tile).
 pub const CHUNK_PARTS: usize = 256;
@@ -36,6 +36,39 @@ pub(super) struct Points<'p> {
     /// The run is one block: each chunk's state lives in its task's own buffer (in the core's
     /// cache), and no array is kept.
     once: bool,
+    /// The plate's friction over its surface, and the parts whose friction it scales.
+    surface: Option<Surface<'p>>,
+}
+
+/// A [`FrictionMap`] under the points: each block's chunks set their friction from it.
+#[derive(Clone, Copy)]
+struct Surface<'p> {
+    map: &'p FrictionMap,
+    parts: PartsView<'p>,
+    index: Option<&'p [usize]>,
+    /// `g dt`.
+    scale: f64,
+}
+
+impl Surface<'_> {
+    /// Sets the friction thresholds of the `k` points at `at ..` of `base` (the world's points
+    /// from `start` on) where each will be `ahead` [s] from now at its present velocity (the
+    /// middle of the block they start).
+    ///
+    /// # Safety
+    /// As [`Base::chunk`]: the range is within every array's capacity and initialised, and no
+    /// other live borrow overlaps it.
+    unsafe fn apply(&self, base: &Base, at: usize, start: usize, k: usize, ahead: f64) {
+        let [x, y, vx, vy] = [0, 1, 2, 3].map(|a| base.0[a].add(at).cast_const());
+        let slide = std::slice::from_raw_parts_mut(base.0[SLIDE].add(at), k);
+        let hold = std::slice::from_raw_parts_mut(base.0[SLIDE + 1].add(at), k);
+        for q in 0..k {
+            let i = self.index.map_or(start + q, |ix| ix[start + q]);
+            let (px, py) = (*x.add(q) + *vx.add(q) * ahead, *y.add(q) + *vy.add(q) * ahead);
+            let f = self.map.factor(px, py) * self.scale;
+            (slide[q], hold[q]) = (self.parts.mu(i) * f, self.parts.mu_s(i) * f);
+        }
+    }
 }
 
 /// One chunk's state in a run of one block (see [`Points::once`]).
@@ -84,6 +117,12 @@ impl<'p> Points<'p> {
             spatial,
             once,
             source: Some(Source::new(parts, index, cfg, u0, not_finite)),
+            surface: parts.surface.map(|map| Surface {
+                map,
+                parts: *parts,
+                index,
+                scale: cfg.g * cfg.dt,
+            }),
         }
     }
 
@@ -156,6 +195,7 @@ impl<'p> Points<'p> {
     ) {
         let half = half_side(cfg);
         let (base, spatial, source, once) = (self.base(), self.spatial, self.source, self.once);
+        let surface = self.surface;
         assert!(
             !once || (source.is_some() && first == 0),
             "a run of one block runs once"
@@ -170,6 +210,7 @@ impl<'p> Points<'p> {
             && !spatial
             && !table.is_empty()
             && simd != Simd::Portable
+            && surface.is_none()
             && !super::short::OFF.load(Ordering::Relaxed);
         let task = |local: &mut Option<Box<Local>>, (start, k): (usize, usize)| {
             #[cfg(target_arch = "x86_64")]
@@ -196,6 +237,10 @@ impl<'p> Points<'p> {
                 // SAFETY: the range is within every kept array's capacity (or the chunk's own
                 // buffer), and this task alone addresses it.
                 unsafe { src.fill(&state, at, start, k, spatial) };
+            }
+            if let Some(s) = &surface {
+                // SAFETY: as for the chunk below (the arrays are distinct, the state only read).
+                unsafe { s.apply(&state, at, start, k, 0.5 * table.len() as f64 * cfg.dt) };
             }
             // SAFETY: the range is written (just now, or by the first block); chunks are
             // disjoint, and so are the tasks' own buffers.

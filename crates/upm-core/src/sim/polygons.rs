@@ -19,7 +19,7 @@ use crate::polygon::{
 
 use super::lift::fly;
 use super::record::Rec;
-use super::{half_side, moves_with_plate, off_plate, Config, PartsView};
+use super::{half_side, moves_with_plate, off_plate, Config, FrictionMap, PartsView};
 use crate::motion::spatial::normal_at;
 
 /// A polygon part's state after a friction step ([`PolygonState::friction`]).
@@ -63,6 +63,8 @@ pub(super) struct PolygonState {
     pub(super) flight: usize,
     slide: f64,
     pub(super) hold: f64,
+    /// Its own `slide` and `hold` (`mu g dt`, `mu_s g dt`), before a [`FrictionMap`]'s factor.
+    own: [f64; 2],
     /// Gravity's in-plane velocity a step [m/s] ([`Config::tilt`] `dt`).
     pub(super) kick: [f64; 2],
     /// Its place among all parts.
@@ -182,11 +184,19 @@ impl PolygonState {
             flight: 0,
             slide: parts.mu(i) * cfg.g * cfg.dt,
             hold: parts.mu_s(i) * cfg.g * cfg.dt,
+            own: [parts.mu(i) * cfg.g * cfg.dt, parts.mu_s(i) * cfg.g * cfg.dt],
             kick: cfg.kick(),
             index: i,
             cs: [angle.cos(), angle.sin()],
             turns: 0,
         }
+    }
+
+    /// Its friction thresholds on a plate of friction `map` where its centroid will be `ahead`
+    /// [s] from now at its present velocity (the middle of the block it starts).
+    pub(super) fn resurface(&mut self, map: &FrictionMap, ahead: f64) {
+        let f = map.factor(self.c[0] + self.v[0] * ahead, self.c[1] + self.v[1] * ahead);
+        (self.slide, self.hold) = (self.own[0] * f, self.own[1] * f);
     }
 
     /// `[cos, sin]` of the angle ([`PolygonState::turn_to`]).

@@ -213,6 +213,12 @@ impl ContactWorld {
         }
     }
 
+    /// The parts' friction changed (a [`super::FrictionMap`] looked up anew): the contact-free
+    /// stretch reckoned from the old thresholds is reckoned again.
+    pub(super) fn resurfaced(&mut self) {
+        (self.free_until, self.recheck_at) = (0, 0);
+    }
+
     /// How many steps from now no contact can happen, so rapier's step can be left out (it would
     /// change nothing: untouched disks keep the contact-free update anyway). A disk's speed
     /// changes by at most `mu_s g dt` a step (friction never exceeds `mu_s m g`), so in time `T`

@@ -125,6 +125,7 @@ mod tests {
                             angle: None,
                             spin: None,
                             polygons: &[],
+                            surface: None,
                         };
                         let steps = if big { 2 } else { 50 };
                         let cfg = Config {
@@ -186,6 +187,7 @@ mod tests {
             angle: None,
             spin: None,
             polygons: &[],
+            surface: None,
         };
         let cfg = Config {
             dt: 1e-4,
