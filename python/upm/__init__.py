@@ -28,6 +28,7 @@ from ._errors import (
     ParameterError,
     PlanWarning,
     ProtocolError,
+    PulseCut,
     RankWarning,
     ResonanceWarning,
     ShapeError,
@@ -97,7 +98,7 @@ __all__ = [  # noqa: RUF022 - grouped by layer, not sorted
     # errors and warnings (upm._errors): UpmError and UpmWarning are the roots
     "UpmError", "ParameterError", "ShapeError", "StrokeError", "ConvergenceError", "InternalError",
     "MissingExtraError", "VisionError", "BoardError", "BoardTimeout", "CommandRefused",
-    "ProtocolError", "VersionMismatch",
+    "ProtocolError", "PulseCut", "VersionMismatch",
     "UpmWarning", "PlanWarning", "RankWarning", "ResonanceWarning",
     # physics: the forward model
     "Waveform", "BangBang", "Harmonics", "TwoHarmonic",

@@ -88,6 +88,11 @@ class BoardTimeout(BoardError):
     """The board did not answer in time (after the retries)."""
 
 
+class PulseCut(BoardError):
+    """A pulse the board accepted ended before its time: its watchdog tripped (the host fell
+    silent) or it was stopped. Part of the pulse played; the parts are wherever it left them."""
+
+
 class VersionMismatch(BoardError):
     """The board speaks another protocol version."""
 

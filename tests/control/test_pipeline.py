@@ -84,6 +84,26 @@ def test_a_plan_made_ahead_is_discarded_when_a_hand_moves_a_part():
     assert log.done and plant.fallen == 0
 
 
+def test_a_pulse_the_board_cut_short_is_planned_past():
+    class Cut:  # the board stops pulse ``at`` before it moves anything (its watchdog tripped)
+        def __init__(self, plant, at=3):
+            self.inner, self.at, self.calls = control.SimulatedDevice(plant), at, 0
+            self.limits, self.waited = self.inner.limits, 0.0
+
+        def execute(self, pulses):
+            self.calls += 1
+            if self.calls == self.at:
+                raise upm.PulseCut("pulse 3 was cut short: the board's watchdog tripped")
+            self.inner.execute(pulses)
+
+    plant, _, loop = sort4(2, device=Cut)
+    with pytest.warns(upm.PlanWarning, match="cut short"):
+        log = loop.run(120)
+    assert log.meta["cut"] == 1
+    assert not log.kept[3]  # the plan made ahead of the cut pulse's whole step was dropped
+    assert log.done and plant.fallen == 0
+
+
 def test_holds_needs_the_same_parts_each_near_its_prediction():
     ids, pos = np.array([4, 7]), np.array([[0.0, 0.0], [0.1, 0.0]])
     assert _holds(ids, pos + 0.002, ids[::-1], pos[::-1], 0.003)

@@ -8,6 +8,6 @@ Needs the ``board`` extra: ``pip install 'upm[board]'``.
 from __future__ import annotations
 
 from . import protocol
-from .client import Board, BoardTimeout, CommandRefused, VersionMismatch
+from .client import Board, BoardTimeout, CommandRefused, PulseCut, VersionMismatch
 
-__all__ = ["Board", "BoardTimeout", "CommandRefused", "VersionMismatch", "protocol"]
+__all__ = ["Board", "BoardTimeout", "CommandRefused", "PulseCut", "VersionMismatch", "protocol"]

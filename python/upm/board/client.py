@@ -15,18 +15,22 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections.abc import Sequence
 from types import TracebackType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .._arrays import integer, real
-from .._errors import BoardError, BoardTimeout, CommandRefused, ParameterError, VersionMismatch
+from .._errors import BoardError, BoardTimeout, CommandRefused, ParameterError, PulseCut, VersionMismatch
 from .._extras import need
 from . import protocol as p
 
-__all__ = ["Board", "BoardTimeout", "CommandRefused", "VersionMismatch"]
+if TYPE_CHECKING:
+    from ..plate.pulses import Channel
+
+__all__ = ["Board", "BoardTimeout", "CommandRefused", "PulseCut", "VersionMismatch"]
 
 
 class Board:
@@ -94,7 +98,9 @@ class Board:
     def _read_loop(self) -> None:
         while self._open:
             try:
-                data = self._port.read(65536)
+                # what has arrived, or wait (up to the port's 5 ms timeout) for the first byte:
+                # read(n) would wait the whole timeout for n bytes, and add it to every reply
+                data = self._port.read(self._port.in_waiting or 1)
             except Exception as error:  # the port went away
                 self._error = error
                 with self._changed:
@@ -163,7 +169,16 @@ class Board:
                 self._changed.wait(left)
 
     def _command(self, message: p.Message) -> None:
-        seq = self._write(message)
+        self._acknowledged(message, self._write(message))
+
+    def _commands(self, messages: Sequence[p.Message]) -> None:
+        """Send every message, then wait for each one's ACK (resending as :meth:`_command` does):
+        one round trip for all. Only for commands the board may act on twice to the same effect
+        (it recognises a resend of its last command only)."""
+        for message, seq in [(m, self._write(m)) for m in messages]:
+            self._acknowledged(message, seq)
+
+    def _acknowledged(self, message: p.Message, seq: int) -> None:
         for attempt in range(self.retries + 1):
             reply = self._wait(lambda: self._replies.pop(seq, None), type(message).__name__)
             if isinstance(reply, p.Ack):
@@ -226,6 +241,42 @@ class Board:
         """Motor ``channel`` (0..3 = X1, X2, Y1, Y2; 0..5 the actuators of a six-axis board):
         force ``amplitude [h1 cos(wt + p1) + h2 cos(2wt + p2) + h23 cos(2wt/3 + p23)]``; default
         the thesis's ``cos wt - sin 2wt`` (5.9). Checked against the board's limits before sending."""
+        self._command(self._channel(channel, amplitude, frequency, h1, h2, h23))
+
+    def set_channels(
+        self, channels: Sequence[Channel], envelope: tuple[float, float, float] | None = None
+    ) -> None:
+        """Channels ``0..len(channels)-1`` (:class:`upm.plate.pulses.Channel`, as a pulse's
+        ``channels()`` gives them) and, if given, the envelope ``(attack, sustain, decay)`` [s]:
+        each checked as :meth:`set_channel` and :meth:`set_envelope` check it, all checked before
+        any is sent, then sent together and acknowledged in one round trip."""
+        messages: list[p.Message] = [
+            self._channel(
+                k,
+                c.amplitude,
+                c.frequency,
+                (c.h1_amplitude, c.h1_phase),
+                (c.h2_amplitude, c.h2_phase),
+                (c.h23_amplitude, c.h23_phase),
+            )
+            for k, c in enumerate(channels)
+        ]
+        if envelope is not None:
+            attack, sustain, decay = envelope
+            messages.append(p.SetEnvelope(attack, sustain, decay))
+            messages[-1].check()  # ProtocolError before any is sent
+        self._commands(messages)
+
+    def _channel(
+        self,
+        channel: int,
+        amplitude: float,
+        frequency: float,
+        h1: tuple[float, float],
+        h2: tuple[float, float],
+        h23: tuple[float, float],
+    ) -> p.SetChannel:
+        """The SET_CHANNEL message, checked against the protocol and the board's limits."""
         info = self.info
         message = p.SetChannel(channel, amplitude, frequency, *h1, *h2, *h23)
         message.check()  # types, finiteness, channel 0..5, frequency > 0 (ProtocolError)
@@ -240,7 +291,7 @@ class Board:
             raise BoardError(
                 f"frequency must be in [{info.min_frequency:g}, {info.max_frequency:g}] Hz; got {frequency:g}"
             )
-        self._command(message)
+        return message
 
     def set_motors(self, amplitudes: Any, frequency: float) -> None:
         """All four channels at once with the default waveform (5.9)."""
@@ -259,15 +310,18 @@ class Board:
         """Play one envelope; with ``wait``, block until it ends and return the sample counter at
         its end (from PULSE_DONE, or from STATUS if that frame was lost)."""
         self._done.pop(pulse_id, None)
-        before = self.status().pulses if wait else 0
+        first = self.status() if wait else None
+        before = first.pulses if first is not None else 0
+        tripped = first is not None and bool(first.faults & p.Status.WATCHDOG_TRIPPED)
         if self._stopping:
             raise BoardError(
                 f"pulse {pulse_id} not played: the board was stopped (Board.stop); clear_stop() first"
             )
         self._command(p.Pulse(pulse_id))
-        if not wait:
+        if first is None:  # not waiting
             return None
         deadline = time.monotonic() + (timeout if timeout is not None else 600.0)
+        last = first
         while time.monotonic() < deadline:
             with self._changed:
                 self._changed.wait_for(
@@ -282,7 +336,22 @@ class Board:
                 return int(status.samples)
             if status.state not in (p.State.PULSING, p.State.IDLE):
                 raise BoardError(f"pulse {pulse_id} was cut short: board state {p.State(status.state).name}")
-        raise BoardTimeout(f"pulse {pulse_id} did not finish in time")
+            if status.state == p.State.IDLE and status.pulses == before:
+                # accepted, then stopped before its end: by the watchdog (which reads as IDLE once
+                # the board hears from the host again) or a STOP from elsewhere
+                why = (
+                    f"the board's watchdog tripped (no word from this host for "
+                    f"{self.info.watchdog_ms if self.info else '?'} ms)"
+                    if status.faults & p.Status.WATCHDOG_TRIPPED and not tripped
+                    else "the board stopped it (its watchdog, or a STOP)"
+                )
+                raise PulseCut(f"pulse {pulse_id} was cut short: {why}")
+            last = status
+        raise BoardTimeout(
+            f"pulse {pulse_id} did not finish in time (the board's last status: state "
+            f"{p.State(last.state).name}, {last.pulses} pulses done, {before} before this one, faults "
+            f"{last.faults:#x})"
+        )
 
     def stop(self) -> None:
         """Every motor off now. A :meth:`pulse` waiting in another thread ends at once, and none

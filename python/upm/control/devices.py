@@ -221,17 +221,7 @@ class BoardDevice:
         board = self.board
         for pulse in pulses:
             if pulse.kind != "rest":
-                channels = self._channels(pulse)
-                for k, c in enumerate(channels):
-                    board.set_channel(
-                        k,
-                        c.amplitude,
-                        c.frequency,
-                        h1=(c.h1_amplitude, c.h1_phase),
-                        h2=(c.h2_amplitude, c.h2_phase),
-                        h23=(c.h23_amplitude, c.h23_phase),
-                    )
-                board.set_envelope(pulse.attack, pulse.sustain, pulse.decay)
+                board.set_channels(self._channels(pulse), (pulse.attack, pulse.sustain, pulse.decay))
                 self._id = (self._id + 1) & 0xFFFF
                 for attempt in range(8):
                     started = time.monotonic()

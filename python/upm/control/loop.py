@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._arrays import integer, real
-from .._errors import ParameterError, PlanWarning, VisionError
+from .._errors import ParameterError, PlanWarning, PulseCut, VisionError
 from ..plan import Planner
 from ..plate.drive import PLATE_SIZE, StrokeError
 from ..plate.pulses import Pulse
@@ -57,6 +57,9 @@ class Loop:
         pulse as beyond its stroke (:class:`upm.drive.StrokeError`: nothing played) and the
         planner has ``refused()``, that is called (it sizes later pulses lower) and the cycle is
         planned again, up to :data:`MAX_REFUSALS` times in a row; otherwise the error is raised.
+        A pulse the board cut short (:class:`upm.PulseCut`: its watchdog, a STOP) is counted in
+        ``log.meta["cut"]`` and the next cycle plans from where it left the parts (up to
+        :data:`MAX_REFUSALS` in a row).
     task : Task
     part_radius : float
         Part radius [m] (for vision).
@@ -224,6 +227,7 @@ class Loop:
         flushed = start
         last_cycle = 0.0
         refusals = 0  # pulses refused in a row as beyond the stroke
+        cuts = 0  # pulses cut short in a row (PulseCut)
         pending: tuple[list[Pulse], object, NDArray[np.int64], FloatArray] | None = None
         ahead_planner: Any = self.planner  # with speculate and adopt when pipelined (checked)
         prev: dict[int, FloatArray] = {}  # positions at the start of the last cycle
@@ -297,7 +301,7 @@ class Loop:
             ahead = 0.0
             try:
                 pending, ahead = self._play(pulses, expected, cycle, tracks, ahead_planner)
-                refusals = 0
+                refusals = cuts = 0
             except StrokeError as error:
                 # nothing of the refused pulse played: the planner sizes its pulses lower and the
                 # cycle is planned again from the next frame
@@ -311,6 +315,17 @@ class Loop:
                 warnings.warn(f"cycle {cycle}: {error}; the planner sizes its pulses lower", PlanWarning,
                               stacklevel=2)  # fmt: skip
                 pulses = []
+            except PulseCut as error:
+                # part of it played (its time is counted in full: the most it can have been);
+                # the next frame shows where it left the parts, and the plan made ahead from
+                # where the whole pulse would have is dropped
+                pending = None
+                out.meta["cut"] = int(out.meta.get("cut", 0)) + 1
+                cuts += 1
+                if cuts > MAX_REFUSALS:  # cut again and again: the link is not holding
+                    raise
+                warnings.warn(f"cycle {cycle}: {error}; planned again from the next frame", PlanWarning,
+                              stacklevel=2)  # fmt: skip
             out.ahead.append(ahead)
             t3 = time.perf_counter()
             last_cycle = pulse_time(pulses) + float(getattr(self.device, "waited", 0.0)) - waited

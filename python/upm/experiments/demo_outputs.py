@@ -168,6 +168,9 @@ def write_outputs(
         ("errors.png", plot.loop_errors(log)),
     ):
         fig.savefig(out / fname, dpi=110)
+        import matplotlib.pyplot as plt  # (there: it drew the figure)
+
+        plt.close(fig)  # a caller running demo after demo keeps none of them open
         written.append(out / fname)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=1))
     written.append(out / "metrics.json")

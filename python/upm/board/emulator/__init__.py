@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import random
+import sys
 import threading
 from dataclasses import dataclass
 from typing import Any
@@ -31,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from ..._errors import ParameterError
-from ...plate.plant import Channel, Envelope, SimulatedUPM
+from ...plate.plant import Channel, Envelope, Moved, Played, SimulatedUPM
 from ...plate.plate6 import Plate6
 from .. import protocol as p
 
@@ -98,12 +99,14 @@ class BoardEmulator:
         self.produced = 0
         self.last_rx: float | None = None
         self.pulse: tuple[int, int, int] | None = None  # (id, first sample, last sample)
-        self.pulse_velocity: list[np.ndarray] = []
+        self.played: Played | None = None  # the pulse's plate motion, worked out when it starts
+        self.forces: np.ndarray = np.zeros((0, 4))
         self.idle_from = 0  # sample at which the plate was last left to move freely
         self.plant.excursion(self.channels[:4], self.envelope)  # loads the plate model before any command
-        # Colliding disks (part_radius set) settle in a thread after a pulse, as they can take
-        # seconds to simulate, while the board keeps answering; PULSE_DONE goes out when they have.
-        self.settling: tuple[threading.Thread, int] | None = None
+        # The parts' way under a pulse is worked out in a thread from the pulse's start (colliding
+        # disks can take seconds to simulate) while the board keeps answering; PULSE_DONE goes
+        # out when the pulse has ended and they have: a real plate's parts take no time to think.
+        self.settling: _Settling | None = None
         self._seq = 0
         self._last: tuple[int, list[p.Message]] | None = None
 
@@ -164,7 +167,13 @@ class BoardEmulator:
             return self._check6()
         if isinstance(message, p.Pulse):
             self._ride_out()
-            if self.plant.excursion(self.channels[:4], self.envelope) > self.plant.stroke:
+            # the pulse worked out from the plate's present state: checked now, played if accepted
+            n = round(self.envelope.duration * self.plant.sample_rate)
+            t = np.arange(n) / self.plant.sample_rate
+            self.forces = self.plant.forces(self.channels[:4], t, self.envelope(t))
+            self.played = self.plant.ahead(self.forces)
+            if len(self.played.pos) and self.plant.limits.excursion(self.played.pos) > self.plant.stroke:
+                self.played = None
                 return p.NackCode.STROKE
         if isinstance(message, (p.Ack, p.Nack, p.Samples, p.Status, p.PulseDone)):
             return p.NackCode.UNKNOWN_TYPE
@@ -221,8 +230,9 @@ class BoardEmulator:
         elif isinstance(message, p.Pulse):
             n = round(self.envelope.duration * self.plant.sample_rate)
             self.pulse = (message.id, self.produced, self.produced + n)
-            self.pulse_velocity = []
             self.state = p.State.PULSING
+            if self.played is not None:  # worked out by _check; its time starts with the pulse
+                self.settling = _Settling(self.plant, self.played.vel, message.id)
         elif isinstance(message, p.Stop):
             self._end_pulse()
             self.state = p.State.STOPPED
@@ -262,9 +272,8 @@ class BoardEmulator:
         return bytes(out)
 
     def _end_pulse(self, background: bool = False) -> None:
-        if self.settling is not None:
-            self.settling[0].join()
-            self.settling = None
+        """The pulse is over (played out, or cut short by STOP or the watchdog); ``background``:
+        its parts may finish settling after this returns (:meth:`tick` sends PULSE_DONE)."""
         if self.six and self.pulse is not None and self.motion6 is not None and len(self.plant.parts):
             # the parts follow the plate out of its plane, for as much of the pulse as played
             played = (self.produced - self.pulse[1]) / self.plant.sample_rate
@@ -272,17 +281,22 @@ class BoardEmulator:
             if played > 0:
                 self.plant.play(whole if played >= whole.duration else whole.for_duration(played))
             self.motion6 = None
-        if self.pulse is not None and self.pulse_velocity and len(self.plant.parts):
-            velocity = np.concatenate(self.pulse_velocity)
-            if background:
-                worker = threading.Thread(target=self.plant.settle_parts, args=(velocity,), daemon=True)
-                worker.start()
-                self.settling = (worker, self.pulse[0])
-            else:
-                self.plant.settle_parts(velocity)
+        if self.pulse is not None and self.played is not None:
+            k = self.produced - self.pulse[1]
+            if k >= len(self.played.vel):  # played out: as worked out at its start
+                self.plant.commit(self.played)
+            else:  # cut short: the motors stopped after k samples
+                if self.settling is not None:
+                    self.settling.thread.join()
+                    self.settling = None
+                vel = self.plant.plate_state(self.forces[:k])[1] if k > 0 else np.zeros((0, 3))
+                self.settling = _Settling(self.plant, vel, self.pulse[0])
         self.pulse = None
-        self.pulse_velocity = []
+        self.played = None
         self.idle_from = self.produced
+        if self.settling is not None and not background:
+            self.settling.finish(self.plant)
+            self.settling = None
 
     def tick(self, now: float) -> bytes:
         """Produce the samples due by ``now``, PULSE_DONE, and the watchdog."""
@@ -295,6 +309,9 @@ class BoardEmulator:
             and self.state != p.State.WATCHDOG
             and self.state != p.State.STOPPED
         ):
+            quiet = 1000 * (now - self.last_rx)
+            print(f"upm board: watchdog tripped after {quiet:.0f} ms without a word from the host (state "
+                  f"{self.state.name})", file=sys.stderr)  # fmt: skip
             self._end_pulse()
             self.state = p.State.WATCHDOG
             self.flags |= p.Status.WATCHDOG_TRIPPED
@@ -317,16 +334,12 @@ class BoardEmulator:
                 env = self.envelope((idx - self.pulse[1]) / fs) if pulsing and self.pulse else None
                 out += self._send(self._samples6(idx, env))
             elif n > 0:
-                if pulsing and self.pulse is not None:
-                    # the drive's time starts with the pulse, as the host planned it: timed from
-                    # the board's clock, the carrier's phase at the start (and with it what the
-                    # pulse does) would depend on when the PULSE command happened to arrive
-                    since = (idx - self.pulse[1]) / fs
-                    acc, vel = self.plant.plate_state(
-                        self.plant.forces(self.channels[:4], since, self.envelope(since))
-                    )
-                    self.pulse_velocity.append(vel)
-                    counts = self.plant.sensor_counts(acc, vel)
+                if pulsing and self.pulse is not None and self.played is not None:
+                    # worked out at the pulse's start (its time starts with it, as the host planned
+                    # it: timed from the board's clock, the carrier's phase at the start, and with
+                    # it what the pulse does, would depend on when the PULSE command arrived)
+                    k = self.produced - self.pulse[1]
+                    counts = self.plant.sensor_counts(self.played.acc[k : k + n], self.played.vel[k : k + n])
                 else:
                     counts = self.plant.idle(n)
                 rows = tuple(tuple(int(v) for v in row) for row in counts)
@@ -339,8 +352,9 @@ class BoardEmulator:
                 self._end_pulse(background=self.plant.part_radius is not None)
                 if self.settling is None:
                     out += self._pulse_done(pid)
-        if self.settling is not None and not self.settling[0].is_alive():
-            pid = self.settling[1]
+        if self.settling is not None and self.pulse is None and not self.settling.thread.is_alive():
+            pid = self.settling.pulse
+            self.settling.finish(self.plant)
             self.settling = None
             out += self._pulse_done(pid)
         return bytes(out)
@@ -350,3 +364,27 @@ class BoardEmulator:
         self.state = p.State.IDLE
         self.pulses += 1
         return self._send(p.PulseDone(pid, self.produced))
+
+
+class _Settling:
+    """A pulse's parts worked out in a thread (:meth:`SimulatedUPM.settled`), the plant untouched
+    until :meth:`finish` applies them."""
+
+    def __init__(self, plant: SimulatedUPM, velocity: np.ndarray, pulse: int) -> None:
+        self.pulse = pulse
+        self.moved: Moved | None = None
+        self.error: BaseException | None = None
+        self.thread = threading.Thread(target=self._run, args=(plant, velocity), daemon=True)
+        self.thread.start()
+
+    def _run(self, plant: SimulatedUPM, velocity: np.ndarray) -> None:
+        try:
+            self.moved = plant.settled(velocity)
+        except BaseException as error:  # raised again in the board's own thread by finish()
+            self.error = error
+
+    def finish(self, plant: SimulatedUPM) -> None:
+        self.thread.join()
+        if self.error is not None:
+            raise self.error
+        plant.apply(self.moved)
