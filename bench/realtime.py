@@ -7,7 +7,9 @@ the next pulse while the plate plays). ``--hog N``: the last N runs beside a CPU
 spinning on one core for the whole run).
 
 Columns per run: sorted, plate time [s], wall time [s], wall / plate, dead time [s] (the plate
-idle while the host sees and plans), plans kept from planning ahead, chips lost. Then the
+idle while the host sees and plans), plans kept from planning ahead, chips lost; and where the
+rest of the wall time went: starting the emulator, and the playing beyond the pulses' own time
+(the link's round trips, a refusal's wait), pulses cut short (``PulseCut``). Then the
 median (max) of wall / plate and the CPU. The target (issue 57): wall <= 1.15 x plate, every
 run sorted. Runs are appended to ``docs/img/realtime.jsonl``.
 
@@ -66,6 +68,10 @@ def one(seed: int, hog: bool) -> dict[str, Any]:
         "kept_share": m["kept_share"],
         "lost": m["fallen"],
         "cycles": m["cycles"],
+        "startup": m["wall_time"] - m["loop_wall"],
+        "playing": m["playing"],
+        "cut": m["cut"],
+        "refused": m["refused"],
         "cpu": cpu(),
     }
 
@@ -77,8 +83,9 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=1, help="the demo's seed (make demo: 1)")
     args = parser.parse_args()
     print(f"{cpu()}: upm demo sort8 --board --planner predictive --pipeline 6 --seed {args.seed}\n")
-    print("| run | hog | sorted | plate [s] | wall [s] | wall / plate | dead [s] | kept | lost |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| run | hog | sorted | plate [s] | wall [s] | wall / plate | dead [s] | kept | lost | start [s] | "
+          "playing - plate [s] | cut |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     rows = []
     for k in range(args.runs):
         r = one(args.seed, k >= args.runs - args.hog)
@@ -87,7 +94,8 @@ def main() -> None:
             f.write(json.dumps(r) + "\n")
         hog, done = "yes" if r["hog"] else "", "yes" if r["done"] else "NO"
         print(f"| {k + 1} | {hog} | {done} | {r['plate_time']:.1f} | {r['wall_time']:.1f} | "
-              f"{r['ratio']:.3f} | {r['dead_time']:.2f} | {r['kept_share']:.0%} | {r['lost']} |",
+              f"{r['ratio']:.3f} | {r['dead_time']:.2f} | {r['kept_share']:.0%} | {r['lost']} | "
+              f"{r['startup']:.2f} | {r['playing'] - r['plate_time']:.2f} | {r['cut']} |",
               flush=True)  # fmt: skip
     for name, group in (
         ("idle", [r for r in rows if not r["hog"]]),

@@ -19,6 +19,7 @@ __all__ = [
     "asymptotic_field",
     "average_field",
     "axis_response",
+    "axis_steps",
     "bang_bang_efficiency",
     "bang_bang_feed_rate",
     "bang_bang_force",
@@ -306,6 +307,9 @@ def velocity_amplitudes(
     mass: float, inertia: float, lever: float, motors: tuple[float, float, float, float]
 ) -> tuple[float, float, float]: ...
 def center_of_rotation(u: tuple[float, float, float]) -> tuple[tuple[float, float], float]: ...
+def axis_steps(
+    mass: float, damping: float, stiffness: float, forces: _F, dt: float, q0: _F, v0: _F
+) -> tuple[_F, _F, _F]: ...
 def axis_response(mass: float, damping: float, stiffness: float, w: _F) -> tuple[float | None, _F, _F]: ...
 def harmonic_fit(
     samples: _F, sample_rate: float, frequency: float, multiples: list[float]

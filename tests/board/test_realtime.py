@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import serial
 
+import upm
 from upm import BoardError, PulseCut
 from upm.board import Board, protocol
 from upm.board.emulator import BoardEmulator
@@ -219,3 +220,16 @@ def test_a_pulse_the_watchdog_cut_short_is_reported_as_such(link, capfd):
     assert len(failed) == 1 and isinstance(failed[0], PulseCut), failed
     assert "watchdog" in str(failed[0])
     assert "watchdog tripped" in capfd.readouterr().err  # the board says so too
+
+
+def test_the_board_device_gives_a_busy_host_a_second_of_watchdog(link):
+    from upm.control import BoardDevice
+
+    host, board, _ = link
+    assert board.watchdog == 0.25
+    device = BoardDevice(host)
+    assert board.watchdog == 1.0 and host.info.watchdog_ms == 1000 and device.info.watchdog_ms == 1000
+    BoardDevice(host, watchdog=None)
+    assert board.watchdog == 1.0  # left as it was
+    with pytest.raises(upm.ParameterError, match="heartbeat"):
+        host.set_watchdog(60)  # the host beats every 50 ms

@@ -198,3 +198,31 @@ def test_precompensated_force_gives_the_wanted_velocity_in_the_ode():
         shifted = p * np.exp(1j * h * w * t0)
         assert fit.coefficients[2 * k] == pytest.approx(shifted.real, abs=2e-4)
         assert fit.coefficients[2 * k + 1] == pytest.approx(-shifted.imag, abs=2e-4)
+
+
+def test_the_plate_on_its_flexures_steps_as_its_recurrence_says():
+    # DriveLimits.respond (the core's recurrence, batched) against the recurrence of (5.26)
+    # written out sample by sample here, from a state off home
+    from upm.plate.drive import DriveLimits
+
+    lim = DriveLimits()
+    rng = np.random.default_rng(0)
+    wrench, state, dt = rng.normal(0, 50, (2, 400, 3)), rng.normal(0, 1e-3, (2, 3, 2)), 2e-4
+    acc, vel, pos, after = lim.respond(wrench, dt, state)
+    inertia = (lim.plate.mass, lim.plate.mass, lim.plate.inertia)
+    for i in range(2):
+        for k in range(3):
+            m, b, stiff = inertia[k], lim.axes[k].damping, lim.axes[k].stiffness
+            q, v = state[i, k]
+            for n in range(400):
+                a = (wrench[i, n, k] - b * v - stiff * q) / m
+                v += dt * a
+                q += dt * v
+                got = (acc[i, n, k], vel[i, n, k], pos[i, n, k])
+                assert got == pytest.approx((a, v, q), rel=1e-12, abs=1e-15)
+            assert tuple(after[i, k]) == pytest.approx((q, v), rel=1e-12, abs=1e-15)
+    # a free plate (no flexures) keeps drifting
+    free = DriveLimits(axes=None)
+    _, v_free, _, _ = free.respond(np.concatenate([np.full((50, 3), 1.0), np.zeros((50, 3))]), dt)
+    assert v_free[-1] == pytest.approx(v_free[49])
+    assert v_free[-1][0] == pytest.approx(50 * dt / lim.plate.mass)

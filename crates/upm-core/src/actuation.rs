@@ -156,6 +156,30 @@ impl Axis {
         // i w (re - i im) / d
         [w * im / d, w * re / d]
     }
+
+    /// The axis under force samples `f` every `dt` [s] from position `q0` and velocity `v0`,
+    /// stepped by semi-implicit Euler (5.26): `v[n] = v[n-1] + dt (f[n] - b v[n-1] - k q[n-1]) / m`,
+    /// `q[n] = q[n-1] + dt v[n]`, with `a[n] = (f[n] - b v[n-1] - k q[n-1]) / m`. Writes `acc`,
+    /// `vel` and `pos`, each as long as `f`.
+    pub fn steps(
+        &self,
+        f: &[f64],
+        dt: f64,
+        q0: f64,
+        v0: f64,
+        acc: &mut [f64],
+        vel: &mut [f64],
+        pos: &mut [f64],
+    ) {
+        let (m, b, k) = (self.mass, self.damping, self.stiffness);
+        let (mut q, mut v) = (q0, v0);
+        for (n, &force) in f.iter().enumerate() {
+            let a = (force - b * v - k * q) / m;
+            v += dt * a;
+            q += dt * v;
+            (acc[n], vel[n], pos[n]) = (a, v, q);
+        }
+    }
 }
 
 /// A least-squares harmonic fit `a(t) = offset + sum_h c_h cos(h w t) + s_h sin(h w t)` (5.13).

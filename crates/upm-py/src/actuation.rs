@@ -1,7 +1,7 @@
 //! Binding of `upm_core::actuation`: kinematics, plate dynamics, harmonic fits and the
 //! accelerometer centre of rotation.
 
-use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use upm_core::actuation::{self as act, Axis, Plate};
 use upm_core::stroke;
@@ -76,6 +76,63 @@ pub fn axis_response<'py>(
         PyArray1::from_vec(py, re),
         PyArray1::from_vec(py, im),
     ))
+}
+
+/// Three `(N, T)` arrays.
+type Three<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+);
+
+/// Acceleration, velocity and position `(N, T)` of `N` runs of one axis under forces `(N, T)`
+/// sampled every `dt`, from positions `q0 (N,)` and velocities `v0 (N,)` (semi-implicit Euler).
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn axis_steps<'py>(
+    py: Python<'py>,
+    mass: f64,
+    damping: f64,
+    stiffness: f64,
+    forces: PyReadonlyArray2<'py, f64>,
+    dt: f64,
+    q0: PyReadonlyArray1<'py, f64>,
+    v0: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Three<'py>> {
+    let axis = core(py, Axis::new(mass, damping, stiffness))?;
+    core(py, upm_core::error::positive("dt", dt).map(|_| ()))?;
+    let f = forces.as_array();
+    let (n, t) = (f.shape()[0], f.shape()[1]);
+    let (q0, v0) = (view(&q0), view(&v0));
+    if q0.len() != n || v0.len() != n {
+        return Err(shape_error(
+            py,
+            format!(
+                "q0 and v0 must hold one value per run ({n}); got {} and {}",
+                q0.len(),
+                v0.len()
+            ),
+        ));
+    }
+    let f: Vec<f64> = f.iter().copied().collect();
+    let (acc, vel, pos) = detached(py, || {
+        let (mut acc, mut vel, mut pos) = (vec![0.0; n * t], vec![0.0; n * t], vec![0.0; n * t]);
+        for r in 0..n {
+            let s = r * t..(r + 1) * t;
+            axis.steps(
+                &f[s.clone()],
+                dt,
+                q0[r],
+                v0[r],
+                &mut acc[s.clone()],
+                &mut vel[s.clone()],
+                &mut pos[s],
+            );
+        }
+        Ok::<_, Failure>((acc, vel, pos))
+    })?;
+    let shaped = |v: Vec<f64>| PyArray1::from_vec(py, v).reshape([n, t]);
+    Ok((shaped(acc)?, shaped(vel)?, shaped(pos)?))
 }
 
 /// `(coefficients, offset, rms residual)` of a harmonic fit (5.13).

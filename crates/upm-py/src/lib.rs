@@ -54,6 +54,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(actuation::velocity_amplitudes, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::center_of_rotation, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::axis_response, m)?)?;
+    m.add_function(wrap_pyfunction!(actuation::axis_steps, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::harmonic_fit, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::velocity_from_fit, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::positive_force, m)?)?;

@@ -12,6 +12,7 @@ STOP on the way out, whether the block ends normally, by an exception or by Ctrl
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import threading
 import time
@@ -303,8 +304,19 @@ class Board:
         self._command(p.SetEnvelope(attack, sustain, decay))  # encode checks it before sending
 
     def set_watchdog(self, milliseconds: int) -> None:
-        """The board's watchdog period [ms], 1..60000, checked before sending."""
-        self._command(p.SetWatchdog(milliseconds))  # encode checks it before sending
+        """The board's watchdog period [ms], 1..60000 and at least twice the heartbeat, checked
+        before sending: the motors stop when the board hears nothing from this host for that long."""
+        message = p.SetWatchdog(milliseconds)
+        message.check()  # ProtocolError: an integer 1..60000
+        ms = int(milliseconds)
+        if self.heartbeat > ms / 2000.0:
+            raise ParameterError(
+                f"milliseconds must be at least twice the heartbeat ({2000 * self.heartbeat:g} ms), or "
+                f"the board stops between beats; got {ms}"
+            )
+        self._command(message)
+        if self.info is not None:
+            self.info = dataclasses.replace(self.info, watchdog_ms=ms)
 
     def pulse(self, pulse_id: int = 0, *, wait: bool = True, timeout: float | None = None) -> int | None:
         """Play one envelope; with ``wait``, block until it ends and return the sample counter at

@@ -16,6 +16,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from .._arrays import real
 from .._errors import ParameterError
 from ..board.client import Board, CommandRefused
 from ..board.protocol import NackCode
@@ -180,6 +181,11 @@ class BoardDevice:
         Wait out each pulse's rest (a real plate's parts need it; the emulator settles them at
         the end of the pulse): until ``on_time + rest`` after the PULSE command, so time the
         board took to report the pulse done counts towards the rest.
+    watchdog : float or None
+        The board's watchdog [s], set on connecting: it stops the motors when it hears nothing
+        from this host for that long (default 1 s; ``None``: leave the board's, 250 ms on the
+        emulator, which a host starved of its CPU by other work can miss on a loaded machine,
+        cutting a pulse short: :class:`upm.PulseCut`).
     """
 
     def __init__(
@@ -189,13 +195,18 @@ class BoardDevice:
         *,
         wait_rest: bool = True,
         plate6: Plate6 | None = None,
+        watchdog: float | None = 1.0,
     ) -> None:
         if not isinstance(board, Board):
             raise ParameterError(f"board must be a upm.board.Board; got {type(board).__name__}")
         if limits is not None and not isinstance(limits, DriveLimits):
             raise ParameterError(f"limits must be a upm.DriveLimits; got {type(limits).__name__}")
         self.board = board
-        self.info = board.info if board.info is not None else board.hello()
+        if board.info is None:
+            board.info = board.hello()
+        if watchdog is not None:
+            board.set_watchdog(round(1000 * real("watchdog", watchdog, low=0.001, high=60.0)))
+        self.info = board.info
         given = limits if limits is not None else DriveLimits()
         self.limits = replace(given, force=min(given.force, float(self.info.max_amplitude)))
         self.plate, self.axes = self.limits.plate, self.limits.axes

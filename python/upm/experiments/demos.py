@@ -487,6 +487,12 @@ def run_demo(
     metrics["max_stroke"] = float(stroke)
     metrics["pipeline"] = setup.pipeline
     metrics["kept_share"] = float(np.mean(log.kept)) if log.kept else 0.0
+    # where the wall time went: the loop (the rest: starting the plant or the emulator), and in
+    # it the playing (the pulses' own time and what the link adds to it)
+    metrics["loop_wall"] = float(log.meta.get("wall", math.nan))
+    metrics["playing"] = float(np.sum(log.execution))
+    metrics["cut"] = int(log.meta.get("cut", 0))
+    metrics["refused"] = int(log.meta.get("refused", 0))
     errs = getattr(setup.planner, "step_errors", None)
     metrics["prediction_error_median"] = float(np.median(errs)) if errs else float("nan")
     written = write_outputs(name, Path(out) / name, log, loop, setup, metrics, mp4) + (

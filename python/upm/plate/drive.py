@@ -179,9 +179,8 @@ class DriveLimits:
 
         Each axis is ``f = m q'' + b q' + k q`` (5.26; ``b = k = 0`` on a free plate) stepped by
         semi-implicit Euler, ``v[n] = v[n-1] + dt (f[n] - b v[n-1] - k q[n-1]) / m``,
-        ``q[n] = q[n-1] + dt v[n]``: a linear recurrence, run as an IIR filter over the batch."""
-        from scipy.signal import lfilter, lfiltic
-
+        ``q[n] = q[n-1] + dt v[n]``, in the core (one run of the recurrence per axis and batch
+        entry)."""
         f_all = np.asarray(wrench, dtype=np.float64)
         if f_all.shape[-1:] != (3,) or f_all.ndim < 2:
             raise ShapeError(f"wrench must have shape (..., T, 3); got {f_all.shape}")
@@ -197,36 +196,14 @@ class DriveLimits:
         if f_all.shape[-2] == 0:
             return acc, vel, pos, after
         for k in range(3):
-            m = inertia[k]
             b = 0.0 if self.axes is None else self.axes[k].damping
             st = 0.0 if self.axes is None else self.axes[k].stiffness
-            c1, c2 = 1.0 - dt * b / m, dt * st / m
-            # x[n] = A x[n-1] + B f[n] with x = (v, q); transfer functions f -> v and f -> q
-            a = np.array([[c1, -c2], [dt * c1, 1.0 - dt * c2]])
-            bb = np.array([dt / m, dt * dt / m])
-            den = np.array([1.0, -(a[0, 0] + a[1, 1]), a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]])
-            num_v = np.array([bb[0], a[0, 1] * bb[1] - a[1, 1] * bb[0]])
-            num_q = np.array([bb[1], a[1, 0] * bb[0] - a[0, 0] * bb[1]])
-            f = f_all[..., k]
-            q0, v0 = x0[..., k, 0], x0[..., k, 1]
-            # the state before the first sample and the one before it (A^-1 x), as past outputs
-            inv = np.linalg.inv(a)
-            v_back = inv[0, 0] * v0 + inv[0, 1] * q0
-            q_back = inv[1, 0] * v0 + inv[1, 1] * q0
-            zi_v = np.stack(
-                [lfiltic(num_v, den, [v, w]) for v, w in zip(np.ravel(v0), np.ravel(v_back), strict=True)]
-            )
-            zi_q = np.stack(
-                [lfiltic(num_q, den, [q, w]) for q, w in zip(np.ravel(q0), np.ravel(q_back), strict=True)]
-            )
-            flat = f.reshape(-1, f.shape[-1])
-            v = lfilter(num_v, den, flat, axis=-1, zi=zi_v)[0].reshape(f.shape)
-            q = lfilter(num_q, den, flat, axis=-1, zi=zi_q)[0].reshape(f.shape)
-            vel[..., k], pos[..., k] = v, q
-            v_prev = np.concatenate([np.asarray(v0)[..., None], v[..., :-1]], axis=-1)
-            q_prev = np.concatenate([np.asarray(q0)[..., None], q[..., :-1]], axis=-1)
-            acc[..., k] = (f - b * v_prev - st * q_prev) / m
-            after[..., k, 0], after[..., k, 1] = q[..., -1], v[..., -1]
+            f = np.ascontiguousarray(f_all[..., k]).reshape(-1, f_all.shape[-2])
+            q0 = np.ascontiguousarray(x0[..., k, 0], dtype=np.float64).reshape(-1)
+            v0 = np.ascontiguousarray(x0[..., k, 1], dtype=np.float64).reshape(-1)
+            a, v, q = _core.axis_steps(inertia[k], b, st, f, dt, q0, v0)
+            acc[..., k], vel[..., k], pos[..., k] = (x.reshape(f_all.shape[:-1]) for x in (a, v, q))
+            after[..., k, 0], after[..., k, 1] = pos[..., -1, k], vel[..., -1, k]
         return acc, vel, pos, after
 
     def ride_out(self, state: ArrayLike, seconds: float, dt: float = 5e-4) -> tuple[FloatArray, FloatArray]:

@@ -61,8 +61,8 @@ use disks::{run_disks, DiskState};
 pub use parts::{Parts, PartsView, WorldRows};
 pub use points::CHUNK_PARTS;
 pub use record::Stacked;
-pub use surface::FrictionMap;
 use record::{recorded_rows, Rec, Recorder};
+pub use surface::FrictionMap;
 pub use work::little_work;
 use work::{block_steps, little, POLYGON_DISKS};
 
@@ -510,7 +510,9 @@ impl World<'_> {
             // points look theirs up as their chunks start the block)
             let ahead = 0.5 * steps.len() as f64 * cfg.dt;
             self.disks.iter_mut().for_each(|d| d.resurface(map, ahead));
-            self.polygons.iter_mut().for_each(|p| p.resurface(map, ahead));
+            self.polygons
+                .iter_mut()
+                .for_each(|p| p.resurface(map, ahead));
             if let Some(c) = self.contact.as_mut() {
                 c.resurfaced();
             }

@@ -2,8 +2,8 @@
 //! binding's zero-copy view of the caller's NumPy arrays, where friction may be one value for
 //! every part and velocities, radii, angles and spins may be absent).
 
-use crate::error::{positive, Error, Result};
 use super::FrictionMap;
+use crate::error::{positive, Error, Result};
 use crate::polygon::Polygon;
 
 /// Parts (points and disks): initial state and friction coefficients, one entry per part.

@@ -64,7 +64,10 @@ impl Surface<'_> {
         let hold = std::slice::from_raw_parts_mut(base.0[SLIDE + 1].add(at), k);
         for q in 0..k {
             let i = self.index.map_or(start + q, |ix| ix[start + q]);
-            let (px, py) = (*x.add(q) + *vx.add(q) * ahead, *y.add(q) + *vy.add(q) * ahead);
+            let (px, py) = (
+                *x.add(q) + *vx.add(q) * ahead,
+                *y.add(q) + *vy.add(q) * ahead,
+            );
             let f = self.map.factor(px, py) * self.scale;
             (slide[q], hold[q]) = (self.parts.mu(i) * f, self.parts.mu_s(i) * f);
         }
