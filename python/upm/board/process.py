@@ -98,6 +98,9 @@ def serve(
         import tty
 
         master, slave = os.openpty()
+        # what nobody reads is lost, as on a wire: a blocking write would stall the board (its
+        # samples, its watchdog) until a host drained the terminal
+        os.set_blocking(master, False)
         tty.setraw(slave)
         announce(os.ttyname(slave))
         if camera is not None:
