@@ -52,7 +52,9 @@ def one(seed: int, hog: bool) -> dict[str, Any]:
         time.sleep(0.5)  # spinning before the run starts
     try:
         with tempfile.TemporaryDirectory() as out:
-            m = run_demo("sort8", out, board=True, planner="predictive", pipeline=6, seed=seed, verbose=False)
+            m = run_demo(
+                "sort8", out, board=True, planner="predictive", pipeline=0.006, seed=seed, verbose=False
+            )
     finally:
         if spinner is not None:
             stop.set()

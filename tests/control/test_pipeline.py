@@ -120,6 +120,9 @@ def test_pipeline_needs_a_planner_that_plans_ahead():
     with pytest.raises(upm.ParameterError, match="pipeline"):
         control.Loop(plant, plant.camera(), PredictivePlanner(plant.limits), control.GotoTask([[0.01, 0.0]]),
                      part_radius=0.0095, pipeline=-1.0)  # fmt: skip
+    with pytest.raises(upm.ParameterError, match="pipeline"):  # 6 mm given as 6 m: every plan kept
+        control.Loop(plant, plant.camera(), PredictivePlanner(plant.limits), control.GotoTask([[0.01, 0.0]]),
+                     part_radius=0.0095, pipeline=6.0)  # fmt: skip
 
 
 @pytest.mark.slow

@@ -83,8 +83,8 @@ class Loop:
         Plan while the plate plays: as each pulse plays, the planner (one with ``speculate`` and
         ``adopt``: :class:`~upm.plan.PredictivePlanner`) plans the next from where the pulse is
         predicted to leave the parts; when the frame arrives, that plan is played if every part
-        is within ``pipeline`` [m] of its prediction (and the same parts are seen), else the
-        cycle plans afresh. ``None``: see, plan, play in turn.
+        is within ``pipeline`` [m, at most 0.1] of its prediction (and the same parts are seen),
+        else the cycle plans afresh. ``None``: see, plan, play in turn.
     """
 
     def __init__(
@@ -128,7 +128,8 @@ class Loop:
             raise ParameterError(f"min_cycle must be finite and >= 0 [s]; got {min_cycle!r}")
         self.min_cycle = float(min_cycle)
         if pipeline is not None:
-            real("pipeline", pipeline, low=0.0, low_open=True)
+            # a distance on the plate: millimetres given as metres would keep every plan
+            real("pipeline", pipeline, low=0.0, low_open=True, high=0.1)
             if not (hasattr(planner, "speculate") and hasattr(planner, "adopt")):
                 raise ParameterError(
                     f"pipeline needs a planner that plans ahead (speculate, adopt: PredictivePlanner); "
