@@ -96,10 +96,14 @@ def test_a_pulse_the_board_cut_short_is_planned_past():
                 raise upm.PulseCut("pulse 3 was cut short: the board's watchdog tripped")
             self.inner.execute(pulses)
 
-    plant, _, loop = sort4(2, device=Cut)
+    plant, planner, loop = sort4(2, device=Cut)
+    dropped = []
+    real = type(planner).cut
+    planner.cut = lambda: (dropped.append(planner._last is not None), real(planner))
     with pytest.warns(upm.PlanWarning, match="cut short"):
         log = loop.run(120)
     assert log.meta["cut"] == 1
+    assert dropped == [True] and planner._last is not None  # the cut pulse's prediction dropped
     assert not log.kept[3]  # the plan made ahead of the cut pulse's whole step was dropped
     assert log.done and plant.fallen == 0
 

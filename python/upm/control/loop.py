@@ -321,6 +321,9 @@ class Loop:
                 # the next frame shows where it left the parts, and the plan made ahead from
                 # where the whole pulse would have is dropped
                 pending = None
+                dropped = getattr(self.planner, "cut", None)
+                if dropped is not None:  # a pulse that did not play out teaches nothing
+                    dropped()
                 out.meta["cut"] = int(out.meta.get("cut", 0)) + 1
                 cuts += 1
                 if cuts > MAX_REFUSALS:  # cut again and again: the link is not holding

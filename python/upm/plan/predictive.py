@@ -543,6 +543,13 @@ class PredictivePlanner:
         self._last = None
         self.expected = None
 
+    def cut(self) -> None:
+        """The board cut the last pulse short (:class:`upm.PulseCut`): it did not play as
+        predicted, so its prediction is dropped (nothing to learn from it about friction or the
+        parts' gains)."""
+        self._last = None
+        self.expected = None
+
     def plan(self, positions: FloatArray, steps: FloatArray) -> list[Pulse]:
         """Without a task: the pulse that best brings each part to ``positions + steps`` (NaN
         components free)."""
