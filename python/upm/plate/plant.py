@@ -345,13 +345,22 @@ class SimulatedUPM:
             self._poses.append(np.vstack([played.pos[::10], played.pos[-1:]]))
             self.max_excursion = max(self.max_excursion, self.limits.excursion(played.pos))
 
+    def pulse_ahead(self, channels: list[Channel], envelope: Envelope) -> tuple[FloatArray, Played]:
+        """A pulse's motor forces ``(T, 4)`` (its time starting with it) and the plate's response
+        from its present state (:meth:`ahead`), computed without moving anything."""
+        n = round(envelope.duration * self.sample_rate)
+        t = np.arange(n) / self.sample_rate
+        forces = self.forces(channels, t, envelope(t))
+        return forces, self.ahead(forces)
+
     def excursion(self, channels: list[Channel], envelope: Envelope) -> float:
         """Largest corner excursion [m] the pulse would cause from the plate's present state,
         computed without moving anything (the board's check before a PULSE)."""
-        n = round(envelope.duration * self.sample_rate)
-        t = np.arange(n) / self.sample_rate
-        _, _, pos, _ = self._respond(self.forces(channels, t, envelope(t)), self._state)
-        return self.limits.excursion(pos) if len(pos) else 0.0
+        return self.reach(self.pulse_ahead(channels, envelope)[1])
+
+    def reach(self, played: Played) -> float:
+        """Largest corner excursion [m] of a response from :meth:`ahead`."""
+        return self.limits.excursion(played.pos) if len(played.pos) else 0.0
 
     def ride_out(self, seconds: float) -> None:
         """Let the plate move freely on its suspension for ``seconds`` (no motor force): it comes

@@ -168,11 +168,8 @@ class BoardEmulator:
         if isinstance(message, p.Pulse):
             self._ride_out()
             # the pulse worked out from the plate's present state: checked now, played if accepted
-            n = round(self.envelope.duration * self.plant.sample_rate)
-            t = np.arange(n) / self.plant.sample_rate
-            self.forces = self.plant.forces(self.channels[:4], t, self.envelope(t))
-            self.played = self.plant.ahead(self.forces)
-            if len(self.played.pos) and self.plant.limits.excursion(self.played.pos) > self.plant.stroke:
+            self.forces, self.played = self.plant.pulse_ahead(self.channels[:4], self.envelope)
+            if self.plant.reach(self.played) > self.plant.stroke:
                 self.played = None
                 return p.NackCode.STROKE
         if isinstance(message, (p.Ack, p.Nack, p.Samples, p.Status, p.PulseDone)):
@@ -285,12 +282,11 @@ class BoardEmulator:
             k = self.produced - self.pulse[1]
             if k >= len(self.played.vel):  # played out: as worked out at its start
                 self.plant.commit(self.played)
-            else:  # cut short: the motors stopped after k samples
+            else:  # cut short: the motors stopped after k samples (the whole pulse's way is dropped)
                 if self.settling is not None:
                     self.settling.thread.join()
                     self.settling = None
-                vel = self.plant.plate_state(self.forces[:k])[1] if k > 0 else np.zeros((0, 3))
-                self.settling = _Settling(self.plant, vel, self.pulse[0])
+                self.plant.settle_parts(self.plant.plate_state(self.forces[:k])[1])
         self.pulse = None
         self.played = None
         self.idle_from = self.produced
