@@ -7,7 +7,8 @@ the next pulse while the plate plays). ``--hog N``: the last N runs beside a CPU
 spinning on one core for the whole run).
 
 Columns per run: sorted, plate time [s], wall time [s], wall / plate, dead time [s] (the plate
-idle while the host sees and plans), plans kept from planning ahead, chips lost; and where the
+idle while the host sees and plans), plans kept from planning ahead, plans made ahead that did
+not hold and were chosen again (``PredictivePlanner.revise``), chips lost; and where the
 rest of the wall time went: starting the emulator, and the playing beyond the pulses' own time
 (the link's round trips, a refusal's wait), pulses cut short (``PulseCut``). Then the
 median (max) of wall / plate and the CPU. The target (issue 57): wall <= 1.15 x plate, every
@@ -44,6 +45,16 @@ def _spin(stop: Any) -> None:
             x += 1
 
 
+def _commit() -> str:
+    """The checked-out commit (a ``+`` when the tree has changes), to tell runs of two versions apart."""
+    import subprocess
+
+    def git(*args: str) -> str:
+        return subprocess.run(["git", *args], capture_output=True, text=True, check=False).stdout.strip()
+
+    return git("rev-parse", "--short", "HEAD") + ("+" if git("status", "--porcelain", "-uno") else "")
+
+
 def one(seed: int, hog: bool) -> dict[str, Any]:
     stop = multiprocessing.Event()
     spinner = multiprocessing.Process(target=_spin, args=(stop,), daemon=True) if hog else None
@@ -68,6 +79,7 @@ def one(seed: int, hog: bool) -> dict[str, Any]:
         "ratio": m["wall_time"] / m["plate_time"],
         "dead_time": m["dead_time"],
         "kept_share": m["kept_share"],
+        "revised": m["revised"],
         "lost": m["fallen"],
         "cycles": m["cycles"],
         "startup": m["wall_time"] - m["loop_wall"],
@@ -75,6 +87,7 @@ def one(seed: int, hog: bool) -> dict[str, Any]:
         "cut": m["cut"],
         "refused": m["refused"],
         "cpu": cpu(),
+        "commit": _commit(),
     }
 
 
@@ -85,9 +98,9 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=1, help="the demo's seed (make demo: 1)")
     args = parser.parse_args()
     print(f"{cpu()}: upm demo sort8 --board --planner predictive --pipeline 6 --seed {args.seed}\n")
-    print("| run | hog | sorted | plate [s] | wall [s] | wall / plate | dead [s] | kept | lost | start [s] | "
-          "playing - plate [s] | cut |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| run | hog | sorted | plate [s] | wall [s] | wall / plate | dead [s] | kept | revised | lost | "
+          "start [s] | playing - plate [s] | cut |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     rows = []
     for k in range(args.runs):
         r = one(args.seed, k >= args.runs - args.hog)
@@ -96,8 +109,8 @@ def main() -> None:
             f.write(json.dumps(r) + "\n")
         hog, done = "yes" if r["hog"] else "", "yes" if r["done"] else "NO"
         print(f"| {k + 1} | {hog} | {done} | {r['plate_time']:.1f} | {r['wall_time']:.1f} | "
-              f"{r['ratio']:.3f} | {r['dead_time']:.2f} | {r['kept_share']:.0%} | {r['lost']} | "
-              f"{r['startup']:.2f} | {r['playing'] - r['plate_time']:.2f} | {r['cut']} |",
+              f"{r['ratio']:.3f} | {r['dead_time']:.2f} | {r['kept_share']:.0%} | {r['revised']} | "
+              f"{r['lost']} | {r['startup']:.2f} | {r['playing'] - r['plate_time']:.2f} | {r['cut']} |",
               flush=True)  # fmt: skip
     for name, group in (
         ("idle", [r for r in rows if not r["hog"]]),

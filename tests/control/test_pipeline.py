@@ -3,6 +3,8 @@ prediction holds and discarded when it does not; what the planner learns is the 
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -80,6 +82,7 @@ def test_a_plan_made_ahead_is_discarded_when_a_hand_moves_a_part():
     kept = np.array(log.kept)
     after = nudged[0].shoved_after  # the cycle that saw the part 3 cm from its prediction
     assert after is not None and not kept[after]
+    assert log.meta["revised"] >= 1  # that cycle chose again among the plan's best candidates
     assert kept.any()  # plans made ahead were kept where nothing interfered
     assert log.done and plant.fallen == 0
 
@@ -194,7 +197,7 @@ def test_a_kept_plan_learns_the_pulse_error_not_the_prediction_it_was_made_from(
     goal = StepsGoal(predicted + np.array([[0.02, 0.0], [0.0, 0.02]]))
     pulses, token = planner.speculate(PositionsView(predicted), goal)
     assert pulses
-    _, _, (pulse, ids, start, final), _ = token
+    _, _, (pulse, ids, start, final), _, _ = token
     seen = predicted + np.array([[0.004, 0.0], [0.0, -0.004]])
     planner.adopt(token, ids[::-1], seen[::-1])  # any order of ids
     kept_pulse, kept_ids, kept_start, kept_final = planner._last
@@ -206,3 +209,34 @@ def test_a_kept_plan_learns_the_pulse_error_not_the_prediction_it_was_made_from(
     # the parts then move exactly by the predicted step: the step error learnt is zero (it was 4 mm)
     planner._correct(ids, kept_final)
     np.testing.assert_allclose(planner.step_errors, 0.0, atol=1e-12)
+
+
+def test_a_plan_that_did_not_hold_is_chosen_again_from_where_the_parts_are():
+    plant, planner, _ = sort4(3)
+    task = control.SortTask({"red": -1, "blue": 1}, margin=0.08, spacing=0.046, max_step=0.025)
+    labels = ("red", "red", "blue", "blue")
+    ids = np.arange(4)
+    predicted = control.State(1, 1.0, ids, plant.parts.copy(), labels, 0.5)
+    ahead, token = planner.speculate(predicted, task)
+    shortlist = token[4]
+    assert ahead and 1 <= len(shortlist) <= 32
+    assert any(p.center == ahead[0].center and p.kind == ahead[0].kind for p in shortlist)
+    seen = plant.parts.copy()
+    seen[0] += (0.0, 0.03)  # a hand moved a part 3 cm
+    state = control.State(1, 1.0, ids, seen, labels, 0.5)
+    # the shortlist scored from the seen layout by the planner's own choice, on a twin planner
+    twin = PredictivePlanner(LIMITS, mu=0.3, part_radius=CHIP)
+    best, _, rate = twin.choose(task, state, list(shortlist))
+    revised = planner.revise(token, state, task)
+    assert best is not None and len(revised) == 1
+    chosen = shortlist[best]
+    assert replace(revised[0], rest=chosen.rest) == chosen
+    assert rate[best] == np.max(rate)
+    # the prediction it tracks by starts where the parts were seen, not where they were predicted
+    assert planner.expected is not None and np.array_equal(planner._last[2], seen)
+    # a shortlist in which nothing gains, or none: the full search instead
+    searched = []
+    real = planner.plan_task
+    planner.plan_task = lambda s, t: (searched.append(s), real(s, t))[1]
+    again = planner.revise((*token[:4], ()), state, task)
+    assert len(searched) == 1 and again

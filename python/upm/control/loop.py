@@ -83,8 +83,10 @@ class Loop:
         Plan while the plate plays: as each pulse plays, the planner (one with ``speculate`` and
         ``adopt``: :class:`~upm.plan.PredictivePlanner`) plans the next from where the pulse is
         predicted to leave the parts; when the frame arrives, that plan is played if every part
-        is within ``pipeline`` [m, at most 0.1] of its prediction (and the same parts are seen),
-        else the cycle plans afresh. ``None``: see, plan, play in turn.
+        is within ``pipeline`` [m, at most 0.1] of its prediction (and the same parts are seen);
+        else the planner's ``revise`` chooses again among that plan's best candidates from where
+        the parts are (``log.meta["revised"]`` counts those cycles), or a planner without one
+        plans afresh. ``None``: see, plan, play in turn.
     """
 
     def __init__(
@@ -283,15 +285,20 @@ class Loop:
             seen = np.all(np.isfinite(pos), axis=1)
             steps[~seen] = 0.0
             pulses = None
+            token = None
             if pending is not None:  # planned while the last pulse played: kept if it still holds
                 ahead_pulses, token, p_ids, p_pos = pending
                 pending = None
                 if _holds(tracks.ids[seen], pos[seen], p_ids, p_pos, self.pipeline or 0.0):
                     ahead_planner.adopt(token, tracks.ids[seen], pos[seen])
                     pulses = _padded(list(ahead_pulses), self.min_cycle)
+                elif hasattr(ahead_planner, "revise"):
+                    out.meta["revised"] = int(out.meta.get("revised", 0)) + 1
+                else:
+                    token = None
             out.kept.append(pulses is not None)
             if pulses is None:
-                pulses = plan_cycle(self.planner, self.task, state, steps, self.min_cycle)
+                pulses = plan_cycle(self.planner, self.task, state, steps, self.min_cycle, token)
             t2 = time.perf_counter()
             if callback is not None:
                 callback(state, pulses)
@@ -413,9 +420,12 @@ def loop_tracker(
                    reacquire=3 * longest + 10 * part_radius)  # fmt: skip
 
 
-def plan_cycle(planner: Any, task: Any, state: State, steps: FloatArray, min_cycle: float) -> list[Pulse]:
+def plan_cycle(
+    planner: Any, task: Any, state: State, steps: FloatArray, min_cycle: float, token: object = None
+) -> list[Pulse]:
     """One cycle's pulses: the planner's ``plan_task(state, task)`` when it has one and the task a
-    ``cost`` (on the parts seen), else its ``plan(positions, steps)``; padded with a rest to
+    ``cost`` (on the parts seen; ``revise(token, state, task)`` instead when a plan made ahead,
+    ``token``, did not hold), else its ``plan(positions, steps)``; padded with a rest to
     ``min_cycle`` [s] of plate time."""
     seen = np.all(np.isfinite(state.positions), axis=1)
     if hasattr(planner, "plan_task") and hasattr(task, "cost"):
@@ -423,7 +433,10 @@ def plan_cycle(planner: Any, task: Any, state: State, steps: FloatArray, min_cyc
         view = State(
             state.cycle, state.time, state.ids[seen], state.positions[seen], labels, state.last_cycle
         )
-        pulses = list(planner.plan_task(view, task))
+        if token is not None and hasattr(planner, "revise"):
+            pulses = list(planner.revise(token, view, task))
+        else:
+            pulses = list(planner.plan_task(view, task))
     else:
         pulses = list(planner.plan(state.positions[seen], steps[seen]))
     return _padded(pulses, min_cycle)

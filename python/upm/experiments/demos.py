@@ -487,6 +487,7 @@ def run_demo(
     metrics["max_stroke"] = float(stroke)
     metrics["pipeline"] = setup.pipeline
     metrics["kept_share"] = float(np.mean(log.kept)) if log.kept else 0.0
+    metrics["revised"] = int(log.meta.get("revised", 0))  # plans made ahead chosen again
     # where the wall time went: the loop (the rest: starting the plant or the emulator), and in
     # it the playing (the pulses' own time and what the link adds to it)
     metrics["loop_wall"] = float(log.meta.get("wall", math.nan))

@@ -41,6 +41,7 @@ from ..physics.motion import PlateMotion
 from ..physics.sim import Disk, simulate_batch
 from ..plate.drive import DriveLimits, drive_frequency
 from ..plate.pulses import Pulse
+from .aim import aimed, descent
 from .candidates import Candidates, aligned_centers, generate
 from .fitting import learn, restarted
 from .goals import PositionsView, StepsGoal
@@ -50,7 +51,11 @@ from .penalties import penalty
 from .sizing import positive as _positive
 from .sizing import separate, slide_to_rest
 
-__all__ = ["PredictivePlanner"]
+__all__ = ["SHORTLIST", "PredictivePlanner"]
+
+#: Candidates of a plan made ahead that :meth:`PredictivePlanner.revise` scores again when it
+#: does not hold.
+SHORTLIST = 32
 
 FloatArray = NDArray[np.float64]
 
@@ -232,6 +237,7 @@ class PredictivePlanner:
         self._plate = np.zeros((3, 2))  # the plate's state expected after the last pulse and its rest
         self._t_next = 0.0  # plate time at which that is
         self._last: tuple[Pulse, NDArray[np.int64], FloatArray, FloatArray] | None = None
+        self._ranked: list[Pulse] = []  # the last search's best candidates, best first
 
     # -- prediction ---------------------------------------------------------------------------
     @property
@@ -363,19 +369,6 @@ class PredictivePlanner:
         """The plate's state after ``pulse`` and its rest, by the limits' plate model."""
         _, self._plate = self.limits.play(pulse, self._plate)
 
-    @staticmethod
-    def _descent(task: _CostTask, state: Any, pos: FloatArray, h: float = 1e-3) -> FloatArray:
-        """Each part's direction of steepest cost descent ``(M, 2)`` (central differences)."""
-        m = len(pos)
-        probe = np.repeat(pos[None], 4 * m, axis=0)
-        for i in range(m):
-            for j in range(2):
-                probe[4 * i + 2 * j, i, j] += h
-                probe[4 * i + 2 * j + 1, i, j] -= h
-        c = np.asarray(task.cost(state, probe, 0.0), dtype=float).reshape(m, 2, 2)
-        out: FloatArray = -(c[:, :, 0] - c[:, :, 1]) / (2 * h)
-        return out
-
     def candidates(
         self,
         positions: FloatArray,
@@ -443,6 +436,7 @@ class PredictivePlanner:
                 )  # fmt: skip
                 rate = np.maximum(rate, pair_rate)
         order = np.argsort(-np.where(np.isfinite(rate), rate, -np.inf))
+        self._ranked = [pulses[int(k)] for k in order[:SHORTLIST] if np.isfinite(rate[k])]
         best: int | None = int(order[0]) if len(order) else None
         if self.part_radius is not None and self.rerank > 0 and len(order):
             top = [int(k) for k in order[: self.rerank]]
@@ -471,6 +465,10 @@ class PredictivePlanner:
 
     def plan_task(self, state: Any, task: _CostTask) -> list[Pulse]:
         """One pulse for ``task`` from the tracked ``state`` (its parts all seen), or none."""
+        return self._plan(state, task)
+
+    def _plan(self, state: Any, task: _CostTask, among: Sequence[Pulse] | None = None) -> list[Pulse]:
+        """:meth:`plan_task`; ``among``: choose among these pulses only (no search)."""
         pos = np.asarray(state.positions, dtype=float)
         ids = np.asarray(getattr(state, "ids", np.arange(len(pos))), dtype=np.int64)
         self._correct(ids, pos)
@@ -481,16 +479,19 @@ class PredictivePlanner:
         if not len(pos):
             return []
         self.expected = None
+        if among is not None:
+            best, _, _, duration, final = self._choose(task, state, among, ids)
+            return [] if best is None else self._played(among[best], duration, now, ids, pos, final)
         carried = self._carried()
         aligned = None
         if self.aligned:
             aligned = aligned_centers(
                 lambda q: task.cost(state, q, 0.0), pos, self.limits.size, count=self.aligned
             )
-        toward = self._descent(task, state, pos)
+        toward = descent(task, state, pos)
         focus = self.focus if self.focus is not None and len(pos) > self.focus else None
         best = None
-        for near, way in _focus(task, state, pos, toward, focus):
+        for near, way in aimed(task, state, pos, toward, focus):
             # pulses at parts only for the parts with the most to gain: the candidates stay as
             # many whatever the count of parts, and each prediction O(M)
             cands = self.candidates(near, way, carried, aligned)
@@ -501,7 +502,13 @@ class PredictivePlanner:
                 break
         if best is None:
             return []
-        pulse = cands.pulses[best]
+        return self._played(cands.pulses[best], duration, now, ids, pos, final)
+
+    def _played(
+        self, pulse: Pulse, duration: float, now: float, ids: NDArray[np.int64], pos: FloatArray, final: Any
+    ) -> list[Pulse]:
+        """Play ``pulse`` with the rest its parts need to stop (``duration`` in all) from plate time
+        ``now``: the plate model advanced, the prediction kept to learn from and to track by."""
         played = replace(pulse, rest=max(duration - pulse.on_time + 0.01, 0.0))
         self._advance_plate(played)
         self._t_next = now + played.duration
@@ -515,9 +522,10 @@ class PredictivePlanner:
         or expects changes: the pulses and a token for :meth:`adopt`, which keeps the plan."""
         saved = (self._plate.copy(), self._t_next, self._last, self.expected)
         self._last = None  # a prediction teaches nothing: the pulse before is corrected on adoption
+        self._ranked = []
         try:
             pulses = self.plan_task(state, task)
-            after = (self._plate.copy(), self._t_next, self._last, self.expected)
+            after = (self._plate.copy(), self._t_next, self._last, self.expected, tuple(self._ranked))
         finally:
             self._plate, self._t_next, self._last, self.expected = saved
         return pulses, after
@@ -528,10 +536,20 @@ class PredictivePlanner:
         seen_ids = np.asarray(ids, dtype=np.int64)
         seen = np.asarray(positions, dtype=np.float64)
         self._correct(seen_ids, seen)
-        plate, t_next, last, _ = cast(tuple[FloatArray, float, Any, Any], token)
+        plate, t_next, last, _, _ = cast(tuple[FloatArray, float, Any, Any, Any], token)
         self._plate, self._t_next = plate, t_next
         self._last = None if last is None else restarted(last, seen_ids, seen)
         self.expected = None if self._last is None else (self._last[1].copy(), self._last[3].copy())
+
+    def revise(self, token: object, state: Any, task: _CostTask) -> list[Pulse]:
+        """A plan from :meth:`speculate` did not hold (the parts ended too far from where the last
+        pulse was predicted to leave them): plan from the seen ``state`` among that plan's best
+        candidates only (its :data:`SHORTLIST` best by gain per second, each predicted and scored
+        again from where the parts are, the best few with contacts), a third of a full search's
+        time; the full search when none of them gains."""
+        ranked = cast(tuple[Any, ...], token)[4]
+        pulses = self._plan(state, task, list(ranked)) if ranked else []
+        return pulses or self.plan_task(state, task)
 
     def refused(self) -> None:
         """The device refused the last pulse as beyond its stroke, and nothing played: the motors
@@ -562,23 +580,3 @@ class PredictivePlanner:
             f"PredictivePlanner(mu={self.mu:g}, mu_estimate={self.mu_estimate:.3g}, "
             f"stroke={1000 * self.limits.stroke:g} mm, frequencies={self.frequencies})"
         )
-
-
-def _focus(
-    task: Any, state: Any, pos: FloatArray, toward: FloatArray, focus: int | None
-) -> list[tuple[FloatArray, FloatArray]]:
-    """The parts to aim pulses at, and their descent directions: all of them, or (``focus``) first
-    the ``focus`` parts with the most to gain (the steepest descent of the cost; ties, as a
-    distance cost's far parts all are, broken by the task's error, the farthest first), then all
-    of them when none of those pulses gains (the parts with the most to gain may be jammed)."""
-    if focus is None:
-        return [(pos, toward)]
-    slope = np.round(np.hypot(toward[:, 0], toward[:, 1]), 9)
-    far = np.zeros(len(pos))
-    errors = getattr(task, "errors", None)
-    if errors is not None:
-        e = np.asarray(errors(state), dtype=float).reshape(-1)
-        if len(e) == len(pos):
-            far = np.nan_to_num(e, nan=0.0)
-    keep = np.sort(np.lexsort((-far, -slope))[:focus])
-    return [(pos[keep], toward[keep]), (pos, toward)]
