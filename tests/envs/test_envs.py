@@ -237,3 +237,21 @@ def test_the_planner_policy_assembles_a_small_shape_where_random_actions_do_not(
     assert not results["random"][0]
     with pytest.raises(upm.ParameterError, match="action_space"):
         PlannerPolicy(gym.make("upm/Goto-v0", action_space="library"))
+
+
+@pytest.mark.slow
+def test_the_planner_policy_brings_parts_to_their_goals():
+    # its planner looks ahead through no long pulse the env cannot play: with the look-ahead of
+    # 1 s rotations it played small short jets for the whole 40 s of this episode
+    from upm.envs import PlannerPolicy
+
+    env = gym.make("upm/Goto-v0", n_parts=3, max_plate_time=40.0)
+    obs, info = env.reset(seed=0)
+    act = PlannerPolicy(env)
+    assert act.planner.macros is None
+    for _ in range(400):
+        obs, _, term, trunc, info = env.step(act(obs))
+        if term or trunc:
+            break
+    assert term and info["is_success"] and info["lost"] == 0
+    assert info["plate_time"] < 40.0
