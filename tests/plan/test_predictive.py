@@ -488,7 +488,7 @@ def test_a_long_way_to_just_inside_the_edge_band_counts_a_part_lost_a_short_one_
 def test_the_focus_breaks_ties_of_slope_by_distance_and_falls_back_to_every_part() -> None:
     # a distance cost's far parts all have slope 1: the parts aimed at first are the farthest, not
     # the first by index (a stalled 32-part shape aimed every pulse at the same 16 jammed parts)
-    from upm.plan.predictive import _focus
+    from upm.plan.aim import aimed as _focus
 
     goals = np.zeros((5, 2))
     pos = np.array([[0.01, 0.0], [0.05, 0.0], [0.02, 0.0], [0.09, 0.0], [0.0, 0.001]])
