@@ -84,9 +84,10 @@ class Loop:
         ``adopt``: :class:`~upm.plan.PredictivePlanner`) plans the next from where the pulse is
         predicted to leave the parts; when the frame arrives, that plan is played if every part
         is within ``pipeline`` [m, at most 0.1] of its prediction (and the same parts are seen);
-        else the planner's ``revise`` chooses again among that plan's best candidates from where
-        the parts are (``log.meta["revised"]`` counts those cycles), or a planner without one
-        plans afresh. ``None``: see, plan, play in turn.
+        else the planner's ``revise`` plans again from where the parts are (the predictive
+        planner: among that plan's best candidates, for up to ``focus`` parts;
+        ``log.meta["revised"]`` counts those cycles), or a planner without one plans afresh.
+        ``None``: see, plan, play in turn.
     """
 
     def __init__(

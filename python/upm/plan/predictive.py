@@ -86,8 +86,7 @@ class PredictivePlanner:
         The planner's friction estimate (adapted online when ``adapt``).
     part_radius : float or None
         Parts are disks of this radius [m]: overlaps are penalised, and the best ``rerank``
-        candidates are predicted again with contacts (rapier2d), at twice ``dt_factor`` for up
-        to ``focus`` parts (at ``dt_factor`` beyond).
+        candidates are predicted again with contacts (rapier2d).
     frequencies, on_times : tuple of float
         Drive frequencies [Hz] and on-times [s] of the candidates.
     use : float
@@ -441,11 +440,7 @@ class PredictivePlanner:
         best: int | None = int(order[0]) if len(order) else None
         if self.part_radius is not None and self.rerank > 0 and len(order):
             top = [int(k) for k in order[: self.rerank]]
-            # at half the ranking's step for a few parts; for many (beyond ``focus``), where the
-            # contacts of 100 disks take most of a cycle, at the ranking's step: against the plant,
-            # the two err alike (0.4-0.7 mm median, 1.6-2.1 mm at most, 32 and 100 parts)
-            few = self.focus is None or len(pos) <= self.focus
-            f2, d2 = self.predict([pulses[k] for k in top], pos, disks=True, fine=few)
+            f2, d2 = self.predict([pulses[k] for k in top], pos, disks=True, fine=True)
             f2 = np.where(np.isfinite(f2), pos + gain_of[None, :, None] * (f2 - pos), np.nan)
             g2, r2 = self._score(task, state, pos, f2, d2)
             r2 = np.maximum(r2, two_step(self, task, state, pos, f2, d2))
@@ -550,9 +545,14 @@ class PredictivePlanner:
         """A plan from :meth:`speculate` did not hold (the parts ended too far from where the last
         pulse was predicted to leave them): plan from the seen ``state`` among that plan's best
         candidates only (its :data:`SHORTLIST` best by gain per second, each predicted and scored
-        again from where the parts are, the best few with contacts), a third of a full search's
-        time; the full search when none of them gains."""
+        again from where the parts are, the best few with contacts), a quarter of a full search's
+        time; the full search when none of them gains, and for more than ``focus`` parts (sort32
+        through the loop, seeds 1 and 2: 2 and 3 chips lost choosing again with the contact
+        re-rank at the coarse step, 1 on seed 1 choosing again alone; 0 lost on 5 seeds with a
+        full search)."""
         ranked = cast(tuple[Any, ...], token)[4]
+        if self.focus is not None and len(np.asarray(state.positions)) > self.focus:
+            ranked = ()
         pulses = self._plan(state, task, list(ranked)) if ranked else []
         return pulses or self.plan_task(state, task)
 
