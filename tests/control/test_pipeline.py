@@ -228,7 +228,7 @@ def test_a_plan_that_did_not_hold_is_chosen_again_from_where_the_parts_are():
     twin = PredictivePlanner(LIMITS, mu=0.3, part_radius=CHIP)
     best, _, rate = twin.choose(task, state, list(shortlist))
     revised = planner.revise(token, state, task)
-    assert best is not None and len(revised) == 1
+    assert best is not None and len(revised) == 1 and planner.revisions == 1
     chosen = shortlist[best]
     assert replace(revised[0], rest=chosen.rest) == chosen
     assert rate[best] == np.max(rate)
@@ -239,4 +239,8 @@ def test_a_plan_that_did_not_hold_is_chosen_again_from_where_the_parts_are():
     real = planner.plan_task
     planner.plan_task = lambda s, t: (searched.append(s), real(s, t))[1]
     again = planner.revise((*token[:4], ()), state, task)
-    assert len(searched) == 1 and again
+    assert len(searched) == 1 and again and planner.revisions == 1
+    # more parts than the planner's focus: a full search as well
+    wide = PredictivePlanner(LIMITS, mu=0.3, part_radius=CHIP, focus=2)
+    _, token = wide.speculate(predicted, task)
+    assert token[4] and wide.revise(token, state, task) and wide.revisions == 0

@@ -85,9 +85,9 @@ class Loop:
         predicted to leave the parts; when the frame arrives, that plan is played if every part
         is within ``pipeline`` [m, at most 0.1] of its prediction (and the same parts are seen);
         else the planner's ``revise`` plans again from where the parts are (the predictive
-        planner: among that plan's best candidates, for up to ``focus`` parts;
-        ``log.meta["revised"]`` counts those cycles), or a planner without one plans afresh.
-        ``None``: see, plan, play in turn.
+        planner chooses among that plan's best candidates for up to ``focus`` parts:
+        ``log.meta["revised"]`` counts those cycles; it searches afresh beyond), or a planner
+        without one plans afresh. ``None``: see, plan, play in turn.
     """
 
     def __init__(
@@ -293,13 +293,12 @@ class Loop:
                 if _holds(tracks.ids[seen], pos[seen], p_ids, p_pos, self.pipeline or 0.0):
                     ahead_planner.adopt(token, tracks.ids[seen], pos[seen])
                     pulses = _padded(list(ahead_pulses), self.min_cycle)
-                elif hasattr(ahead_planner, "revise"):
-                    out.meta["revised"] = int(out.meta.get("revised", 0)) + 1
-                else:
-                    token = None
             out.kept.append(pulses is not None)
             if pulses is None:
+                revised = getattr(self.planner, "revisions", 0)
                 pulses = plan_cycle(self.planner, self.task, state, steps, self.min_cycle, token)
+                if getattr(self.planner, "revisions", 0) > revised:
+                    out.meta["revised"] = int(out.meta.get("revised", 0)) + 1
             t2 = time.perf_counter()
             if callback is not None:
                 callback(state, pulses)

@@ -238,6 +238,9 @@ class PredictivePlanner:
         self._t_next = 0.0  # plate time at which that is
         self._last: tuple[Pulse, NDArray[np.int64], FloatArray, FloatArray] | None = None
         self._ranked: list[Pulse] = []  # the last search's best candidates, best first
+        self.revisions = 0
+        """Plans made ahead that did not hold and were chosen again among their best candidates
+        (:meth:`revise`)."""
 
     # -- prediction ---------------------------------------------------------------------------
     @property
@@ -554,7 +557,10 @@ class PredictivePlanner:
         if self.focus is not None and len(np.asarray(state.positions)) > self.focus:
             ranked = ()
         pulses = self._plan(state, task, list(ranked)) if ranked else []
-        return pulses or self.plan_task(state, task)
+        if pulses:
+            self.revisions += 1
+            return pulses
+        return self.plan_task(state, task)
 
     def refused(self) -> None:
         """The device refused the last pulse as beyond its stroke, and nothing played: the motors
