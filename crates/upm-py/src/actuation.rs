@@ -1,12 +1,12 @@
 //! Binding of `upm_core::actuation`: kinematics, plate dynamics, harmonic fits and the
 //! accelerometer centre of rotation.
 
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use upm_core::actuation::{self as act, Axis, Plate};
 use upm_core::stroke;
 
-use crate::arrays::{pair_view, pairs, view};
+use crate::arrays::{pair_view, pairs, to_2d, view};
 use crate::errors::{core, detached, shape_error, Failure};
 
 fn plate(py: Python<'_>, mass: f64, inertia: f64, lever: f64) -> PyResult<Plate> {
@@ -79,11 +79,7 @@ pub fn axis_response<'py>(
 }
 
 /// Three `(N, T)` arrays.
-type Three<'py> = (
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray2<f64>>,
-);
+type Three<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>);
 
 /// Acceleration, velocity and position `(N, T)` of `N` runs of one axis under forces `(N, T)`
 /// sampled every `dt`, from positions `q0 (N,)` and velocities `v0 (N,)` (semi-implicit Euler).
@@ -101,8 +97,7 @@ pub fn axis_steps<'py>(
 ) -> PyResult<Three<'py>> {
     let axis = core(py, Axis::new(mass, damping, stiffness))?;
     core(py, upm_core::error::positive("dt", dt).map(|_| ()))?;
-    let f = forces.as_array();
-    let (n, t) = (f.shape()[0], f.shape()[1]);
+    let (n, t) = forces.as_array().dim();
     let (q0, v0) = (view(&q0), view(&v0));
     if q0.len() != n || v0.len() != n {
         return Err(shape_error(
@@ -114,7 +109,7 @@ pub fn axis_steps<'py>(
             ),
         ));
     }
-    let f: Vec<f64> = f.iter().copied().collect();
+    let f = view(&forces);
     let (acc, vel, pos) = detached(py, || {
         let (mut acc, mut vel, mut pos) = (vec![0.0; n * t], vec![0.0; n * t], vec![0.0; n * t]);
         for r in 0..n {
@@ -131,8 +126,11 @@ pub fn axis_steps<'py>(
         }
         Ok::<_, Failure>((acc, vel, pos))
     })?;
-    let shaped = |v: Vec<f64>| PyArray1::from_vec(py, v).reshape([n, t]);
-    Ok((shaped(acc)?, shaped(vel)?, shaped(pos)?))
+    Ok((
+        to_2d(py, acc, n, t)?,
+        to_2d(py, vel, n, t)?,
+        to_2d(py, pos, n, t)?,
+    ))
 }
 
 /// `(coefficients, offset, rms residual)` of a harmonic fit (5.13).
