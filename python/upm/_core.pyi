@@ -29,6 +29,7 @@ __all__ = [
     "corner_excursions",
     "coverage_centroids",
     "disk_friction",
+    "distance_sum",
     "drift_field",
     "edge_penalty",
     "flow_error",
@@ -318,8 +319,16 @@ def velocity_from_fit(coefficients: _F, frequency: float, multiples: list[float]
 def positive_force(coefficients: _F) -> NDArray[np.bool_]: ...
 def apply_rays(q: _F, radii: _F, centres: _F, turn: _F, shift: _F) -> NDArray[np.float64]: ...
 def edge_penalty(
-    q: _F, half: float, band: float, weight: float, lost: float, guard: float
+    q: _F,
+    half: float,
+    band: float,
+    weight: float,
+    lost: float,
+    guard: float,
+    start: _F | None = None,
+    spread: float = 0.0,
 ) -> NDArray[np.float64]: ...
+def distance_sum(q: _F, targets: _F, slack: float, bend: float) -> NDArray[np.float64]: ...
 def overlap_penalty(q: _F, reach: float) -> NDArray[np.float64]: ...
 def corner_excursions(
     w_re: _F, w_im: _F, g_re: _F, g_im: _F, samples: int, corners: _F

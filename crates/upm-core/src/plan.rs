@@ -131,10 +131,30 @@ pub struct Edges {
     pub guard: f64,
 }
 
-/// Edge penalty of each layout `q (L, M, 2)` (`m` parts a layout) into `out (L,)`: `lost` per
-/// part within `guard` of an edge, off the plate or NaN, else `weight` times, per coordinate, its depth in the band plus
-/// five times its depth in the band's outer half.
-pub fn edge_penalty(edges: &Edges, q: &[[f64; 2]], m: usize, out: &mut [f64]) -> Result<()> {
+/// Where the parts of scored layouts started: each is scored at its worst case, `factor` times
+/// its way from there further out (`x + sign(x) factor |q - start|` per coordinate).
+#[derive(Clone, Copy, Debug)]
+pub struct Spread<'a> {
+    /// `S` start layouts of `m` parts; layout `l` of `L` started at start layout `l / (L / S)`
+    /// (`S` divides `L`: each start serves as many consecutive layouts).
+    pub start: &'a [[f64; 2]],
+    /// How much further out than its way a part is scored.
+    pub factor: f64,
+}
+
+/// The sign of `x`, 0 at 0 (NaN stays NaN through the product it enters).
+fn sign(x: f64) -> f64 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+/// Checks that `q` holds `out.len()` layouts of `m > 0` parts.
+fn check_layouts(q: &[[f64; 2]], m: usize, out: &[f64]) -> Result<()> {
     if m == 0 || q.len() != out.len() * m {
         return Err(Error::Shape(format!(
             "layouts of {m} parts: q holds {} positions for {} layouts",
@@ -142,6 +162,48 @@ pub fn edge_penalty(edges: &Edges, q: &[[f64; 2]], m: usize, out: &mut [f64]) ->
             out.len()
         )));
     }
+    Ok(())
+}
+
+/// How many consecutive layouts of `l` each of the `S` layouts of `m` points in `src` serves
+/// (`S` must divide `l`), or a shape error naming `what`.
+fn per_layout(what: &str, src: &[[f64; 2]], m: usize, l: usize) -> Result<usize> {
+    let s = src.len() / m;
+    if s == 0 || !src.len().is_multiple_of(m) || !l.is_multiple_of(s) {
+        return Err(Error::Shape(format!(
+            "{what} must hold S layouts of {m} points with S dividing the {l} layouts; got {} points",
+            src.len()
+        )));
+    }
+    Ok(l / s)
+}
+
+/// Edge penalty of each layout `q (L, M, 2)` (`m` parts a layout) into `out (L,)`: `lost` per
+/// part within `guard` of an edge, off the plate or NaN, else `weight` times, per coordinate, its
+/// depth in the band plus five times its depth in the band's outer half; with `spread`, each part
+/// scored where its worst case puts it (see [`Spread`]).
+pub fn edge_penalty(
+    edges: &Edges,
+    q: &[[f64; 2]],
+    m: usize,
+    spread: Option<Spread>,
+    out: &mut [f64],
+) -> Result<()> {
+    check_layouts(q, m, out)?;
+    // each layout's start and the factor (none: the layout itself, factor 0)
+    let per = match spread {
+        Some(Spread { start, factor }) => {
+            let each = per_layout("start", start, m, out.len())?;
+            if !factor.is_finite() {
+                return Err(Error::parameter(
+                    "spread",
+                    format!("must be finite; got {factor}"),
+                ));
+            }
+            Some((start, each, factor))
+        }
+        None => None,
+    };
     let Edges {
         half,
         band,
@@ -152,10 +214,19 @@ pub fn edge_penalty(edges: &Edges, q: &[[f64; 2]], m: usize, out: &mut [f64]) ->
     let (inner, outer, keep) = (half - band, half - 0.5 * band, half - guard);
     out.par_iter_mut()
         .zip(q.par_chunks(m))
+        .enumerate()
         .with_min_len(crate::parallel::min_len())
-        .for_each(|(o, layout)| {
+        .for_each(|(l, (o, layout))| {
             let (mut gone, mut over) = (0.0, 0.0);
-            for p in layout {
+            let from = per.map(|(start, each, factor)| (&start[(l / each) * m..][..m], factor));
+            for (i, &p) in layout.iter().enumerate() {
+                let p = match from {
+                    Some((start, factor)) => {
+                        let way = factor * (p[0] - start[i][0]).hypot(p[1] - start[i][1]);
+                        [p[0] + sign(p[0]) * way, p[1] + sign(p[1]) * way]
+                    }
+                    None => p,
+                };
                 let (ax, ay) = (p[0].abs(), p[1].abs());
                 if !(ax <= keep && ay <= keep) {
                     gone += 1.0; // NaN fails both comparisons
@@ -175,13 +246,7 @@ pub fn edge_penalty(edges: &Edges, q: &[[f64; 2]], m: usize, out: &mut [f64]) ->
 /// Pairs are found by sweeping the parts sorted along x (a pair farther apart in x than `reach`
 /// cannot overlap), so a layout costs `O(M log M)` plus its close pairs, not `O(M^2)`.
 pub fn overlap_penalty(reach: f64, q: &[[f64; 2]], m: usize, out: &mut [f64]) -> Result<()> {
-    if m == 0 || q.len() != out.len() * m {
-        return Err(Error::Shape(format!(
-            "layouts of {m} parts: q holds {} positions for {} layouts",
-            q.len(),
-            out.len()
-        )));
-    }
+    check_layouts(q, m, out)?;
     if !(reach.is_finite() && reach >= 0.0) {
         return Err(Error::parameter(
             "reach",
@@ -210,6 +275,65 @@ pub fn overlap_penalty(reach: f64, q: &[[f64; 2]], m: usize, out: &mut [f64]) ->
                         sum += reach - gap;
                     }
                 }
+            }
+            *o = sum;
+        });
+    Ok(())
+}
+
+/// How a part's distance to its point counts in [`distance_sum`].
+#[derive(Clone, Copy, Debug)]
+pub struct Reach {
+    /// Distance within which a part counts 0; beyond it, its excess `e` [m].
+    pub slack: f64,
+    /// With `bend > 0`, an excess below it counts `e^2 / (2 bend)` and one beyond `e - bend / 2`
+    /// (a Huber loss) [m].
+    pub bend: f64,
+}
+
+/// Sum over the parts of each layout `q (L, M, 2)` (`m` parts a layout) of their distances to
+/// their points counted by `reach` into `out (L,)`: `targets` holds `T` layouts of points, `T`
+/// dividing `L`, each for `L / T` consecutive layouts (`T = 1`: the same points for all). A part
+/// whose point is NaN is left out; a part at NaN (lost) counts 1 m.
+pub fn distance_sum(
+    targets: &[[f64; 2]],
+    m: usize,
+    reach: Reach,
+    q: &[[f64; 2]],
+    out: &mut [f64],
+) -> Result<()> {
+    check_layouts(q, m, out)?;
+    let each = per_layout("targets", targets, m, out.len())?;
+    let Reach { slack, bend } = reach;
+    if !(slack.is_finite() && slack >= 0.0 && bend.is_finite() && bend >= 0.0) {
+        return Err(Error::parameter(
+            "slack",
+            format!("slack and bend must be finite and >= 0 [m]; got {slack} and {bend}"),
+        ));
+    }
+    out.par_iter_mut()
+        .zip(q.par_chunks(m))
+        .enumerate()
+        .with_min_len(crate::parallel::min_len())
+        .for_each(|(l, (o, layout))| {
+            let mut sum = 0.0;
+            for (p, t) in layout.iter().zip(&targets[(l / each) * m..][..m]) {
+                if !(t[0].is_finite() && t[1].is_finite()) {
+                    continue;
+                }
+                let r = (p[0] - t[0]).hypot(p[1] - t[1]);
+                if !r.is_finite() {
+                    sum += 1.0;
+                    continue;
+                }
+                let e = (r - slack).max(0.0);
+                sum += if bend > 0.0 && e < bend {
+                    e * e / (2.0 * bend)
+                } else if bend > 0.0 {
+                    e - 0.5 * bend
+                } else {
+                    e
+                };
             }
             *o = sum;
         });
@@ -311,7 +435,7 @@ mod tests {
             [0.0, 0.197],
         ];
         let mut out = vec![0.0; 7];
-        edge_penalty(&edges, &q, 1, &mut out).unwrap();
+        edge_penalty(&edges, &q, 1, None, &mut out).unwrap();
         let want = [
             0.0,
             2.0 * 0.01,
@@ -324,5 +448,79 @@ mod tests {
         for (a, b) in out.iter().zip(want) {
             assert!((a - b).abs() < 1e-12, "{out:?} against {want:?}");
         }
+    }
+
+    #[test]
+    fn the_distance_sum_counts_slack_bend_lost_parts_and_parts_without_a_target() {
+        let targets = [[0.0, 0.0], [0.1, 0.0], [f64::NAN, 0.0]];
+        // layout 0: 5 mm, 30 mm from their points and one without a target; layout 1: one lost
+        let q = [
+            [0.003, 0.004],
+            [0.1, 0.03],
+            [0.5, 0.5],
+            [0.0, 0.0],
+            [f64::NAN, 0.0],
+            [0.0, 0.0],
+        ];
+        let mut out = vec![0.0; 2];
+        let straight = Reach {
+            slack: 0.0,
+            bend: 0.0,
+        };
+        distance_sum(&targets, 3, straight, &q, &mut out).unwrap();
+        assert!((out[0] - 0.035).abs() < 1e-15 && out[1] == 1.0, "{out:?}");
+        // slack 2 mm, bend 10 mm: 3 mm of excess counts 9e-6 / 0.02; 28 mm counts 28 - 5
+        let bent = Reach {
+            slack: 0.002,
+            bend: 0.01,
+        };
+        distance_sum(&targets, 3, bent, &q, &mut out).unwrap();
+        let want = 0.003 * 0.003 / 0.02 + (0.028 - 0.005);
+        assert!((out[0] - want).abs() < 1e-15, "{} against {want}", out[0]);
+        assert!(distance_sum(&targets, 3, bent, &q[..5], &mut out).is_err());
+        // one layout of points per layout
+        let both = [targets, [[0.0, 0.0], [0.0, 0.0], [f64::NAN, 0.0]]].concat();
+        distance_sum(&both, 3, straight, &q, &mut out).unwrap();
+        assert!((out[0] - 0.035).abs() < 1e-15 && out[1] == 1.0, "{out:?}");
+        let three = [[0.0; 2]; 9];
+        assert!(distance_sum(&three, 3, straight, &q, &mut out).is_err());
+        let bad = Reach {
+            slack: -1.0,
+            bend: 0.0,
+        };
+        assert!(distance_sum(&targets, 3, bad, &q, &mut out).is_err());
+    }
+
+    #[test]
+    fn a_spread_scores_each_part_further_out_by_its_way_from_its_own_start() {
+        let edges = Edges {
+            half: 0.2,
+            band: 0.04,
+            weight: 1.0,
+            lost: 1.0,
+            guard: 0.0,
+        };
+        // two starts, each for two consecutive layouts of one part: a part that went 10 mm is
+        // scored 20 mm further out at factor 2 (x = 0.15 -> 0.17: 10 mm into the band), one
+        // that stayed put where it is, one at 0 in x keeps its x
+        let start = [[0.14, 0.0], [0.0, 0.0]];
+        let q = [[0.15, 0.0], [0.14, 0.0], [0.0, 0.17], [0.0, 0.0]];
+        let mut out = vec![0.0; 4];
+        let spread = Spread {
+            start: &start,
+            factor: 2.0,
+        };
+        edge_penalty(&edges, &q, 1, Some(spread), &mut out).unwrap();
+        // layout 2: y 0.17 went 0.17, scored at 0.17 + 0.34 = 0.51: off the plate, lost
+        let want = [0.01, 0.0, 1.0, 0.0];
+        for (a, b) in out.iter().zip(want) {
+            assert!((a - b).abs() < 1e-12, "{out:?} against {want:?}");
+        }
+        let three = [[0.0; 2]; 3];
+        let odd = Spread {
+            start: &three,
+            factor: 2.0,
+        };
+        assert!(edge_penalty(&edges, &q, 1, Some(odd), &mut out).is_err());
     }
 }

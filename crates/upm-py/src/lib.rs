@@ -61,6 +61,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(actuation::corner_excursions, m)?)?;
     m.add_function(wrap_pyfunction!(plan::apply_rays, m)?)?;
     m.add_function(wrap_pyfunction!(plan::edge_penalty, m)?)?;
+    m.add_function(wrap_pyfunction!(plan::distance_sum, m)?)?;
     m.add_function(wrap_pyfunction!(plan::overlap_penalty, m)?)?;
     m.add_function(wrap_pyfunction!(actuation::cor_from_accelerometers, m)?)?;
     m.add_function(wrap_pyfunction!(solve::solve, m)?)?;

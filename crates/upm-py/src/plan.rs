@@ -67,9 +67,12 @@ fn layouts<'a>(py: Python<'_>, q: &'a PyReadonlyArray3<'_, f64>) -> PyResult<Lay
     Ok((shape[0], shape[1], flat_pairs(q)))
 }
 
-/// The predictive planner's edge penalty `(L,)` of layouts `q (L, M, 2)` (see
-/// `upm_core::plan::edge_penalty`).
+/// The predictive planner's edge penalty `(L,)` of layouts `q (L, M, 2)`; with `start (S, M, 2)`,
+/// each part scored `spread` times its way from its layout's start further out (see
+/// `upm_core::plan::edge_penalty` and `Spread`).
 #[pyfunction]
+#[pyo3(signature = (q, half, band, weight, lost, guard, start=None, spread=0.0))]
+#[allow(clippy::too_many_arguments)]
 pub fn edge_penalty<'py>(
     py: Python<'py>,
     q: PyReadonlyArray3<'py, f64>,
@@ -78,8 +81,23 @@ pub fn edge_penalty<'py>(
     weight: f64,
     lost: f64,
     guard: f64,
+    start: Option<PyReadonlyArray3<'py, f64>>,
+    spread: f64,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let (l, m, qs) = layouts(py, &q)?;
+    let from = match &start {
+        Some(s) => {
+            let (_, ms, flat) = layouts(py, s)?;
+            if ms != m {
+                return Err(shape_error(
+                    py,
+                    format!("start must hold layouts of {m} parts like q; got {ms}"),
+                ));
+            }
+            Some(flat)
+        }
+        None => None,
+    };
     let edges = plan::Edges {
         half,
         band,
@@ -90,7 +108,41 @@ pub fn edge_penalty<'py>(
     let out = detached(py, || {
         let mut out = vec![0.0; l];
         if m > 0 {
-            plan::edge_penalty(&edges, &qs, m, &mut out).map_err(Failure::from)?;
+            let spread = from.as_deref().map(|start| plan::Spread {
+                start,
+                factor: spread,
+            });
+            plan::edge_penalty(&edges, &qs, m, spread, &mut out).map_err(Failure::from)?;
+        }
+        Ok(out)
+    })?;
+    Ok(PyArray1::from_vec(py, out))
+}
+
+/// Sum over the parts of each layout `q (L, M, 2)` of their distances to `targets (T, M, 2)`
+/// (each for `L / T` consecutive layouts), less `slack` and bent over `bend` (see
+/// `upm_core::plan::distance_sum`), `(L,)`.
+#[pyfunction]
+pub fn distance_sum<'py>(
+    py: Python<'py>,
+    q: PyReadonlyArray3<'py, f64>,
+    targets: PyReadonlyArray3<'py, f64>,
+    slack: f64,
+    bend: f64,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let (l, m, qs) = layouts(py, &q)?;
+    let (_, mt, t) = layouts(py, &targets)?;
+    if mt != m {
+        return Err(shape_error(
+            py,
+            format!("targets must hold layouts of {m} points like q; got {mt}"),
+        ));
+    }
+    let out = detached(py, || {
+        let mut out = vec![0.0; l];
+        if m > 0 {
+            let reach = plan::Reach { slack, bend };
+            plan::distance_sum(&t, m, reach, &qs, &mut out).map_err(Failure::from)?;
         }
         Ok(out)
     })?;

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .. import _core
 from .._arrays import as_float
 from .._errors import ShapeError
 
@@ -29,15 +30,27 @@ def distance_sum(q: FloatArray, targets: FloatArray, slack: float = 0.0, bend: f
     """Sum over parts of ``|q - target|`` less ``slack`` (0 within it), parts without a target
     (NaN) left out; a lost part (NaN in ``q``) counts 1 m (it is not done). With ``bend`` [m], an
     excess ``e`` below it counts ``e^2 / (2 bend)`` and one beyond it ``e - bend / 2`` (a Huber
-    loss: the same slope far out, a vanishing one near the target)."""
-    d = q - targets
-    r = np.hypot(d[..., 0], d[..., 1])
-    has = np.all(np.isfinite(targets), axis=-1)
-    e = np.maximum(r - slack, 0.0)
-    if bend > 0:
-        e = np.where(e < bend, e * e / (2 * bend), e - bend / 2)
-    r = np.where(has, np.where(np.isfinite(r), e, 1.0), 0.0)
-    out: FloatArray = np.sum(r, axis=-1)
+    loss: the same slope far out, a vanishing one near the target).
+
+    ``q (..., M, 2)``; ``targets (M, 2)`` or broadcast against ``q``. One pass in the core
+    (``upm_core::plan::distance_sum``); with the same targets for every layout, a leading axis
+    along which ``q`` is broadcast (a layout repeated, as resting layouts are) is summed once."""
+    q = np.asarray(q, dtype=np.float64)
+    lead, m = q.shape[:-2], q.shape[-2]
+    t = np.broadcast_to(np.asarray(targets, dtype=np.float64), q.shape)
+    shape = lead
+    if all(stride == 0 for stride in t.strides[: len(lead)]):  # one set of targets for all
+        repeats = [stride == 0 for stride in q.strides[: len(lead)]]
+        q = q[tuple(0 if r else slice(None) for r in repeats)]
+        t = t[(0,) * len(lead)]
+        shape = tuple(1 if r else n for r, n in zip(repeats, lead, strict=True))
+    sums = _core.distance_sum(
+        np.ascontiguousarray(q.reshape(-1, m, 2)),
+        np.ascontiguousarray(t.reshape(-1, m, 2)),
+        float(slack),
+        float(bend),
+    )
+    out: FloatArray = np.array(np.broadcast_to(sums.reshape(shape), lead))
     return out
 
 

@@ -55,8 +55,8 @@ def two_step(
     rest = np.asarray(task.cost(state, still, total), dtype=float)
     rest = rest + planner._penalty(pos[None], overlaps=False)[0]
     cost = np.asarray(task.cost(state, after, total), dtype=float)
-    start = np.broadcast_to(safe[:, None], after.shape).reshape(flat)
-    cost = cost + planner._penalty(after.reshape(flat), overlaps=False, start=start).reshape(total.shape)
+    # each first pulse's layout is where its R long pulses start
+    cost = cost + planner._penalty(after.reshape(flat), overlaps=False, start=safe).reshape(total.shape)
     lost = ~np.all(np.isfinite(final), axis=(1, 2)) | _in_band(planner, final)
     out: FloatArray = np.max((rest - cost) / total, axis=1)
     out[lost] = -np.inf
@@ -89,8 +89,7 @@ def pair_rates(
     rest = np.asarray(task.cost(state, still, total), dtype=float) + planner._penalty(pos[None])[0]
     safe = np.where(np.isfinite(after), after, still)
     cost = np.asarray(task.cost(state, safe, total), dtype=float)
-    start = np.broadcast_to(base, after.shape).reshape(-1, m, 2)
-    cost = cost + planner._penalty(after.reshape(-1, m, 2), start=start).reshape(total.shape)
+    cost = cost + planner._penalty(after.reshape(-1, m, 2), start=final).reshape(total.shape)
     per_second = (rest - cost) / total
     pick = np.argmax(per_second, axis=1)
     rows = np.arange(f)

@@ -31,18 +31,17 @@ def penalty(
 
     ``lost_cost`` per part within ``guard`` of an edge or off the plate; inside the edge band
     (``edge`` wide) ``edge_weight`` per metre, and five times more in its outer half. Parts that
-    were at ``start`` (broadcast against ``q``) are scored at their worst case, ``spread`` times
-    their way further out. With ``part_radius``, half the depth of every overlap of two parts
-    (a sweep along x in the core, not all pairs)."""
-    at = q
+    were at ``start`` (``(M, 2)``, or ``(S, M, 2)`` with ``S`` dividing ``K``: each start for ``K /
+    S`` consecutive layouts) are scored at their worst case, ``spread`` times their way further
+    out. With ``part_radius``, half the depth of every overlap of two parts (a sweep along x in
+    the core, not all pairs)."""
+    q = np.ascontiguousarray(q, dtype=np.float64)
+    begin = None
     if start is not None and spread > 0:
-        way = np.hypot(q[..., 0] - start[..., 0], q[..., 1] - start[..., 1])
-        at = q + np.sign(q) * (spread * way)[..., None]
-    out: FloatArray = _core.edge_penalty(
-        np.ascontiguousarray(at, dtype=np.float64), half, edge, edge_weight, lost_cost, guard
-    )
+        begin = np.ascontiguousarray(np.asarray(start, dtype=np.float64).reshape(-1, *q.shape[1:]))
+    out: FloatArray = _core.edge_penalty(q, half, edge, edge_weight, lost_cost, guard, begin, spread)
     if part_radius is not None and q.shape[1] > 1:
-        out = out + 0.5 * _core.overlap_penalty(np.ascontiguousarray(q, dtype=np.float64), 2.05 * part_radius)
+        out = out + 0.5 * _core.overlap_penalty(q, 2.05 * part_radius)
     return out
 
 
