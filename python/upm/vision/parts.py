@@ -355,14 +355,19 @@ def detect(top: NDArray[np.uint8], background: F32, rect: Rectifier, min_contras
     if not len(xs):
         return np.zeros((0, 2)), np.zeros((0, top.shape[2])), np.zeros(0), np.zeros(0)
     order = np.argsort(-resp[ys, xs], kind="stable")
-    kept: list[tuple[int, int]] = []
-    for k in order:  # non-maximum suppression (plateaus give several equal maxima)
-        x, y = int(xs[k]), int(ys[k])
-        if all((x - a) ** 2 + (y - b) ** 2 > rq * rq for a, b in kept):
-            kept.append((x, y))
-            if max_parts is not None and len(kept) >= max_parts:
-                break
-    coarse = np.array(kept, dtype=np.float64)
+    # non-maximum suppression (plateaus give several equal maxima): strongest first, each kept
+    # peak suppressing every weaker one within a radius
+    peak_at = np.stack([xs[order], ys[order]], axis=1).astype(np.int64)
+    gone = np.zeros(len(peak_at), dtype=bool)
+    kept: list[int] = []
+    for k in range(len(peak_at)):
+        if gone[k]:
+            continue
+        kept.append(k)
+        if max_parts is not None and len(kept) >= max_parts:
+            break
+        gone |= np.sum((peak_at - peak_at[k]) ** 2, axis=1) <= rq * rq
+    coarse = peak_at[kept].astype(np.float64)
     strength = resp[coarse[:, 1].astype(int), coarse[:, 0].astype(int)].astype(np.float64)
     centres = (coarse + 0.5) * q - 0.5
     refined, colour, area, around = refine_in(diff, centres, rect)
@@ -372,14 +377,12 @@ def detect(top: NDArray[np.uint8], background: F32, rect: Rectifier, min_contras
         # of candidates that converged within half a radius of each other (one started between
         # two parts) keep the strongest
         keep: list[int] = []
-        for i in range(len(refined)):
-            whole = area[i] < BLOB_AREA * math.pi * r * r
-            if (
-                whole
-                and around[i] < BLOB_RING
-                and all(np.hypot(*(refined[i] - refined[j])) > 0.5 * r for j in keep)
-            ):
-                keep.append(i)
+        taken = np.zeros(len(refined), dtype=bool)  # within half a radius of one kept (or NaN)
+        part_like = (area < BLOB_AREA * math.pi * r * r) & (around < BLOB_RING)
+        for i in np.nonzero(part_like)[0]:
+            if not taken[i]:
+                keep.append(int(i))
+                taken |= ~(np.hypot(*(refined - refined[i]).T) > 0.5 * r)
         if len(keep) == len(refined):
             break
         strength = strength[keep]
