@@ -12,6 +12,9 @@ export PATH := $(abspath $(VENV))/bin:$(PATH)
 
 RUST_SOURCES := Cargo.toml Cargo.lock $(shell find crates -name '*.rs' -o -name Cargo.toml)
 PY_DIRS := python tests bench examples
+# pytest on every core (pytest-xdist; at most 4 workers, as each runs the core's threads too); a
+# worker that runs out of tests takes some of another's. `make test PYTEST_WORKERS=` runs serially.
+PYTEST_WORKERS ?= -n auto --maxprocesses=4 --dist worksteal
 
 $(VENV)/.deps: pyproject.toml
 	python3 -m venv $(VENV)
@@ -52,7 +55,7 @@ test: $(VENV)/.built chromium ## every check: cargo test, clippy, the layers, py
 	# (the one-pass short run again on the AVX2 build: on an AVX-512 machine the default is the other)
 	UPM_SIMD=avx2 cargo test --quiet -p upm-core --lib sim::short
 	cargo clippy --workspace --all-targets --quiet -- -D warnings
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q $(PYTEST_WORKERS)
 	$(PY) -m ruff check $(PY_DIRS)
 	$(PY) -m ruff format --check $(PY_DIRS)
 	$(PY) -m mypy
@@ -61,7 +64,7 @@ test: $(VENV)/.built chromium ## every check: cargo test, clippy, the layers, py
 .PHONY: test-fast
 test-fast: $(VENV)/.built ## the edit loop: the layers, then pytest without the tests marked slow
 	$(VENV)/bin/lint-imports --no-cache
-	$(PY) -m pytest -q -m "not slow"
+	$(PY) -m pytest -q -m "not slow" $(PYTEST_WORKERS)
 
 .PHONY: lint
 lint: $(VENV)/.built ## ruff (fixing what it can), clippy, mypy, the layers (import-linter)

@@ -299,13 +299,17 @@ def test_a_part_pushed_over_the_edge_falls_off_and_leaves_the_picture():
 # -- through the board emulator -----------------------------------------------------------------------
 
 
-@pytest.mark.slow
-def test_sort_through_the_board_protocol_and_the_emulator_process():
+def test_sort_through_the_board_protocol_and_the_emulator_process(tmp_path):
     from upm import demos
 
-    m = demos.run_demo("sort8", "out/test-board", board=True, quick=True, cycles=3, verbose=False)
-    assert m["board"] and m["cycles"] == 3 and m["fallen"] == 0
-    assert m["pulses"] > 0 and m["tracking_error_median"] < 0.03
+    # make demo's job, cut short: the predictive planner planning while the emulated plate plays
+    # (the thesis's jet planner plays 20 s programs a cycle: 3 cycles of it took a minute)
+    m = demos.run_demo("sort8", tmp_path / "board", board=True, quick=True, cycles=6, verbose=False,
+                       planner="predictive", pipeline=0.006)  # fmt: skip
+    assert m["board"] and m["cycles"] == 6 and m["fallen"] == 0 and m["pulses"] == 6
+    # the parts went where the planner's model said, through the protocol and the emulator's
+    # own plate and contacts (1.2 mm measured)
+    assert m["prediction_error_median"] < 0.004
     # the emulated plate's largest corner excursion, read back from the emulator process
     assert 0.0 < m["max_stroke"] <= 0.010
 

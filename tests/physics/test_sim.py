@@ -110,7 +110,10 @@ def test_results_kept_are_never_overwritten_and_recycled_memory_gives_the_same_r
         (1, 0), upm.TwoHarmonic(0.5, np.pi / 2, amplitude=0.02, frequency=35.0)
     )
     rng = np.random.default_rng(3)
-    a, b = rng.uniform(-0.1, 0.1, (2, 5000, 2))
+    # a part count no other test uses: the pool hands out the spare of the closest size, and a
+    # spare of this very size left by another test (in another order, as pytest-xdist runs them)
+    # would be as good a fit as the one given back here
+    a, b = rng.uniform(-0.1, 0.1, (2, 4993, 2))
     kw = dict(duration=0.01, dt=1e-4, mu=0.3, mu_s=0.35, record_every=10)
     first = upm.simulate(motion, a, **kw)
     kept = first.positions.copy(), first.velocities.copy()

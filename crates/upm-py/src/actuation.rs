@@ -84,7 +84,6 @@ type Three<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>);
 /// Acceleration, velocity and position `(N, T)` of `N` runs of one axis under forces `(N, T)`
 /// sampled every `dt`, from positions `q0 (N,)` and velocities `v0 (N,)` (semi-implicit Euler).
 #[pyfunction]
-#[allow(clippy::too_many_arguments)]
 pub fn axis_steps<'py>(
     py: Python<'py>,
     mass: f64,

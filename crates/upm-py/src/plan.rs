@@ -72,7 +72,6 @@ fn layouts<'a>(py: Python<'_>, q: &'a PyReadonlyArray3<'_, f64>) -> PyResult<Lay
 /// `upm_core::plan::edge_penalty` and `Spread`).
 #[pyfunction]
 #[pyo3(signature = (q, half, band, weight, lost, guard, start=None, spread=0.0))]
-#[allow(clippy::too_many_arguments)]
 pub fn edge_penalty<'py>(
     py: Python<'py>,
     q: PyReadonlyArray3<'py, f64>,
