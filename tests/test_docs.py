@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 NEEDS = {"docs/envs.md": ("gymnasium",), "docs/vision.md": ("cv2",), "docs/viz.md": ("rerun",)}
 PAGES = {
     str(page.relative_to(ROOT)): NEEDS.get(str(page.relative_to(ROOT)), ())
-    for page in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    for page in [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
     if "```python" in page.read_text()
 }
 #: The most cycles a loop in a block runs here.
