@@ -128,8 +128,36 @@ def as_float(name: str, value: ArrayLike, *, finite: bool = True) -> FloatArray:
     return array
 
 
+def _pair_or_none(value: object) -> tuple[float, float] | None:
+    """``value`` as two finite floats when it plainly is a pair of them (a tuple or list of two
+    reals, or a float64 array of shape (2,)), else ``None`` (left to the general checks): the
+    planners build hundreds of pulses a cycle, each through several such checks."""
+    if type(value) is np.ndarray:
+        if value.shape != (2,) or value.dtype != np.float64:
+            return None
+        x, y = float(value[0]), float(value[1])
+    elif type(value) is tuple or type(value) is list:
+        if len(value) != 2:
+            return None
+        x, y = value
+        if (
+            not (isinstance(x, (float, int)) and isinstance(y, (float, int)))
+            or isinstance(x, bool)
+            or isinstance(y, bool)
+        ):
+            return None
+        x, y = float(x), float(y)
+    else:
+        return None
+    return (x, y) if math.isfinite(x) and math.isfinite(y) else None
+
+
 def vector(name: str, value: ArrayLike, n: int) -> FloatArray:
     """``value`` as a finite float64 vector of shape ``(n,)``; `ShapeError` naming ``name`` otherwise."""
+    if n == 2:
+        pair = _pair_or_none(value)
+        if pair is not None:
+            return np.array(pair)
     v = as_float(name, value)
     if v.shape != (n,):
         raise ShapeError(f"{name} must have shape ({n},); got {v.shape}")
@@ -138,6 +166,9 @@ def vector(name: str, value: ArrayLike, n: int) -> FloatArray:
 
 def point(name: str, value: ArrayLike) -> tuple[float, float]:
     """``value`` as a finite 2-vector, as the binding takes it."""
+    pair = _pair_or_none(value)
+    if pair is not None:
+        return pair
     x, y = vector(name, value, 2)
     return float(x), float(y)
 

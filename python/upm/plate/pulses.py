@@ -63,10 +63,10 @@ def _playable(waveform: object) -> None:
 def _unit(name: str, value: ArrayLike) -> FloatArray:
     """A non-zero 2-vector, normalised."""
     d = vector(name, value, 2)
-    n = float(np.hypot(*d))
+    n = math.hypot(float(d[0]), float(d[1]))
     if not n > 0:
         raise ParameterError(f"{name} must be non-zero")
-    out: FloatArray = np.asarray(d, dtype=np.float64) / n
+    out: FloatArray = d / n
     return out
 
 
