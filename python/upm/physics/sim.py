@@ -269,8 +269,7 @@ def _cores(motions: Any) -> list[Any]:
         try:
             cores = list(map(_inner, motions))  # (only a upm.PlateMotion has `_inner`)
         except AttributeError:
-            core = _core.PlateMotion
-            if motions and all(type(m) is core for m in motions):
+            if motions and set(map(type, motions)) == {_core.PlateMotion}:
                 return list(motions)
         else:
             if cores:
@@ -584,8 +583,6 @@ def _per_world(
                 f"starts must have shape ({b}, {m}, 2) (world, part, xy) or ({b}, {m}, 3) (and the "
                 f"angle); got {at.shape}"
             )
-        if not np.all(np.isfinite(at)):
-            raise ParameterError("starts must be finite")
         turn = np.ascontiguousarray(at[..., 2].reshape(-1)) if at.shape[-1] > 2 else None
         at = np.ascontiguousarray(at[..., :2].reshape(-1, 2))  # (B M, 2)
     return np.ascontiguousarray(kinetic), np.ascontiguousarray(static), at, turn
