@@ -67,6 +67,41 @@ fn layouts<'a>(py: Python<'_>, q: &'a PyReadonlyArray3<'_, f64>) -> PyResult<Lay
     Ok((shape[0], shape[1], flat_pairs(q)))
 }
 
+/// Layouts of `m` parts like `q`'s, as pairs laid flat, or a shape error naming `name`.
+fn layouts_like<'a>(
+    py: Python<'_>,
+    name: &str,
+    a: &'a PyReadonlyArray3<'_, f64>,
+    m: usize,
+) -> PyResult<std::borrow::Cow<'a, [[f64; 2]]>> {
+    let (_, ma, flat) = layouts(py, a)?;
+    if ma != m {
+        return Err(shape_error(
+            py,
+            format!("{name} must hold layouts of {m} points like q; got {ma}"),
+        ));
+    }
+    Ok(flat)
+}
+
+/// One sum a layout, `(L,)`, written by `sum` with the GIL released (zeros when the layouts hold
+/// no part).
+fn per_layout<'py>(
+    py: Python<'py>,
+    l: usize,
+    m: usize,
+    sum: impl FnOnce(&mut [f64]) -> upm_core::error::Result<()> + Send,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let out = detached(py, || {
+        let mut out = vec![0.0; l];
+        if m > 0 {
+            sum(&mut out).map_err(Failure::from)?;
+        }
+        Ok(out)
+    })?;
+    Ok(PyArray1::from_vec(py, out))
+}
+
 /// The predictive planner's edge penalty `(L,)` of layouts `q (L, M, 2)`; with `start (S, M, 2)`,
 /// each part scored `spread` times its way from its layout's start further out (see
 /// `upm_core::plan::edge_penalty` and `Spread`).
@@ -85,16 +120,7 @@ pub fn edge_penalty<'py>(
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let (l, m, qs) = layouts(py, &q)?;
     let from = match &start {
-        Some(s) => {
-            let (_, ms, flat) = layouts(py, s)?;
-            if ms != m {
-                return Err(shape_error(
-                    py,
-                    format!("start must hold layouts of {m} parts like q; got {ms}"),
-                ));
-            }
-            Some(flat)
-        }
+        Some(s) => Some(layouts_like(py, "start", s, m)?),
         None => None,
     };
     let edges = plan::Edges {
@@ -104,18 +130,13 @@ pub fn edge_penalty<'py>(
         lost,
         guard,
     };
-    let out = detached(py, || {
-        let mut out = vec![0.0; l];
-        if m > 0 {
-            let spread = from.as_deref().map(|start| plan::Spread {
-                start,
-                factor: spread,
-            });
-            plan::edge_penalty(&edges, &qs, m, spread, &mut out).map_err(Failure::from)?;
-        }
-        Ok(out)
-    })?;
-    Ok(PyArray1::from_vec(py, out))
+    per_layout(py, l, m, |out| {
+        let spread = from.as_deref().map(|start| plan::Spread {
+            start,
+            factor: spread,
+        });
+        plan::edge_penalty(&edges, &qs, m, spread, out)
+    })
 }
 
 /// Sum over the parts of each layout `q (L, M, 2)` of their distances to `targets (T, M, 2)`
@@ -130,22 +151,10 @@ pub fn distance_sum<'py>(
     bend: f64,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let (l, m, qs) = layouts(py, &q)?;
-    let (_, mt, t) = layouts(py, &targets)?;
-    if mt != m {
-        return Err(shape_error(
-            py,
-            format!("targets must hold layouts of {m} points like q; got {mt}"),
-        ));
-    }
-    let out = detached(py, || {
-        let mut out = vec![0.0; l];
-        if m > 0 {
-            let reach = plan::Reach { slack, bend };
-            plan::distance_sum(&t, m, reach, &qs, &mut out).map_err(Failure::from)?;
-        }
-        Ok(out)
-    })?;
-    Ok(PyArray1::from_vec(py, out))
+    let t = layouts_like(py, "targets", &targets, m)?;
+    per_layout(py, l, m, |out| {
+        plan::distance_sum(&t, m, plan::Reach { slack, bend }, &qs, out)
+    })
 }
 
 /// The predictive planner's overlap penalty `(L,)` of layouts `q (L, M, 2)`: over pairs closer
@@ -157,12 +166,5 @@ pub fn overlap_penalty<'py>(
     reach: f64,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let (l, m, qs) = layouts(py, &q)?;
-    let out = detached(py, || {
-        let mut out = vec![0.0; l];
-        if m > 0 {
-            plan::overlap_penalty(reach, &qs, m, &mut out).map_err(Failure::from)?;
-        }
-        Ok(out)
-    })?;
-    Ok(PyArray1::from_vec(py, out))
+    per_layout(py, l, m, |out| plan::overlap_penalty(reach, &qs, m, out))
 }
