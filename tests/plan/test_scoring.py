@@ -64,9 +64,11 @@ def test_distance_sum_refuses_targets_of_another_count() -> None:
 
 def _edge(q: np.ndarray, half: float, band: float, weight: float, lost: float, guard: float) -> np.ndarray:
     a = np.abs(q)
-    gone = ~np.all(a <= half - guard, axis=-1)
+    off = ~np.all(a <= half, axis=-1)  # (NaN too)
+    near = ~off & ~np.all(a <= half - guard, axis=-1)
     over = np.clip(a - (half - band), 0.0, None) + 5 * np.clip(a - (half - band / 2), 0.0, None)
-    return lost * gone.sum(axis=-1) + weight * np.where(gone[..., None], 0.0, over).sum(axis=(-1, -2))
+    gone = off.sum(axis=-1) + 0.5 * near.sum(axis=-1)
+    return lost * gone + weight * np.where(off[..., None], 0.0, over).sum(axis=(-1, -2))
 
 
 def test_the_edge_penalty_scores_each_part_at_its_worst_case_from_its_own_start() -> None:

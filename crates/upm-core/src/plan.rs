@@ -127,7 +127,7 @@ pub struct Edges {
     pub weight: f64,
     /// Penalty of a lost part.
     pub lost: f64,
-    /// A part within this of an edge [m] counts as lost too (the prediction's margin of error).
+    /// A part within this of an edge [m] counts half lost (the prediction's margin of error).
     pub guard: f64,
 }
 
@@ -179,8 +179,9 @@ fn per_layout(what: &str, src: &[[f64; 2]], m: usize, l: usize) -> Result<usize>
 }
 
 /// Edge penalty of each layout `q (L, M, 2)` (`m` parts a layout) into `out (L,)`: `lost` per
-/// part within `guard` of an edge, off the plate or NaN, else `weight` times, per coordinate, its
-/// depth in the band plus five times its depth in the band's outer half; with `spread`, each part
+/// part off the plate or NaN; else `weight` times, per coordinate, its depth in the band plus
+/// five times its depth in the band's outer half, and half of `lost` more within `guard` of an
+/// edge; with `spread`, each part
 /// scored where its worst case puts it (see [`Spread`]).
 pub fn edge_penalty(
     edges: &Edges,
@@ -228,9 +229,15 @@ pub fn edge_penalty(
                     None => p,
                 };
                 let (ax, ay) = (p[0].abs(), p[1].abs());
-                if !(ax <= keep && ay <= keep) {
+                if !(ax <= half && ay <= half) {
                     gone += 1.0; // NaN fails both comparisons
                     continue;
+                }
+                if !(ax <= keep && ay <= keep) {
+                    // on the plate but within the guard: half lost, and deeper is worse (a part
+                    // already there must not cost as much at rest as pushed off the plate, or
+                    // no pulse is kept from pushing it off)
+                    gone += 0.5;
                 }
                 for a in [ax, ay] {
                     over += (a - inner).max(0.0) + 5.0 * (a - outer).max(0.0);
@@ -443,7 +450,8 @@ mod tests {
             1.0,
             1.0,
             2.0 * 2.0 * (0.03 + 0.05),
-            1.0, // within the guard
+            // within the guard: half lost, and its depth (37 mm in the band, 17 in its outer half)
+            0.5 + 2.0 * (0.037 + 5.0 * 0.017),
         ];
         for (a, b) in out.iter().zip(want) {
             assert!((a - b).abs() < 1e-12, "{out:?} against {want:?}");

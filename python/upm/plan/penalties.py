@@ -29,8 +29,9 @@ def penalty(
     """Edge and overlap penalties ``(K,)`` [m of cost] for predicted positions ``(K, M, 2)`` on a
     plate of half-side ``half`` [m].
 
-    ``lost_cost`` per part within ``guard`` of an edge or off the plate; inside the edge band
-    (``edge`` wide) ``edge_weight`` per metre, and five times more in its outer half. Parts that
+    ``lost_cost`` per part off the plate (or NaN), half of it per part within ``guard`` of an
+    edge; inside the edge band (``edge`` wide) ``edge_weight`` per metre, and five times more in
+    its outer half. Parts that
     were at ``start`` (``(M, 2)``, or ``(S, M, 2)`` with ``S`` dividing ``K``: each start for ``K /
     S`` consecutive layouts) are scored at their worst case, ``spread`` times their way further
     out. With ``part_radius``, half the depth of every overlap of two parts (a sweep along x in

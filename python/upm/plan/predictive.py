@@ -92,10 +92,11 @@ class PredictivePlanner:
     use : float
         Fraction of the force and stroke headroom a candidate may use.
     edge : float
-        Parts predicted closer than this to a plate edge [m] are penalised; within ``guard`` [m]
-        of the edge or beyond it, a part counts as lost (``lost_cost`` [m of task cost]): a
-        prediction is off by a millimetre or two (the median step error), so a pulse predicted to
-        leave a part at the very edge may drop it.
+        Parts predicted closer than this to a plate edge [m] are penalised; beyond the edge a part
+        counts as lost (``lost_cost`` [m of task cost]), and within ``guard`` [m] of it as half
+        lost besides its depth: a prediction is off by a millimetre or two (the median step
+        error), so a pulse predicted to leave a part at the very edge may drop it, while a part
+        already there is still worth bringing back rather than pushing off.
     spread : float
         A prediction's error grows with the way a part travels: a part predicted to move ``d``
         is scored by the edge penalty where it would be ``spread * d`` further toward the
