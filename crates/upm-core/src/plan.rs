@@ -181,8 +181,7 @@ fn per_layout(what: &str, src: &[[f64; 2]], m: usize, l: usize) -> Result<usize>
 /// Edge penalty of each layout `q (L, M, 2)` (`m` parts a layout) into `out (L,)`: `lost` per
 /// part off the plate or NaN; else `weight` times, per coordinate, its depth in the band plus
 /// five times its depth in the band's outer half, and half of `lost` more within `guard` of an
-/// edge; with `spread`, each part
-/// scored where its worst case puts it (see [`Spread`]).
+/// edge; with `spread`, each part scored where its worst case puts it (see [`Spread`]).
 pub fn edge_penalty(
     edges: &Edges,
     q: &[[f64; 2]],
