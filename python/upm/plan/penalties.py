@@ -31,11 +31,10 @@ def penalty(
 
     ``lost_cost`` per part off the plate (or NaN), half of it per part within ``guard`` of an
     edge; inside the edge band (``edge`` wide) ``edge_weight`` per metre, and five times more in
-    its outer half. Parts that
-    were at ``start`` (``(M, 2)``, or ``(S, M, 2)`` with ``S`` dividing ``K``: each start for ``K /
-    S`` consecutive layouts) are scored at their worst case, ``spread`` times their way further
-    out. With ``part_radius``, half the depth of every overlap of two parts (a sweep along x in
-    the core, not all pairs)."""
+    its outer half. Parts that were at ``start`` (``(M, 2)``, or ``(S, M, 2)`` with ``S``
+    dividing ``K``: each start for ``K / S`` consecutive layouts) are scored at their worst case,
+    ``spread`` times their way further out. With ``part_radius``, half the depth of every overlap
+    of two parts (a sweep along x in the core, not all pairs)."""
     q = np.ascontiguousarray(q, dtype=np.float64)
     begin = None
     if start is not None and spread > 0:
