@@ -47,6 +47,9 @@ def test_distance_sum_is_numpys_for_shared_targets_and_per_layout(slack: float, 
     assert rest.shape == (40, 7) and rest.flags.writeable
     assert np.all(rest == rest[0, 0])
     assert rest[0, 0] == pytest.approx(_distance_sum(q[0, 0], targets, slack, bend), rel=1e-14)
+    # one layout against targets over several times (a trajectory's references)
+    over_time = _distance_sum(q[0, 0], each[:, 0], slack, bend)
+    assert np.allclose(distance_sum(q[0, 0], each[:, 0], slack, bend), over_time, rtol=1e-14, atol=0)
     # one layout, no batch axis
     assert distance_sum(q[1, 2], targets, slack, bend).shape == ()
 

@@ -32,12 +32,13 @@ def distance_sum(q: FloatArray, targets: FloatArray, slack: float = 0.0, bend: f
     excess ``e`` below it counts ``e^2 / (2 bend)`` and one beyond it ``e - bend / 2`` (a Huber
     loss: the same slope far out, a vanishing one near the target).
 
-    ``q (..., M, 2)``; ``targets (M, 2)`` or broadcast against ``q``. One pass in the core
+    ``q (..., M, 2)`` and ``targets (..., M, 2)`` broadcast against each other. One pass in the core
     (``upm_core::plan::distance_sum``); with the same targets for every layout, a leading axis
     along which ``q`` is broadcast (a layout repeated, as resting layouts are) is summed once."""
-    q = np.asarray(q, dtype=np.float64)
+    # either side may carry the leading axes (a trajectory's references over elapsed times
+    # against one layout, or candidate layouts against one set of points)
+    q, t = np.broadcast_arrays(np.asarray(q, dtype=np.float64), np.asarray(targets, dtype=np.float64))
     lead, m = q.shape[:-2], q.shape[-2]
-    t = np.broadcast_to(np.asarray(targets, dtype=np.float64), q.shape)
     shape = lead
     if all(stride == 0 for stride in t.strides[: len(lead)]):  # one set of targets for all
         repeats = [stride == 0 for stride in q.strides[: len(lead)]]
