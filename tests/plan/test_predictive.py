@@ -174,11 +174,21 @@ def test_task_costs_vanish_at_the_goal_and_grow_with_distance() -> None:
     sort = control.SortTask({"red": -1, "blue": 1}, line=0.1, past=0.01, clear=0.003)
     s = _state([[-0.2, 0.0], [0.15, 0.0]], ("red", "blue"))
     assert sort.cost(s) == 0.0 and sort.done(s)
-    # the blue's way to 3 mm past its line weighs 2, its way to half of past beyond it 0.3
+    # the blue's way d to 3 mm past its line weighs 2, bent over 0.6 of the 16" plate's side
+    # (2 d (1 + d / 0.24384)); its way to half of past beyond it 0.3
     moved = np.array([[[-0.2, 0.0], [0.05, 0.0]], [[-0.2, 0.0], [0.0, 0.0]], [[-0.2, 0.0], [0.104, 0.0]]])
+    reach = 0.6 * 0.4064
     assert sort.cost(s, moved) == pytest.approx(
-        [2 * 0.053 + 0.3 * 0.055, 2 * 0.103 + 0.3 * 0.105, 0.3 * 0.001]
+        [
+            2 * 0.053 * (1 + 0.053 / reach) + 0.3 * 0.055,
+            2 * 0.103 * (1 + 0.103 / reach) + 0.3 * 0.105,
+            0.3 * 0.001,
+        ]
     )
+    # the bend: a metre of the farther part's way weighs more (a part left for last costs most)
+    step = np.array([[[-0.2, 0.0], [x, 0.0]] for x in (0.0, 0.01, 0.08, 0.09)])
+    c = sort.cost(s, step)
+    assert c[0] - c[1] > c[2] - c[3] > 0
     # a lost part costs more than one anywhere on the plate
     lost = np.array([[[-0.2, 0.0], [np.nan, np.nan]], [[-0.2, 0.0], [-0.2, 0.0]]])
     far, gone = sort.cost(s, lost[1:]), sort.cost(s, lost[:1])

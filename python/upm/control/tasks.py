@@ -129,6 +129,10 @@ class SortTask:
 
     NEAR, FAR = 2.0, 0.3
     """:meth:`cost`'s weights on the distance to ``clear`` past the line and to ``past / 2``."""
+    REACH = 0.6
+    """:meth:`cost`'s bend, as a share of the plate's side: a part ``d`` from ``clear`` past its
+    line counts ``NEAR * d * (1 + d / (REACH * plate_size))``, so a metre of the farthest part's
+    way weighs more than a metre of a near one's and the planner does not leave it for last."""
 
     def __init__(
         self,
@@ -282,12 +286,15 @@ class SortTask:
         return out
 
     def cost(self, state: State, positions: FloatArray | None = None, elapsed: ArrayLike = 0.0) -> FloatArray:
-        """Sum over labelled parts of two distances [m] still to go along x: to ``clear`` past
-        ``line``, weighted 2, and to ``line`` plus half of ``past``, weighted 0.3. A part's way
-        over its line counts most, so a planner spends no pulse on parts already over it while
-        others are not; the light pull on past it keeps vision noise and the far field of a pulse
-        that moves another part from unsorting a part just over it. A lost part (NaN) counts as
-        the plate's width at both weights."""
+        """Sum over labelled parts of two distances [m] still to go along x: ``d`` to ``clear``
+        past ``line``, weighted 2 and bent (``2 d (1 + d / (REACH * plate_size))``), and to
+        ``line`` plus half of ``past``, weighted 0.3. A part's way over its line counts most, so
+        a planner spends no pulse on parts already over it while others are not; the bend makes
+        the farthest part's way count most, so the last part is not left for last (a linear
+        cost traded it against the jitter of parts just over their lines: sort8, 10 seeds, max
+        26.6 -> 22.0 s); the light pull on past the line keeps vision noise and the far field of
+        a pulse that moves another part from unsorting a part just over it. A lost part (NaN)
+        counts as the plate's width at both weights, bent."""
         q = positions_of(state, positions)
         side = self._side(state)
         on = side != 0
@@ -298,11 +305,16 @@ class SortTask:
         np.maximum(near, 0.0, out=near)
         far = np.subtract(self.line + 0.5 * self.past, x, out=x)
         np.maximum(far, 0.0, out=far)
-        near *= self.NEAR
+        reach = self.REACH * 2 * self.half
         far *= self.FAR
-        near += far
-        near[~np.isfinite(near)] = (self.NEAR + self.FAR) * 2 * self.half
-        out: FloatArray = np.sum(near, axis=-1)
+        cost = np.multiply(near, self.NEAR / reach)  # NEAR d (1 + d / reach) + FAR f
+        cost += self.NEAR
+        cost *= near
+        cost += far
+        # a lost part as the plate's side at both weights, bent
+        width = 2 * self.half
+        cost[~np.isfinite(cost)] = self.NEAR * width * (1 + width / reach) + self.FAR * width
+        out: FloatArray = np.sum(cost, axis=-1)
         return out
 
     def done(self, state: State) -> bool:
