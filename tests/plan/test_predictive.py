@@ -512,3 +512,30 @@ def test_the_focus_breaks_ties_of_slope_by_distance_and_falls_back_to_every_part
     np.testing.assert_array_equal(first[0], pos[[1, 3]])  # the two farthest, in part order
     np.testing.assert_array_equal(every[0], pos)
     assert len(_focus(task, state, pos, toward, None)) == 1
+
+
+def test_a_stalled_search_is_made_again_with_the_edge_band_relaxed(monkeypatch: pytest.MonkeyPatch) -> None:
+    """sort32 seed 3's end, built by hand: sorted chips along both edges (in the band, 17 mm
+    from it), one blue chip 0.7 mm short of its line. Every pulse that nudges it also nudges a
+    chip in the band outward at five times the task's price per metre, so the full search finds
+    nothing and the loop would idle for good; the search made again at a relaxed band weight
+    carries it over while no chip comes within the guard."""
+    from upm.experiments.demos import LIMITS
+    from upm.plan import predictive
+
+    line = 0.0366
+    task = control.SortTask({"red": -1, "blue": 1}, line=line, margin=0.08, part_radius=CHIP)
+    ys = [-0.15, -0.1, -0.05, 0.0, 0.05, 0.1, 0.15]
+    s = _state([[-0.186, y] for y in ys] + [[0.186, y] for y in ys] + [[line - 0.0007, -0.052]],
+               ("red",) * 7 + ("blue",) * 8)  # fmt: skip
+    assert not task.done(s)
+    monkeypatch.setattr(predictive, "RELAXED", 1.0)  # no relief: the search as it was
+    assert PredictivePlanner(LIMITS, mu=0.3, part_radius=CHIP).plan_task(s, task) == []
+    monkeypatch.undo()
+    planner = PredictivePlanner(LIMITS, mu=0.3, part_radius=CHIP)
+    pulses = planner.plan_task(s, task)
+    assert len(pulses) == 1 and planner.expected is not None
+    after = planner.expected[1]
+    assert after[-1, 0] > line  # over its line
+    assert np.all(np.abs(after) < LIMITS.size / 2 - planner.guard)  # nothing pushed to the edge
+    assert planner.edge_weight == 1.0  # the relief lasts one search
