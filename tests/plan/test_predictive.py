@@ -461,19 +461,19 @@ def test_the_edge_penalty_counts_band_depth_and_lost_parts() -> None:
     q = np.array(
         [
             [[0.0, 0.0], [half - 0.03, 0.0]],
-            [[0.0, -(half - 0.01)], [np.nan, 0.0]],
+            [[0.0, -(half - 0.014)], [np.nan, 0.0]],
             [[half + 1e-3, 0.0], [0.0, 0.0]],
         ]
     )
     # per coordinate: its depth in the 40 mm band, plus five times its depth in the band's outer half
-    want = [2.0 * 0.01, 2.0 * (0.03 + 5 * 0.01) + 1.5, 1.5]
+    want = [2.0 * 0.01, 2.0 * (0.026 + 5 * 0.006) + 1.5, 1.5]
     assert planner._penalty(q, overlaps=False) == pytest.approx(want, abs=1e-12)
-    # within the guard (8 mm by default) of an edge a part counts half lost, besides its depth: a
+    # within the guard (12 mm by default) of an edge a part counts half lost, besides its depth: a
     # prediction is off by a millimetre or two, and a part left riding at the edge is dropped
     # sooner or later; but off the plate it counts whole, or a pulse that pushes a part already in
     # the guard over the edge would cost no more than resting (sort32 seed 5 lost a chip so)
-    near = np.array([[[0.0, half - 0.006]], [[0.0, half - 0.01]], [[0.0, half + 0.001]]])
-    want = [0.75 + 2.0 * (0.034 + 5 * 0.014), 2.0 * (0.03 + 5 * 0.01), 1.5]
+    near = np.array([[[0.0, half - 0.01]], [[0.0, half - 0.014]], [[0.0, half + 0.001]]])
+    want = [0.75 + 2.0 * (0.03 + 5 * 0.01), 2.0 * (0.026 + 5 * 0.006), 1.5]
     assert planner._penalty(near, overlaps=False) == pytest.approx(want, abs=1e-12)
     for bad in (-1e-3, 0.04, math.nan, "1"):
         with pytest.raises(upm.ParameterError, match="guard must be >= 0 and below edge"):
