@@ -17,10 +17,22 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .._errors import ParameterError
 from ..plate.pulses import Pulse
 from .penalties import in_band
 
 FloatArray = NDArray[np.float64]
+
+
+def pair_sizes(pairs: Any) -> tuple[int, int]:
+    """``PredictivePlanner(pairs=)`` checked: first pulses, second pulses."""
+    ok = isinstance(pairs, (tuple, list)) and len(pairs) == 2
+    ok = ok and all(isinstance(n, (int, np.integer)) and not isinstance(n, bool) and n >= 1 for n in pairs)
+    if not ok:
+        raise ParameterError(
+            f"pairs must be None or two integers >= 1 (first pulses, second pulses); got {pairs!r}"
+        )
+    return int(pairs[0]), int(pairs[1])
 
 
 def _in_band(planner: Any, q: FloatArray) -> NDArray[np.bool_]:

@@ -45,7 +45,7 @@ from .aim import aimed, descent
 from .candidates import Candidates, aligned_centers, generate
 from .fitting import learn, restarted
 from .goals import PositionsView, StepsGoal
-from .lookahead import pair_rates, two_step
+from .lookahead import pair_rates, pair_sizes, two_step
 from .macros import MacroTable
 from .penalties import penalty
 from .sizing import positive as _positive
@@ -53,15 +53,12 @@ from .sizing import separate, slide_to_rest
 
 __all__ = ["SHORTLIST", "PredictivePlanner"]
 
-#: Candidates of a plan made ahead that :meth:`PredictivePlanner.revise` scores again when it
-#: does not hold.
+#: Candidates of a plan made ahead that :meth:`PredictivePlanner.revise` scores again.
 SHORTLIST = 32
 
-#: When no candidate gains, the search is made once more with the edge band's weight times this
-#: (the guard and the loss keep their full price): a part or two left a few millimetres short
-#: while sorted parts lie in the band otherwise stalls the loop for good (sort32 seed 3: one chip
-#: 0.7 mm short of its line for 500 cycles, every nudge of it also nudging a part in the band
-#: 1-2 mm outward, at five times the task's price per metre).
+#: When no candidate gains, the search is made once more with the edge band's weight times this,
+#: the guard and the loss at full price (sort32 seed 3 idled 500 cycles with a chip 0.7 mm short:
+#: every nudge of it also nudged a part in the band outward, at five times the task's price).
 RELAXED = 0.3
 
 FloatArray = NDArray[np.float64]
@@ -69,16 +66,6 @@ FloatArray = NDArray[np.float64]
 
 class _CostTask(Protocol):
     def cost(self, state: Any, positions: FloatArray | None = None, elapsed: Any = 0.0) -> Any: ...
-
-
-def _pair_sizes(pairs: Any) -> tuple[int, int]:
-    ok = isinstance(pairs, (tuple, list)) and len(pairs) == 2
-    ok = ok and all(isinstance(n, (int, np.integer)) and not isinstance(n, bool) and n >= 1 for n in pairs)
-    if not ok:
-        raise ParameterError(
-            f"pairs must be None or two integers >= 1 (first pulses, second pulses); got {pairs!r}"
-        )
-    return int(pairs[0]), int(pairs[1])
 
 
 class PredictivePlanner:
@@ -103,9 +90,8 @@ class PredictivePlanner:
         counts as lost (``lost_cost`` [m of task cost]), and within ``guard`` [m] of it as half
         lost besides its depth: a prediction is off by a millimetre or two (the median step
         error), so a pulse predicted to leave a part at the very edge may drop it, while a part
-        already there is still worth bringing back rather than pushing off. 12 mm: now and then
-        a pulse misses by 10 mm (sort32 seed 1: a sorted chip left 10 mm from the edge, outside
-        an 8 mm guard and so not brought in, fell off in a 0.6 s jet predicted to move it 3 mm).
+        already there is still worth bringing back rather than pushing off. 12 mm: sort32 seed 1
+        lost a chip left 10 mm from the edge, outside an 8 mm guard, to a pulse 10 mm off.
     spread : float
         A prediction's error grows with the way a part travels: a part predicted to move ``d``
         is scored by the edge penalty where it would be ``spread * d`` further toward the
@@ -115,7 +101,7 @@ class PredictivePlanner:
         The penalty per metre a part is predicted inside that band [m of cost per m]; the band's
         outer half counts five times more. A low weight lets a pulse nudge parts already near an
         edge a little further when it moves others a lot (a steep one stalls the end of a sort
-        whose sorted parts lie along the edge).
+        whose sorted parts lie along the edge); :data:`RELAXED` when nothing gains.
     min_gain : float
         No pulse when the best predicted cost decrease is below this [m].
     adapt : bool
@@ -224,7 +210,7 @@ class PredictivePlanner:
         self.grid = int(grid)
         self.jet_radii = tuple(_positive("jet_radii", r) for r in jet_radii)
         self.mu_estimate = self.mu
-        self.pairs = None if pairs is None else _pair_sizes(pairs)
+        self.pairs = None if pairs is None else pair_sizes(pairs)
         self.macros = (
             None if lookahead is None else MacroTable(limits, mu=self.mu, mu_s=mu_s, on_time=lookahead)
         )
@@ -573,9 +559,7 @@ class PredictivePlanner:
         candidates only (its :data:`SHORTLIST` best by gain per second, each predicted and scored
         again from where the parts are, the best few with contacts), a quarter of a full search's
         time; the full search when none of them gains, and for more than ``focus`` parts (sort32
-        through the loop, seeds 1 and 2: 2 and 3 chips lost choosing again with the contact
-        re-rank at the coarse step, 1 on seed 1 choosing again alone; 0 lost on 5 seeds with a
-        full search)."""
+        seeds 1 and 2 lost chips choosing again; 0 lost on 5 seeds with a full search)."""
         ranked = cast(tuple[Any, ...], token)[4]
         if self.focus is not None and len(np.asarray(state.positions)) > self.focus:
             ranked = ()
