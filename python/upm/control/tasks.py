@@ -292,7 +292,7 @@ class SortTask:
         a planner spends no pulse on parts already over it while others are not; the bend makes
         the farthest part's way count most, so the last part is not left for last (a linear
         cost traded it against the jitter of parts just over their lines: sort8, 10 seeds, max
-        26.6 -> 22.0 s); the light pull on past the line keeps vision noise and the far field of
+        26.6 -> 23.9 s); the light pull on past the line keeps vision noise and the far field of
         a pulse that moves another part from unsorting a part just over it. A lost part (NaN)
         counts as the plate's width at both weights, bent."""
         q = positions_of(state, positions)
