@@ -146,8 +146,9 @@ before = others()
 for call in calls:
     call(1)
 alone = others()
-for call in calls:
-    call(None)
+for _ in range(3):  # three times over: the pool's share holds a margin on a loaded machine
+    for call in calls:
+        call(None)
 print(alone - before, others() - alone)
 """
 
