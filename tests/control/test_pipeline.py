@@ -119,6 +119,23 @@ def test_holds_needs_the_same_parts_each_near_its_prediction():
     assert not _holds(np.array([4, 9]), pos, ids, pos, 0.003)  # another part
 
 
+def test_a_shape_keeps_a_plan_made_ahead_only_as_near_as_its_parts_are_to_their_points():
+    plant = SimulatedUPM(parts=[[0.0, 0.0], [0.05, 0.0], [0.1, 0.0]])
+    planner = PredictivePlanner(plant.limits)
+    shape = control.ShapeTask([[0.0, 0.0], [0.05, 0.0], [0.1, 0.0]])  # tolerance 3.7 mm
+    loop = control.Loop(plant, plant.camera(), planner, shape, part_radius=0.0095, pipeline=0.006)
+    # a part 80 mm out may end 6 mm off its prediction; 12 mm out, 3 mm; 1 mm out, half the tolerance
+    within = loop._within(np.array([0.08, 0.012, 0.001, np.nan]))
+    assert within == pytest.approx([0.006, 0.003, shape.tolerance / 2, 0.006])
+    sort = control.Loop(plant, plant.camera(), planner, control.SortTask({"penny": 1}), part_radius=0.0095,
+                        pipeline=0.006)  # fmt: skip
+    assert sort._within(np.array([0.0, 0.1])) == pytest.approx([0.006, 0.006])  # no points: as given
+    ids, pos = np.array([1, 2]), np.array([[0.0, 0.0], [0.05, 0.0]])
+    seen = pos + np.array([[0.0, 0.002], [0.0, 0.0]])
+    assert _holds(ids, seen, ids, pos, np.array([0.003, 0.001]))
+    assert not _holds(ids, seen, ids, pos, np.array([0.001, 0.003]))
+
+
 def test_pipeline_needs_a_planner_that_plans_ahead():
     plant = SimulatedUPM(parts=[[0.0, 0.0]])
     with pytest.raises(upm.ParameterError, match="pipeline"):

@@ -269,6 +269,38 @@ def test_the_peer_plays_the_note_that_lowers_the_squared_distance_most(greedy):
 # -- through the full loop --------------------------------------------------------------------------
 
 
+def test_a_narrow_jet_is_as_wide_as_the_nearest_neighbour_is_near():
+    from upm.plan.candidates import narrow_radii
+
+    crowd = np.array([[0.0, 0.0], [0.0135, 0.0], [0.0, 0.031], [0.2, 0.2], [0.2, 0.207]])
+    rho = narrow_radii(crowd[:4], crowd, 0.005, 0.03)
+    # 13.5 mm to 14 (2 mm steps), both ways; 31 mm is past the widest (none); a lone part none
+    assert rho[0] == pytest.approx(0.014) and rho[1] == pytest.approx(0.014)
+    assert np.isnan(rho[2]) and rho[3] == pytest.approx(0.010)  # 7 mm apart: two radii at least
+    assert np.all(np.isnan(narrow_radii(crowd[:1], crowd[:1], 0.005, 0.03)))
+
+
+def test_narrow_jets_place_a_part_among_placed_neighbours_where_wide_ones_cannot():
+    # shape8 (the letter L of 10 mm washers, seed 1) where it stalled for 300 cycles: five
+    # washers 3.8-5.8 mm from their points, 14-27 mm apart; every 40 mm jet moves the
+    # neighbours nearly as far as the washer it is aimed at
+    parts = np.array([[2.9, -54.4], [-28.0, -54.4], [29.6, -52.8], [-37.8, -30.5], [-32.5, 51.0],
+                      [-31.3, -5.0], [-35.5, 8.0], [-32.5, 31.4]]) / 1000  # fmt: skip
+    points = np.array([[-32.3, 29.0], [27.2, -49.9], [-26.7, -49.9], [0.5, -50.0], [-32.3, 9.5],
+                       [-32.4, 47.9], [-32.7, -31.3], [-32.3, -10.7]]) / 1000  # fmt: skip
+    task, now = ShapeTask(points, part_radius=0.005), state(parts)
+    wide = PredictivePlanner(LIMITS, mu=0.3, part_radius=0.005, narrow=False)
+    assert wide.plan_task(now, task) == []
+    planner = PredictivePlanner(LIMITS, mu=0.3, part_radius=0.005)
+    (pulse,) = planner.plan_task(now, task)
+    assert pulse.kind == "jet" and pulse.rho < 0.04
+    after = planner.expected[1]
+    assert task.cost(now, after[None])[0] < task.cost(now) - 2e-4
+    moved = np.hypot(*(after - parts).T)
+    aimed_at = int(np.argmin(np.hypot(*(parts - pulse.center).T)))
+    assert moved[aimed_at] > 2 * np.delete(moved, aimed_at).max()
+
+
 def test_a_12_part_ring_assembles_through_the_loop_with_none_lost():
     radius = 0.006
     targets = shapes.ring(12, 0.07)

@@ -42,7 +42,7 @@ from ..physics.sim import Disk, simulate_batch
 from ..plate.drive import DriveLimits, drive_frequency
 from ..plate.pulses import Pulse
 from .aim import aimed, descent
-from .candidates import Candidates, aligned_centers, generate
+from .candidates import Candidates, aligned_centers, generate, narrow_radii
 from .fitting import learn, restarted
 from .goals import PositionsView, StepsGoal
 from .lookahead import pair_rates, pair_sizes, two_step
@@ -111,6 +111,10 @@ class PredictivePlanner:
     grid, jet_radii :
         Rotation centres on a ``grid x grid`` lattice over the plate's middle half (and on its
         middle lines); jet radii [m].
+    narrow : bool
+        With ``part_radius``, jets at a part whose nearest neighbour is closer than the smallest
+        of ``jet_radii`` also at that distance (:func:`~upm.plan.candidates.narrow_radii`): they
+        move the part while the neighbour holds (the last millimetres of a shape).
     lookahead : float or None
         On-time [s] of the long pulses (:class:`~upm.plan.macros.MacroTable`) each candidate is
         also scored with as a second step; ``None``: one step only.
@@ -155,6 +159,7 @@ class PredictivePlanner:
         dt_factor: int = 24,
         grid: int = 5,
         jet_radii: Sequence[float] = (0.04, 0.08, 0.12),
+        narrow: bool = True,
         lookahead: float | None = 1.0,
         pairs: tuple[int, int] | None = (16, 100),
         aligned: int = 16,
@@ -209,6 +214,7 @@ class PredictivePlanner:
         self.dt_factor = int(dt_factor)
         self.grid = int(grid)
         self.jet_radii = tuple(_positive("jet_radii", r) for r in jet_radii)
+        self.narrow = bool(narrow)
         self.mu_estimate = self.mu
         self.pairs = None if pairs is None else pair_sizes(pairs)
         self.macros = (
@@ -374,27 +380,21 @@ class PredictivePlanner:
         toward: FloatArray | None = None,
         carried: float | None = None,
         aligned: tuple[FloatArray, FloatArray] | None = None,
+        crowd: FloatArray | None = None,
     ) -> Candidates:
         """This cycle's candidates for parts at ``positions`` (see :mod:`upm.plan.candidates`),
         within the stroke the plate's leftover motion leaves (``carried`` [m], default from the
         planner's plate model); jets along ``toward (M, 2)``; rotations about the ``aligned``
-        centres and senses."""
-        return generate(
-            self.limits,
-            positions,
-            frequencies=self.frequencies,
-            on_times=self.on_times,
-            grid=self.grid,
-            jet_radii=self.jet_radii,
-            use=self.use * self.headroom,
-            cache=self._cache,
-            carried=self._carried() if carried is None else carried,
-            jet_toward=toward,
-            pulse_cache=self._pulses,
-            jet_on_times=(0.35, 0.6),
-            rotation_on_times=self.on_times[:2],
-            aligned=aligned,
-        )
+        centres and senses; ``narrow`` jets by the neighbours among ``crowd`` (all the parts)."""
+        narrow, crowd = None, positions if crowd is None else crowd
+        if self.narrow and self.part_radius is not None and self.jet_radii:
+            narrow = narrow_radii(positions, crowd, self.part_radius, min(self.jet_radii))
+        carried = self._carried() if carried is None else carried
+        return generate(self.limits, positions, frequencies=self.frequencies, on_times=self.on_times,
+                        grid=self.grid, jet_radii=self.jet_radii, use=self.use * self.headroom,
+                        cache=self._cache, carried=carried, jet_toward=toward, pulse_cache=self._pulses,
+                        jet_on_times=(0.35, 0.6), rotation_on_times=self.on_times[:2], aligned=aligned,
+                        narrow=narrow)  # fmt: skip
 
     def choose(
         self, task: _CostTask, state: Any, pulses: Sequence[Pulse], ids: NDArray[np.int64] | None = None
@@ -506,7 +506,7 @@ class PredictivePlanner:
         for near, way in aimed(task, state, pos, toward, focus):
             # pulses at parts only for the parts with the most to gain: the candidates stay as
             # many whatever the count of parts, and each prediction O(M)
-            cands = self.candidates(near, way, carried, aligned)
+            cands = self.candidates(near, way, carried, aligned, pos)
             if self.macros is not None:  # the long pulses of the look-ahead are playable themselves
                 cands = cands + self.macros.playable(carried, self.headroom)
             best, _, _, duration, final = self._choose(task, state, cands.pulses, ids)
