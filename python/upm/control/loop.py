@@ -84,7 +84,9 @@ class Loop:
         Plan while the plate plays: as each pulse plays, the planner (one with ``speculate`` and
         ``adopt``: :class:`~upm.plan.PredictivePlanner`) plans the next from where the pulse is
         predicted to leave the parts; when the frame arrives, that plan is played if every part
-        is within ``pipeline`` [m, at most 0.1] of its prediction (and the same parts are seen);
+        is within ``pipeline`` [m, at most 0.1] of its prediction (for a task of points with a
+        ``tolerance``, within a quarter of its way still to go, at least half the tolerance; and
+        the same parts are seen);
         else the planner's ``revise`` plans again from where the parts are (the predictive
         planner chooses among that plan's best candidates for up to ``focus`` parts:
         ``log.meta["revised"]`` counts those cycles; it searches afresh beyond), or a planner

@@ -9,16 +9,15 @@ Each cycle :class:`PredictivePlanner`
    on-times);
 2. predicts them all from the tracked positions in batched :func:`upm.simulate_batch` calls (one
    per on-time and frequency; point parts, a coarse step, while the plate moves; then each part
-   slides to rest in closed form),
-   each part's predicted step scaled by its learnt gain;
+   slides to rest in closed form), each part's predicted step scaled by its learnt gain;
 3. scores each by the task's own cost (``task.cost(state, positions, elapsed)``) against resting
    for as long, plus penalties for parts leaving the plate's usable area and for overlapping
    parts, per second of plate time (the pulse and the rest while the parts stop); the best few
    also as the first of two pulses, each followed by the best of the one-step favourites predicted
    from where it leaves the parts (all those layouts in one batched call), and as the first of a
    pulse and a long one from displacement tables (:class:`~upm.plan.macros.MacroTable`);
-4. re-ranks the best few with disks that collide (rapier2d) at a finer step, and plays the best,
-   one pulse; none when the best predicted gain is below ``min_gain``.
+4. re-ranks the best few with disks that collide (rapier2d) at a finer step, as the board plays
+   them (:mod:`upm.plan.played`), and plays the best; none when no gain reaches ``min_gain``.
 
 On the next cycle it compares the predicted and achieved steps (:attr:`step_errors`), fits the
 friction coefficient that best explains the last pulse (one batched call over candidate values,
@@ -48,6 +47,7 @@ from .goals import PositionsView, StepsGoal
 from .lookahead import pair_rates, pair_sizes, two_step
 from .macros import MacroTable
 from .penalties import penalty
+from .played import drive_shift
 from .sizing import positive as _positive
 from .sizing import separate, slide_to_rest
 
@@ -81,6 +81,9 @@ class PredictivePlanner:
     part_radius : float or None
         Parts are disks of this radius [m]: overlaps are penalised, and the best ``rerank``
         candidates are predicted again with contacts (rapier2d).
+    drive : bool
+        Those re-ranked predictions also carry how the drive plays each pulse (the board envelopes
+        the motors' forces: :func:`~upm.plan.played.drive_shift`), which moves a jet's far parts.
     frequencies, on_times : tuple of float
         Drive frequencies [Hz] and on-times [s] of the candidates.
     use : float
@@ -88,20 +91,17 @@ class PredictivePlanner:
     edge : float
         Parts predicted closer than this to a plate edge [m] are penalised; beyond the edge a part
         counts as lost (``lost_cost`` [m of task cost]), and within ``guard`` [m] of it as half
-        lost besides its depth: a prediction is off by a millimetre or two (the median step
-        error), so a pulse predicted to leave a part at the very edge may drop it, while a part
-        already there is still worth bringing back rather than pushing off. 12 mm: sort32 seed 1
-        lost a chip left 10 mm from the edge, outside an 8 mm guard, to a pulse 10 mm off.
+        lost besides its depth: a pulse predicted to leave a part at the very edge may drop it,
+        while a part already there is worth bringing back (12 mm: sort32 seed 1 lost a chip left
+        10 mm from the edge, outside an 8 mm guard, to a pulse 10 mm off).
     spread : float
         A prediction's error grows with the way a part travels: a part predicted to move ``d``
         is scored by the edge penalty where it would be ``spread * d`` further toward the
-        nearer edge on each axis (its worst case). A long pulse that carries a part 20 cm to
-        just inside the band counts it lost; a short step to the same place does not.
+        nearer edge on each axis (its worst case).
     edge_weight : float
         The penalty per metre a part is predicted inside that band [m of cost per m]; the band's
-        outer half counts five times more. A low weight lets a pulse nudge parts already near an
-        edge a little further when it moves others a lot (a steep one stalls the end of a sort
-        whose sorted parts lie along the edge); :data:`RELAXED` when nothing gains.
+        outer half counts five times more (a steep one stalls the end of a sort whose sorted
+        parts lie along the edge); :data:`RELAXED` when nothing gains.
     min_gain : float
         No pulse when the best predicted cost decrease is below this [m].
     adapt : bool
@@ -119,23 +119,20 @@ class PredictivePlanner:
         On-time [s] of the long pulses (:class:`~upm.plan.macros.MacroTable`) each candidate is
         also scored with as a second step; ``None``: one step only.
     pairs : (int, int) or None
-        Two-pulse search: the ``pairs[0]`` best candidates are each scored followed by the best
-        of the ``pairs[1]`` best one-step candidates, predicted from where the first leaves the
-        parts (gain per second over both pulses; the second's plate time as from the present
-        layout); the first of the best pair is played. ``None``: off.
+        Two-pulse search: the ``pairs[0]`` best candidates each followed by the best of the
+        ``pairs[1]`` best one-step candidates from where the first leaves the parts (gain per
+        second over both); the first of the best pair is played. ``None``: off.
     aligned : int
         Rotations about this many centres picked each cycle for the task by a quick model
         (:func:`~upm.plan.candidates.aligned_centers`), each at on-times 0.2 and 0.4 s: pulses
         that move many parts toward their goals at once. 0: none.
     learn_tilt : bool
         Also learn the plate's slope on line (:attr:`tilt_estimate`, :func:`.fitting.fit_tilt`;
-        with ``adapt``). Off by default: over 5 seeds half a degree off level it helped goto6 (4/5
-        done, median 43 s, against 3/5 and 55 s) but lost a chip of a sort8 seed that finishes
-        without it (``bench/robustness.py --learn-tilt``).
+        with ``adapt``). Off: half a degree off level it helped goto6 but lost a sort8 chip.
     focus : int or None
         Pulses at parts (rotations about a part, jets at it) only for this many parts a cycle,
-        those whose cost falls most steeply as they move (the parts with the most still to gain);
-        ``None``: at every part. Keeps a cycle's candidates as many for 100 parts as for 16.
+        those whose cost falls most steeply as they move; ``None``: at every part. Keeps a
+        cycle's candidates as many for 100 parts as for 16.
     """
 
     def __init__(
@@ -145,6 +142,7 @@ class PredictivePlanner:
         mu: float = 0.3,
         mu_s: float | None = None,
         part_radius: float | None = None,
+        drive: bool = True,
         frequencies: Sequence[float] = (25.0, 35.0, 50.0, 70.0),
         on_times: Sequence[float] = (0.2, 0.4, 0.8),
         use: float = 0.9,
@@ -214,7 +212,7 @@ class PredictivePlanner:
         self.dt_factor = int(dt_factor)
         self.grid = int(grid)
         self.jet_radii = tuple(_positive("jet_radii", r) for r in jet_radii)
-        self.narrow = bool(narrow)
+        self.narrow, self.drive = bool(narrow), bool(drive)
         self.mu_estimate = self.mu
         self.pairs = None if pairs is None else pair_sizes(pairs)
         self.macros = (
@@ -251,8 +249,7 @@ class PredictivePlanner:
         return 1.0 if self.mu_s is None else self.mu_s / self.mu
 
     def _coast(self, pulses: Sequence[Pulse]) -> float:
-        """Longest time parts need to stop after a pulse: a part gains at most ``mu_s g`` while
-        the pulse lasts and loses ``mu g`` after."""
+        """Longest time parts need to stop after a pulse (gaining ``mu_s g``, losing ``mu g``)."""
         return 1.05 * max(p.on_time for p in pulses) * self._static + 0.02
 
     def predict(
@@ -440,6 +437,9 @@ class PredictivePlanner:
         if self.part_radius is not None and self.rerank > 0 and len(order):
             top = [int(k) for k in order[: self.rerank]]
             f2, d2 = self.predict([pulses[k] for k in top], pos, disks=True, fine=True)
+            if self.drive:  # as the board plays them, from where the plate is
+                f2 = f2 + drive_shift(self.limits, [pulses[k] for k in top], pos, mu=self.mu_estimate,
+                                      mu_s=self.mu_estimate * self._static, state=self._plate)  # fmt: skip
             f2 = np.where(np.isfinite(f2), pos + gain_of[None, :, None] * (f2 - pos), np.nan)
             g2, r2 = self._score(task, state, pos, f2, d2)
             r2 = np.maximum(r2, two_step(self, task, state, pos, f2, d2))
