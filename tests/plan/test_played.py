@@ -57,3 +57,22 @@ def test_a_pause_is_not_shifted_and_no_parts_are_none():
     assert shift.shape == (2, 3, 2)
     assert np.all(shift[0] == 0.0) and np.all(np.isfinite(shift[1]))
     assert drive_shift(LIMITS, [jet], np.zeros((0, 2)), mu=0.3).shape == (1, 0, 2)
+
+
+def test_the_planner_expects_its_pulse_where_the_drive_leaves_the_parts():
+    from upm.control import GotoTask, State
+
+    parts = PARTS[:4]
+    now = State(0, 0.0, np.arange(4), parts, ("penny",) * 4, 0.0)
+    task = GotoTask(parts + np.array([0.02, 0.0]))
+    kw = {"mu": 0.3, "part_radius": 0.005, "lookahead": None, "pairs": None, "adapt": False}
+    plain = PredictivePlanner(LIMITS, drive=False, **kw)
+    (pulse,) = plain.plan_task(now, task)
+    np.testing.assert_allclose(plain.expected[1], plain._last[3], atol=0)
+    planner = PredictivePlanner(LIMITS, **kw)
+    assert planner.plan_task(now, task) == [pulse]  # the same choice, drive or not
+    expected = planner.expected[1]
+    ideal = planner._last[3]  # what the planner learns from: its own model's prediction
+    shift = drive_shift(LIMITS, [pulse], parts, mu=0.3)[0]
+    np.testing.assert_allclose(expected - ideal, shift, atol=1e-12)
+    assert np.abs(shift).max() > 0  # a pulse the plate plays: the drive moves the parts otherwise

@@ -16,8 +16,8 @@ Each cycle :class:`PredictivePlanner`
    also as the first of two pulses, each followed by the best of the one-step favourites predicted
    from where it leaves the parts (all those layouts in one batched call), and as the first of a
    pulse and a long one from displacement tables (:class:`~upm.plan.macros.MacroTable`);
-4. re-ranks the best few with disks that collide (rapier2d) at a finer step, as the board plays
-   them (:mod:`upm.plan.played`), and plays the best; none when no gain reaches ``min_gain``.
+4. re-ranks the best few with disks that collide (rapier2d) at a finer step, and plays the best
+   (expected as the board plays it, :mod:`upm.plan.played`); none when no gain reaches ``min_gain``.
 
 On the next cycle it compares the predicted and achieved steps (:attr:`step_errors`), fits the
 friction coefficient that best explains the last pulse (one batched call over candidate values,
@@ -47,7 +47,7 @@ from .goals import PositionsView, StepsGoal
 from .lookahead import pair_rates, pair_sizes, two_step
 from .macros import MacroTable
 from .penalties import penalty
-from .played import drive_shift
+from .played import as_played
 from .sizing import positive as _positive
 from .sizing import separate, slide_to_rest
 
@@ -82,8 +82,9 @@ class PredictivePlanner:
         Parts are disks of this radius [m]: overlaps are penalised, and the best ``rerank``
         candidates are predicted again with contacts (rapier2d).
     drive : bool
-        Those re-ranked predictions also carry how the drive plays each pulse (the board envelopes
-        the motors' forces: :func:`~upm.plan.played.drive_shift`), which moves a jet's far parts.
+        The pulse played is expected where the board's drive puts the parts (it envelopes the
+        motors' forces: :func:`~upm.plan.played.drive_shift`): the tracker's guide and the start
+        of a plan made ahead.
     frequencies, on_times : tuple of float
         Drive frequencies [Hz] and on-times [s] of the candidates.
     use : float
@@ -109,8 +110,8 @@ class PredictivePlanner:
     dt_factor : int
         Integrator steps per period of the highest harmonic when ranking (re-ranking uses twice).
     grid, jet_radii :
-        Rotation centres on a ``grid x grid`` lattice over the plate's middle half (and on its
-        middle lines); jet radii [m].
+        Rotation centres on a ``grid x grid`` lattice over the plate's middle half and its middle
+        lines; jet radii [m].
     narrow : bool
         With ``part_radius``, jets at a part whose nearest neighbour is closer than the smallest
         of ``jet_radii`` also at that distance (:func:`~upm.plan.candidates.narrow_radii`): they
@@ -437,9 +438,6 @@ class PredictivePlanner:
         if self.part_radius is not None and self.rerank > 0 and len(order):
             top = [int(k) for k in order[: self.rerank]]
             f2, d2 = self.predict([pulses[k] for k in top], pos, disks=True, fine=True)
-            if self.drive:  # as the board plays them, from where the plate is
-                f2 = f2 + drive_shift(self.limits, [pulses[k] for k in top], pos, mu=self.mu_estimate,
-                                      mu_s=self.mu_estimate * self._static, state=self._plate)  # fmt: skip
             f2 = np.where(np.isfinite(f2), pos + gain_of[None, :, None] * (f2 - pos), np.nan)
             g2, r2 = self._score(task, state, pos, f2, d2)
             r2 = np.maximum(r2, two_step(self, task, state, pos, f2, d2))
@@ -522,10 +520,11 @@ class PredictivePlanner:
         """Play ``pulse`` with the rest its parts need to stop (``duration`` in all) from plate time
         ``now``: the plate model advanced, the prediction kept to learn from and to track by."""
         played = replace(pulse, rest=max(duration - pulse.on_time + 0.01, 0.0))
+        seen = as_played(self, pulse, pos, final)  # expected as the board plays it
         self._advance_plate(played)
         self._t_next = now + played.duration
         self._last = (played, ids.copy(), pos.copy(), np.asarray(final, dtype=float))
-        self.expected = (ids.copy(), self._last[3].copy())
+        self.expected = (ids.copy(), seen)
         return [played]
 
     def speculate(self, state: Any, task: _CostTask) -> tuple[list[Pulse], object]:
