@@ -7,8 +7,8 @@ model): on the ramps its velocity is not the enveloped one (on a free plate it i
 of e' u``, and the flexures then pull on the drift). Rotations and translations barely notice; a
 jet's large 2f/3 rotation term sweeps the parts far from its focus in constant slip, and the ramps'
 slight asymmetry feeds them millimetres that ``Pulse.motion()`` says they do not move
-(``bench/prediction.py``: 4.7 mm median error for 5.6 mm moves on the plant, 0.3 mm on an ideal
-plate).
+(``bench/prediction.py``: 4.9 mm median error for 6.9 mm moves on the plant, 0.4 mm on an ideal
+plate; 0.5 mm on the plant with this correction).
 
 :func:`drive_shift` is the difference, for point parts: where each part ends under the plate's
 velocity as the drive plays the pulse (sampled at the board's rate, from the plate's present state)
