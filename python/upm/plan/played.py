@@ -13,8 +13,9 @@ plate; 0.5 mm on the plant with this correction).
 :func:`drive_shift` is the difference, for point parts: where each part ends under the plate's
 velocity as the drive plays the pulse (sampled at the board's rate, from the plate's present state)
 less where it ends under ``Pulse.motion()``, both at the samples' step. The predictive planner adds
-it to where it expects the pulse it plays to leave the parts (``PredictivePlanner(drive=True)``):
-the tracker's guide, and the layout a plan made ahead starts from and is held against. It does not
+it to where it expects a pulse planned afresh to leave the parts (``PredictivePlanner(drive=True)``):
+the tracker's guide, and the layout a plan made ahead starts from and is held against (a plan made
+ahead and kept is expected by the planner's own model, restarted where the parts are seen). It does not
 choose by it: the ranking of every candidate would need the drive's correction inside the core's
 motion (a sampled motion needs ten integrator steps a sample), and the few re-ranked candidates
 alone chose worse (sort32 4/5 against 5/5).
@@ -30,7 +31,6 @@ from numpy.typing import NDArray
 
 from ..physics.motion import PlateMotion
 from ..physics.sim import simulate_batch
-from ..plate.actuation import wrench_matrix
 from ..plate.drive import DriveLimits, envelope
 from ..plate.pulses import Pulse
 from .sizing import slide_to_rest
@@ -57,7 +57,7 @@ def drive_velocity(
     t = np.arange(max(round(pulse.on_time * rate), 2)) / rate
     forces = np.stack([c.force(t) for c in channels], axis=1)
     forces *= envelope(t, pulse.attack, pulse.sustain, pulse.decay)[:, None]
-    _, vel, _, _ = limits.respond(forces @ wrench_matrix(limits.plate.lever).T, 1.0 / rate, state)
+    _, vel, _, _ = limits.respond_motors(forces, 1.0 / rate, state)
     return t, vel
 
 

@@ -82,9 +82,9 @@ class PredictivePlanner:
         Parts are disks of this radius [m]: overlaps are penalised, and the best ``rerank``
         candidates are predicted again with contacts (rapier2d).
     drive : bool
-        The pulse played is expected where the board's drive puts the parts (it envelopes the
-        motors' forces: :func:`~upm.plan.played.drive_shift`): the tracker's guide and the start
-        of a plan made ahead.
+        A pulse planned afresh is expected where the board's drive puts the parts (it envelopes
+        the motors' forces: :func:`~upm.plan.played.drive_shift`): the tracker's guide and the
+        start of a plan made ahead (a kept plan's expectation is the model's own, restarted).
     frequencies, on_times : tuple of float
         Drive frequencies [Hz] and on-times [s] of the candidates.
     use : float

@@ -206,6 +206,16 @@ class DriveLimits:
             after[..., k, 0], after[..., k, 1] = pos[..., -1, k], vel[..., -1, k]
         return acc, vel, pos, after
 
+    def respond_motors(
+        self, forces: ArrayLike, dt: float, state: ArrayLike | None = None
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """:meth:`respond` to the four motors' forces ``(..., T, 4)`` (``X1, X2, Y1, Y2``) through
+        the plate's lever arm (5.8)."""
+        f = np.asarray(forces, dtype=np.float64)
+        if f.shape[-1:] != (4,):
+            raise ShapeError(f"forces must have shape (..., T, 4) (X1, X2, Y1, Y2); got {f.shape}")
+        return self.respond(f @ wrench_matrix(self.plate.lever).T, dt, state)
+
     def ride_out(self, state: ArrayLike, seconds: float, dt: float = 5e-4) -> tuple[FloatArray, FloatArray]:
         """The plate left to move freely on its suspension for ``seconds`` from ``state``: its
         pose ``(T, 3)`` and the state after (:meth:`respond` with no force)."""

@@ -26,7 +26,7 @@ from ..physics.polygon import Polygon
 from ..physics.sim import Disk, simulate
 from ..physics.surface import friction_grid, gravity
 from .actuation import Axis, Plate
-from .drive import DEFAULT_PLATE, PLATE_SIZE, DriveLimits, StrokeError, envelope, flexures, wrench_matrix
+from .drive import DEFAULT_PLATE, PLATE_SIZE, DriveLimits, StrokeError, envelope, flexures
 from .pulses import Channel
 
 if TYPE_CHECKING:
@@ -322,8 +322,7 @@ class SimulatedUPM:
     ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """Acceleration, velocity and pose ``(T, 3)`` for motor forces ``(T, 4)`` from ``state``
         (per axis position, velocity), and the state after (:meth:`DriveLimits.respond`)."""
-        wrench = forces @ wrench_matrix(self.plate.lever).T
-        return self.limits.respond(wrench, 1.0 / self.sample_rate, state)
+        return self.limits.respond_motors(forces, 1.0 / self.sample_rate, state)
 
     def plate_state(self, forces: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Plate acceleration and velocity ``(T, 3)`` (``d/dt`` and ``(u1, u2, u3)``) for motor
